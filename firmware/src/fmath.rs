@@ -1,0 +1,81 @@
+//! Float functions `core` does not provide: square root, fourth root, exact powers of two.
+//!
+//! On the Cortex-M4F the square root is the FPU's `VSQRT.F32` (exact, correctly rounded, a
+//! handful of cycles); elsewhere it is `libm::sqrtf`, which is also correctly rounded, so both
+//! give bit-identical results.
+
+#[cfg(all(target_arch = "arm", target_os = "none", target_abi = "eabihf"))]
+core::arch::global_asm!(
+    ".section .text.thermorph_vsqrt_f32,\"ax\",%progbits",
+    ".global thermorph_vsqrt_f32",
+    ".type thermorph_vsqrt_f32,%function",
+    ".syntax unified",
+    ".thumb",
+    ".thumb_func",
+    "thermorph_vsqrt_f32:",
+    "vsqrt.f32 s0, s0",
+    "bx lr",
+    ".size thermorph_vsqrt_f32, . - thermorph_vsqrt_f32",
+);
+
+#[cfg(all(target_arch = "arm", target_os = "none", target_abi = "eabihf"))]
+unsafe extern "C" {
+    fn thermorph_vsqrt_f32(x: f32) -> f32;
+}
+
+/// Return the correctly rounded square root of `x` (NaN for negative input).
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    #[cfg(all(target_arch = "arm", target_os = "none", target_abi = "eabihf"))]
+    {
+        // SAFETY: the function is two instructions that only touch s0 and return; it follows
+        // the AAPCS-VFP calling convention (argument and result in s0).
+        unsafe { thermorph_vsqrt_f32(x) }
+    }
+    #[cfg(not(all(target_arch = "arm", target_os = "none", target_abi = "eabihf")))]
+    {
+        libm::sqrtf(x)
+    }
+}
+
+/// Return the fourth root of `x` as two square roots, as the Melexis library computes it.
+#[inline]
+pub fn root4(x: f32) -> f32 {
+    sqrt(sqrt(x))
+}
+
+/// Return 2^`n` exactly, for `n` in −126..=127 (clamped outside that range).
+#[inline]
+pub fn pow2(n: i32) -> f32 {
+    let n = n.clamp(-126, 127);
+    f32::from_bits(((n + 127) as u32) << 23)
+}
+
+/// Return 2^`n` exactly as `f64`, for `n` in −1022..=1023 (clamped outside that range).
+#[inline]
+pub fn pow2_f64(n: i32) -> f64 {
+    let n = n.clamp(-1022, 1023);
+    f64::from_bits(((n + 1023) as u64) << 52)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pow2_is_exact() {
+        assert_eq!(pow2(0), 1.0);
+        assert_eq!(pow2(10), 1024.0);
+        assert_eq!(pow2(-3), 0.125);
+        assert_eq!(pow2_f64(45), 35_184_372_088_832.0);
+    }
+
+    #[test]
+    fn sqrt_matches_std() {
+        for &x in &[0.0f32, 1.0, 2.0, 1e-30, 8.1e9, 123.456] {
+            assert_eq!(sqrt(x), x.sqrt());
+        }
+        assert!(sqrt(-1.0).is_nan());
+        assert!((root4(8.1e9) - 300.0).abs() < 1e-3);
+    }
+}

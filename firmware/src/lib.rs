@@ -1,0 +1,19 @@
+//! Thermorph firmware library: every piece of logic the board runs, free of hardware.
+//!
+//! The library is `no_std`, allocation-free and builds and tests on the host. The board binary
+//! (`src/bin/board.rs`) wires embassy's peripherals to it; `host-sim` wires simulated ones.
+//!
+//! - [`units`]: physical quantities as newtypes (Kelvin inside, as the thesis).
+//! - [`mlx90640`]: the MLX90640 thermal camera — typed registers, calibration extraction, the
+//!   Melexis temperature calculation, and an async driver generic over the I2C trait.
+//! - [`console`]: the line-based serial console protocol.
+//! - [`fmath`]: the few float functions the target lacks in `core` (square root).
+#![cfg_attr(not(test), no_std)]
+
+pub mod console;
+pub mod fmath;
+pub mod mlx90640;
+pub mod units;
+
+/// Firmware version string shown by the console's `version` command.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
