@@ -10,6 +10,7 @@ core::arch::global_asm!(
     ".global thermorph_vsqrt_f32",
     ".type thermorph_vsqrt_f32,%function",
     ".syntax unified",
+    ".fpu fpv4-sp-d16",
     ".thumb",
     ".thumb_func",
     "thermorph_vsqrt_f32:",

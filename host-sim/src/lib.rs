@@ -2,6 +2,14 @@
 //!
 //! - [`dump`]: reading MLX90640 EEPROM and frame dumps (the shared test-data format).
 //! - [`data`]: where the shared sensor dumps live.
+//! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
+//! - [`sim_time`]: the simulated clock and delay.
+//! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
 
 pub mod data;
 pub mod dump;
+pub mod eeprom;
+pub mod sim_time;
+pub mod virtual_mlx;
+pub mod decode;
+pub mod sensor_demo;

@@ -1,1 +1,70 @@
-fn main() {}
+//! `host-sim`: Thermorph's simulator on the command line.
+//!
+//! - `host-sim` (or `host-sim sensor`): the main job at this stage — the virtual MLX90640 on a
+//!   simulated I2C bus, read and decoded by the firmware's own driver, with a summary.
+//! - `host-sim decode --eeprom FILE --frame FILE [...]`: decode real sensor dumps to CSV.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use thermorph::mlx90640::DecodeParams;
+
+#[derive(Parser)]
+#[command(name = "host-sim", version, about = "Thermorph simulator")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Decode MLX90640 dumps (SOURCES.md format) and print `pixel,row,col,value` in °C.
+    Decode {
+        /// EEPROM dump (832 words).
+        #[arg(long)]
+        eeprom: PathBuf,
+        /// Frame dumps (834 words each), decoded in order into one image.
+        #[arg(long = "frame", required = true)]
+        frames: Vec<PathBuf>,
+        /// Object emissivity, 0 < E ≤ 1.
+        #[arg(long, default_value_t = 1.0)]
+        emissivity: f32,
+        /// Reflected temperature = Ta − S (K or °C, the same step).
+        #[arg(long = "ta-shift", default_value_t = 8.0, allow_negative_numbers = true)]
+        ta_shift: f32,
+    },
+    /// Run the virtual MLX90640 through the firmware's driver and print a summary.
+    Sensor(host_sim::sensor_demo::SensorArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command.unwrap_or(Command::Sensor(Default::default())) {
+        Command::Decode {
+            eeprom,
+            frames,
+            emissivity,
+            ta_shift,
+        } => {
+            let params = DecodeParams {
+                emissivity,
+                reflected: None,
+                ta_shift_k: ta_shift,
+            };
+            host_sim::decode::decode_files(&eeprom, &frames, &params).and_then(|img| {
+                let stdout = std::io::stdout();
+                let mut out = std::io::BufWriter::new(stdout.lock());
+                host_sim::decode::write_csv(&img, &mut out).map_err(|e| e.to_string())
+            })
+        }
+        Command::Sensor(args) => host_sim::sensor_demo::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

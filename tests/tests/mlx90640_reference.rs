@@ -319,3 +319,42 @@ fn refused_eeprom_gives_a_clear_error() {
     assert_eq!(err, CalibrationError::TooManyBrokenPixels);
     assert!(err.to_string().contains("broken pixels"));
 }
+
+#[test]
+fn broken_and_outlier_pixels_are_corrected_from_neighbours() {
+    let Some(dir) = require_mlx90640_dir("broken_and_outlier_pixels_are_corrected_from_neighbours")
+    else {
+        return;
+    };
+    let mut ee = read_eeprom(&dir.join("melexis_example_eeprom.hex")).unwrap();
+    // Pixel 300 (row 9, col 12) broken, pixel 500 (row 15, col 20) an outlier; 0 (a corner) broken.
+    ee[64 + 300] = 0;
+    ee[64 + 500] |= 1;
+    ee[64] = 0;
+    let cal = Calibration::from_eeprom(&ee).unwrap();
+    assert_eq!(cal.broken_pixels.as_slice(), &[0, 300]);
+    assert_eq!(cal.outlier_pixels.as_slice(), &[500]);
+    let mut img = Image::new();
+    for f in ["melexis_example_frame0.hex", "melexis_example_frame1.hex"] {
+        img.update(&read_frame(&dir.join(f)).unwrap(), &cal, &DecodeParams::default())
+            .unwrap();
+    }
+    let t = &img.to_k;
+    let median = |p: usize| {
+        let mut v = [t[p - 33], t[p - 31], t[p + 31], t[p + 33]];
+        v.sort_by(f32::total_cmp);
+        (v[1] + v[2]) / 2.0
+    };
+    assert_eq!(t[300], median(300));
+    assert_eq!(t[500], median(500));
+    assert_eq!(t[0], t[33], "corner pixel takes its one diagonal neighbour");
+    // Adjacent bad pixels are refused.
+    ee[64 + 301 + 32] = 0;
+    assert_eq!(
+        Calibration::from_eeprom(&ee).unwrap_err(),
+        CalibrationError::AdjacentBadPixels {
+            first: 300,
+            second: 333
+        }
+    );
+}
