@@ -1,0 +1,417 @@
+//! Multi-target thermal sensing (MTTS): five region temperatures from a 32×24 frame.
+//!
+//! The thesis pipeline (6.3.3.1) — cubic interpolation, k-means on temperature, regions by
+//! temperature rank — made deterministic, optimal and spatially aware:
+//! 1. broken pixels (NaN) are filled from their valid neighbours ([`inpaint`]);
+//! 2. [`upsample`]: bicubic by s = 1…8 (default 4), streamed into a histogram;
+//! 3. [`cluster`]: exact 1-D k-means of the binned values (K = 2…8, default 5) by dynamic
+//!    programming — or Lloyd with random / k-means++ seeding for comparison;
+//! 4. [`regions`]: clusters mapped to regions by where their pixels lie (cylinder axis, lattice
+//!    phase, continuity with the previous frame), so T1 stays the heater area and T2 the SMP
+//!    surface through the forming mode's hot-zone inversion.
+//!
+//! [`Mtts`] owns the state that persists between frames (the last geometry) and the scratch
+//! memory (≈ 31 KB, no heap); [`Mtts::process`] runs one frame.
+
+pub mod cluster;
+pub mod regions;
+pub mod upsample;
+
+use cluster::{Clusters, DEFAULT_BINS, DpScratch, Histogram, Seeding, XorShift};
+use regions::{Geometry, Quality};
+use upsample::{UpsampleScratch, Upsampler};
+
+use crate::units::Kelvin;
+
+/// Image rows.
+pub const IMG_ROWS: usize = 24;
+/// Image columns.
+pub const IMG_COLS: usize = 32;
+/// Image pixels.
+pub const IMG_PIXELS: usize = IMG_ROWS * IMG_COLS;
+/// Number of regions.
+pub const REGIONS: usize = 5;
+/// Region names, in order (region 1 first).
+pub const REGION_NAMES: [&str; REGIONS] = ["heater", "surface", "edge", "radiation", "background"];
+/// Values outside this range are not temperatures a working sensor reports here, K; they are
+/// treated as broken pixels (the sensor's saturation shows as values pinned at its extremes,
+/// which stay inside).
+pub const PLAUSIBLE_K: (f32, f32) = (150.0, 1000.0);
+
+/// MTTS errors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum MttsError {
+    /// Upsampling factor outside 1…8.
+    BadScale {
+        /// The factor asked for.
+        scale: u8,
+    },
+    /// Cluster count outside 2…8.
+    BadK {
+        /// The count asked for.
+        k: u8,
+    },
+    /// Histogram bins outside 2…512.
+    BadBins {
+        /// The count asked for.
+        bins: u16,
+    },
+    /// No pixel holds a plausible temperature.
+    NoValidPixels,
+}
+
+impl core::fmt::Display for MttsError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::BadScale { scale } => write!(f, "upsampling factor {scale} is not 1-8"),
+            Self::BadK { k } => write!(f, "cluster count {k} is not 2-8"),
+            Self::BadBins { bins } => write!(f, "histogram bins {bins} is not 2-512"),
+            Self::NoValidPixels => write!(f, "no valid pixel in the frame"),
+        }
+    }
+}
+
+/// Clustering method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum Method {
+    /// Exact 1-D k-means by dynamic programming (the default).
+    Exact,
+    /// Lloyd's algorithm from random initial centroids (the thesis).
+    Lloyd,
+    /// Lloyd's algorithm from k-means++ seeding.
+    KMeansPlusPlus,
+}
+
+/// MTTS settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub struct Config {
+    /// Upsampling factor, 1…8.
+    pub scale: u8,
+    /// Number of clusters, 2…8.
+    pub k: u8,
+    /// Histogram bins, 2…512.
+    pub bins: u16,
+    /// Clustering method.
+    pub method: Method,
+    /// Seed of the Lloyd methods' generator.
+    pub seed: u64,
+}
+
+impl Default for Config {
+    /// s = 4, K = 5, 256 bins, exact: SPEC section 3 and the work-precision table.
+    fn default() -> Self {
+        Config {
+            scale: 4,
+            k: 5,
+            bins: DEFAULT_BINS as u16,
+            method: Method::Exact,
+            seed: 1,
+        }
+    }
+}
+
+/// One region's result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub struct Region {
+    /// The region's temperature (its cluster's mean).
+    pub temp: Kelvin,
+    /// Upsampled pixels in its cluster.
+    pub pixels: u32,
+    /// Sensor pixels in its zone.
+    pub zone_pixels: u16,
+}
+
+/// One frame's MTTS result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Output {
+    /// Regions 1…5 (heater, surface, edge, radiation, background).
+    pub regions: [Region; REGIONS],
+    /// Lowest sensor pixel over the cylinder (core and edges).
+    pub cylinder_min: Kelvin,
+    /// Highest sensor pixel over the cylinder.
+    pub cylinder_max: Kelvin,
+    /// The clusters.
+    pub clusters: Clusters,
+    /// The geometry used.
+    pub geometry: Geometry,
+    /// What was re-estimated this frame.
+    pub quality: Quality,
+    /// Pixels that were broken and filled in.
+    pub filled_pixels: u16,
+}
+
+impl Output {
+    /// Return T1 (heater area).
+    pub fn t1(&self) -> Kelvin {
+        self.regions[0].temp
+    }
+
+    /// Return T2 (SMP outer surface).
+    pub fn t2(&self) -> Kelvin {
+        self.regions[1].temp
+    }
+
+    /// Return the controlled temperature Tc = w1·T1 + w2·T2.
+    pub fn controlled(&self, w: Weights) -> Kelvin {
+        w.apply(self.t1(), self.t2())
+    }
+}
+
+/// Weights of the controlled temperature Tc = w1·T1 + w2·T2 (w1 + w2 = 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub struct Weights {
+    /// Weight of T1.
+    pub w1: f32,
+    /// Weight of T2.
+    pub w2: f32,
+}
+
+impl Weights {
+    /// Make weights; `None` unless both are in [0, 1] and sum to 1 (±1e-4).
+    pub fn new(w1: f32, w2: f32) -> Option<Self> {
+        let ok = (0.0..=1.0).contains(&w1) && (0.0..=1.0).contains(&w2);
+        (ok && libm::fabsf(w1 + w2 - 1.0) < 1e-4).then_some(Weights { w1, w2 })
+    }
+
+    /// Return w1·t1 + w2·t2.
+    pub fn apply(self, t1: Kelvin, t2: Kelvin) -> Kelvin {
+        Kelvin(self.w1 * t1.k() + self.w2 * t2.k())
+    }
+}
+
+/// Fill non-finite or implausible pixels with the mean of their valid 8-neighbours, repeating
+/// until all are filled; returns how many were broken, or `NoValidPixels`.
+pub fn inpaint(img: &mut [f32; IMG_PIXELS]) -> Result<u16, MttsError> {
+    let ok = |v: f32| v.is_finite() && v >= PLAUSIBLE_K.0 && v <= PLAUSIBLE_K.1;
+    let mut bad = 0u16;
+    for v in img.iter_mut() {
+        if !ok(*v) {
+            *v = f32::NAN;
+            bad += 1;
+        }
+    }
+    if bad as usize == IMG_PIXELS {
+        return Err(MttsError::NoValidPixels);
+    }
+    let mut left = bad;
+    while left > 0 {
+        let prev = *img;
+        for p in 0..IMG_PIXELS {
+            if !prev[p].is_nan() {
+                continue;
+            }
+            let (r, c) = ((p / IMG_COLS) as i32, (p % IMG_COLS) as i32);
+            let (mut s, mut n) = (0f32, 0f32);
+            for dr in -1..=1 {
+                for dc in -1..=1 {
+                    let (rr, cc) = (r + dr, c + dc);
+                    if (0..IMG_ROWS as i32).contains(&rr) && (0..IMG_COLS as i32).contains(&cc) {
+                        let v = prev[rr as usize * IMG_COLS + cc as usize];
+                        if !v.is_nan() {
+                            s += v;
+                            n += 1.0;
+                        }
+                    }
+                }
+            }
+            if n > 0.0 {
+                img[p] = s / n;
+                left -= 1;
+            }
+        }
+    }
+    Ok(bad)
+}
+
+/// The MTTS state and scratch (keep it in a static on the target).
+pub struct Mtts {
+    config: Config,
+    upsampler: Upsampler,
+    geometry: Geometry,
+    rng: XorShift,
+    up: UpsampleScratch,
+    dp: DpScratch,
+    /// The last frame's histogram (for inspection and benches).
+    pub hist: Option<Histogram>,
+}
+
+impl Mtts {
+    /// Make the pipeline for `config`.
+    pub fn new(config: Config) -> Result<Self, MttsError> {
+        if !(2..=cluster::MAX_K as u8).contains(&config.k) {
+            return Err(MttsError::BadK { k: config.k });
+        }
+        if !(2..=cluster::MAX_BINS as u16).contains(&config.bins) {
+            return Err(MttsError::BadBins { bins: config.bins });
+        }
+        Ok(Mtts {
+            upsampler: Upsampler::new(config.scale)?,
+            config,
+            geometry: Geometry::default(),
+            rng: XorShift::new(config.seed),
+            up: UpsampleScratch::new(),
+            dp: DpScratch::new(),
+            hist: None,
+        })
+    }
+
+    /// Return the settings.
+    pub fn config(&self) -> Config {
+        self.config
+    }
+
+    /// Return the geometry the next frame starts from.
+    pub fn geometry(&self) -> Geometry {
+        self.geometry
+    }
+
+    /// Forget the previous frames (geometry back to the default).
+    pub fn reset(&mut self) {
+        self.geometry = Geometry::default();
+        self.rng = XorShift::new(self.config.seed);
+    }
+
+    /// Stage 1–2: inpaint, upsample into a histogram. Returns the filled image and count.
+    pub fn stage_upsample(
+        &mut self,
+        image: &[f32; IMG_PIXELS],
+    ) -> Result<([f32; IMG_PIXELS], u16), MttsError> {
+        let mut work = *image;
+        let filled = inpaint(&mut work)?;
+        let (lo, hi) = work
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let mut hist = Histogram::new(lo, hi, self.config.bins as usize)?;
+        self.upsampler
+            .run(&work, &mut self.up, |_, row| hist.add_slice(row));
+        self.hist = Some(hist);
+        Ok((work, filled))
+    }
+
+    /// Stage 3: cluster the histogram of the last [`Mtts::stage_upsample`].
+    pub fn stage_cluster(&mut self) -> Result<Clusters, MttsError> {
+        let hist = self.hist.as_ref().ok_or(MttsError::NoValidPixels)?;
+        let k = self.config.k as usize;
+        match self.config.method {
+            Method::Exact => cluster::exact_binned(hist, k, &mut self.dp),
+            Method::Lloyd => cluster::lloyd(hist, k, Seeding::Random, &mut self.rng, 100),
+            Method::KMeansPlusPlus => {
+                cluster::lloyd(hist, k, Seeding::KMeansPlusPlus, &mut self.rng, 100)
+            }
+        }
+    }
+
+    /// Stage 4: regions from the filled image and the clusters; updates the geometry.
+    pub fn stage_regions(&mut self, work: &[f32; IMG_PIXELS], clusters: &Clusters, filled: u16) -> Output {
+        let (g, quality) = regions::update_geometry(work, &self.geometry);
+        self.geometry = g;
+        let o = regions::overlap(work, &g, clusters);
+        let pick = regions::assign(&o, clusters.k);
+        let regions: [Region; REGIONS] = core::array::from_fn(|z| {
+            let zone_pixels = o[z].iter().sum();
+            match pick[z] {
+                Some(c) => Region {
+                    temp: Kelvin(clusters.means[c]),
+                    pixels: clusters.counts[c],
+                    zone_pixels,
+                },
+                None => Region {
+                    temp: Kelvin(f32::NAN),
+                    pixels: 0,
+                    zone_pixels,
+                },
+            }
+        });
+        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+        for r in 0..IMG_ROWS {
+            for c in 0..IMG_COLS {
+                if g.coords(r, c).0 < regions::EDGE_U {
+                    let v = work[r * IMG_COLS + c];
+                    mn = mn.min(v);
+                    mx = mx.max(v);
+                }
+            }
+        }
+        Output {
+            regions,
+            cylinder_min: Kelvin(mn),
+            cylinder_max: Kelvin(mx),
+            clusters: *clusters,
+            geometry: g,
+            quality,
+            filled_pixels: filled,
+        }
+    }
+
+    /// Run the whole pipeline on one frame (K, NaN for broken pixels).
+    pub fn process(&mut self, image: &[f32; IMG_PIXELS]) -> Result<Output, MttsError> {
+        let (work, filled) = self.stage_upsample(image)?;
+        let clusters = self.stage_cluster()?;
+        Ok(self.stage_regions(&work, &clusters, filled))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn all_broken_is_an_error() {
+        let mut m = Mtts::new(Config::default()).unwrap();
+        assert_eq!(m.process(&[f32::NAN; IMG_PIXELS]).unwrap_err(), MttsError::NoValidPixels);
+    }
+
+    #[test]
+    fn uniform_scene_gives_one_temperature() {
+        let mut m = Mtts::new(Config::default()).unwrap();
+        let out = m.process(&[300.0; IMG_PIXELS]).unwrap();
+        assert_eq!(out.clusters.k, 1);
+        for r in out.regions {
+            assert!((r.temp.k() - 300.0).abs() < 1e-4 || r.temp.k().is_nan());
+        }
+        assert!((out.t1().k() - 300.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn single_hot_pixel_is_its_own_cluster() {
+        let mut img = [300.0; IMG_PIXELS];
+        img[100] = 400.0;
+        let mut m = Mtts::new(Config { scale: 1, ..Config::default() }).unwrap();
+        let out = m.process(&img).unwrap();
+        assert_eq!(out.clusters.k, 2, "two distinct values");
+        assert_eq!(out.clusters.counts[1], 1);
+        assert!((out.clusters.means[1] - 400.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn broken_pixels_are_filled() {
+        let mut img = [300.0; IMG_PIXELS];
+        img[5] = f32::NAN;
+        img[6] = f32::INFINITY;
+        img[7] = 5000.0;
+        let mut m = Mtts::new(Config::default()).unwrap();
+        let out = m.process(&img).unwrap();
+        assert_eq!(out.filled_pixels, 3);
+        assert!((out.t1().k() - 300.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn config_is_checked() {
+        assert!(Mtts::new(Config { k: 1, ..Config::default() }).is_err());
+        assert!(Mtts::new(Config { k: 9, ..Config::default() }).is_err());
+        assert!(Mtts::new(Config { scale: 0, ..Config::default() }).is_err());
+        assert!(Mtts::new(Config { bins: 1000, ..Config::default() }).is_err());
+    }
+
+    #[test]
+    fn weights() {
+        assert!(Weights::new(0.5, 0.6).is_none());
+        let w = Weights::new(0.25, 0.75).unwrap();
+        assert_eq!(w.apply(Kelvin(300.0), Kelvin(340.0)).k(), 330.0);
+    }
+}

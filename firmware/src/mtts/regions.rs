@@ -1,0 +1,453 @@
+//! Region identification: which cluster is the heater area, the SMP surface, the edges, the
+//! radiation zone and the background — by where its pixels lie, not by its temperature rank.
+//!
+//! Method (at the sensor's 32×24 resolution, on the inpainted image):
+//! 1. Contrast: background level `bg` = 20th percentile, top = 95th percentile. Below
+//!    [`MIN_CONTRAST_K`] of contrast the geometry is not re-estimated: the previous frame's is
+//!    kept (or, on the first frame, a centred vertical cylinder of the default width).
+//! 2. Cylinder: pixels above bg + ½·contrast form a mask; each row's mask centroid and width
+//!    give, by weighted least squares, the axis `col = a + b·row` (shift and tilt) and the
+//!    half-width `w` (median row width, perpendicular). Every pixel gets a perpendicular
+//!    distance ratio u = |d|/w and an axial coordinate t along the axis.
+//! 3. Zones: u < [`CORE_U`] core, < [`EDGE_U`] edge (region 3), < [`RADIATION_U`] radiation
+//!    (region 4), else background (region 5).
+//! 4. Lattice: the core's mean temperature along t is fitted with a square wave of the
+//!    block's gap fraction (`block::LATTICE_GAP_FRACTION`, 71 %) over periods of
+//!    [`PERIOD_MIN_PX`]–[`PERIOD_MAX_PX`] and all phases; the part of each period that is
+//!    `gap fraction` long is the heater area (region 1), the rest SMP surface (region 2). The
+//!    sign of the contrast is ignored: which part is hotter may flip (the hot-zone inversion
+//!    of forming) without changing which part is the gap. A fit weaker than
+//!    [`MIN_LATTICE_K`], or not clearly better than the previous frame's lattice, keeps the
+//!    previous lattice (continuity).
+//! 5. Assignment: each pixel's cluster is its temperature's cluster; the zone × cluster
+//!    overlap, each row normalised by the zone's size, is assigned greedily one to one
+//!    (largest share first); when there are fewer clusters than zones the remaining zones take
+//!    their largest-share cluster. A region's temperature is its cluster's mean.
+
+use super::cluster::{Clusters, MAX_K};
+use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, REGIONS};
+use crate::block::LATTICE_GAP_FRACTION;
+
+/// Least contrast (95th − 20th percentile) to re-estimate the cylinder, K.
+pub const MIN_CONTRAST_K: f32 = 1.0;
+/// Least lattice square-wave amplitude to re-estimate the lattice, K.
+pub const MIN_LATTICE_K: f32 = 0.3;
+/// Core zone: distance ratio below this.
+pub const CORE_U: f32 = 0.75;
+/// Edge zone (region 3): distance ratio below this.
+pub const EDGE_U: f32 = 1.15;
+/// Radiation zone (region 4): distance ratio below this.
+pub const RADIATION_U: f32 = 2.2;
+/// Shortest lattice period searched, pixels (a 30 mm unit at 100 mm distance).
+pub const PERIOD_MIN_PX: f32 = 8.0;
+/// Longest lattice period searched, pixels (a 30 mm unit at 50 mm distance).
+pub const PERIOD_MAX_PX: f32 = 24.0;
+/// Default half-width when nothing was ever detected, pixels.
+pub const DEFAULT_HALF_WIDTH_PX: f32 = 8.0;
+
+/// Zone of a pixel, in region order (index = region − 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Zone {
+    /// Region 1: lattice gaps, PI heater visible.
+    Heater = 0,
+    /// Region 2: SMP outer surface (lattice rings).
+    Surface = 1,
+    /// Region 3: cylinder edges.
+    Edge = 2,
+    /// Region 4: radiation zone beside the cylinder.
+    Radiation = 3,
+    /// Region 5: background.
+    Background = 4,
+}
+
+/// The cylinder's position in the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    /// Axis column at row 0, pixels.
+    pub axis_col0: f32,
+    /// Axis slope, columns per row (tilt = atan of it).
+    pub axis_slope: f32,
+    /// Half-width perpendicular to the axis, pixels.
+    pub half_width_px: f32,
+    /// Lattice period along the axis, pixels.
+    pub period_px: f32,
+    /// Axial position where a gap starts, pixels (0 ≤ phase < period).
+    pub phase_px: f32,
+    /// Whether the lattice has ever been fitted (else every core pixel is heater area).
+    pub lattice_known: bool,
+}
+
+impl Default for Geometry {
+    fn default() -> Self {
+        Geometry {
+            axis_col0: (IMG_COLS as f32 - 1.0) / 2.0,
+            axis_slope: 0.0,
+            half_width_px: DEFAULT_HALF_WIDTH_PX,
+            period_px: 16.0,
+            phase_px: 0.0,
+            lattice_known: false,
+        }
+    }
+}
+
+impl Geometry {
+    /// Return (distance ratio u, axial coordinate t) of a pixel.
+    pub fn coords(&self, row: usize, col: usize) -> (f32, f32) {
+        let norm = crate::fmath::sqrt(1.0 + self.axis_slope * self.axis_slope);
+        let d = (col as f32 - (self.axis_col0 + self.axis_slope * row as f32)) / norm;
+        let t = (row as f32 + self.axis_slope * (col as f32 - self.axis_col0)) / norm;
+        (libm::fabsf(d) / self.half_width_px, t)
+    }
+
+    /// Return whether axial coordinate `t` falls in a gap.
+    pub fn in_gap(&self, t: f32) -> bool {
+        if !self.lattice_known {
+            return true;
+        }
+        let x = t - self.phase_px;
+        let ph = x - libm::floorf(x / self.period_px) * self.period_px;
+        ph < LATTICE_GAP_FRACTION * self.period_px
+    }
+
+    /// Return the zone of a pixel.
+    pub fn zone(&self, row: usize, col: usize) -> Zone {
+        let (u, t) = self.coords(row, col);
+        if u < CORE_U {
+            if self.in_gap(t) { Zone::Heater } else { Zone::Surface }
+        } else if u < EDGE_U {
+            Zone::Edge
+        } else if u < RADIATION_U {
+            Zone::Radiation
+        } else {
+            Zone::Background
+        }
+    }
+}
+
+/// What the region finder could estimate this frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Quality {
+    /// The cylinder was re-estimated (else the previous geometry was kept).
+    pub cylinder_fresh: bool,
+    /// The lattice was re-estimated (else the previous lattice was kept).
+    pub lattice_fresh: bool,
+}
+
+/// Return the `q`-quantile (0…1) of `v` by partial selection on a copy.
+fn quantile(v: &[f32; IMG_PIXELS], q: f32) -> f32 {
+    let mut c = *v;
+    let k = ((IMG_PIXELS - 1) as f32 * q) as usize;
+    let (_, kth, _) = c.select_nth_unstable_by(k, f32::total_cmp);
+    *kth
+}
+
+/// Re-estimate the cylinder from an image (finite values); `None` when the contrast is too low
+/// or too few rows show it.
+pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
+    let bg = quantile(img, 0.20);
+    let top = quantile(img, 0.95);
+    if top - bg < MIN_CONTRAST_K {
+        return None;
+    }
+    let thr = bg + 0.5 * (top - bg);
+    let mut widths = [0f32; IMG_ROWS];
+    let mut nrows = 0;
+    let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0f32, 0f32, 0f32, 0f32, 0f32);
+    for r in 0..IMG_ROWS {
+        let row = &img[r * IMG_COLS..(r + 1) * IMG_COLS];
+        let (mut n, mut sc) = (0f32, 0f32);
+        for (c, &v) in row.iter().enumerate() {
+            if v > thr {
+                n += 1.0;
+                sc += c as f32;
+            }
+        }
+        if n >= 3.0 {
+            let x = r as f32;
+            let y = sc / n;
+            sw += n;
+            sx += n * x;
+            sy += n * y;
+            sxx += n * x * x;
+            sxy += n * x * y;
+            widths[nrows] = n;
+            nrows += 1;
+        }
+    }
+    if nrows < 4 {
+        return None;
+    }
+    let det = sw * sxx - sx * sx;
+    let slope = if det.abs() > 1e-3 {
+        (sw * sxy - sx * sy) / det
+    } else {
+        0.0
+    };
+    let col0 = (sy - slope * sx) / sw;
+    let w = &mut widths[..nrows];
+    w.sort_unstable_by(f32::total_cmp);
+    let median = w[nrows / 2];
+    let half = 0.5 * median / crate::fmath::sqrt(1.0 + slope * slope);
+    Some((col0, slope, half.max(1.0)))
+}
+
+/// Fit the lattice square wave to the core's axial profile; return (period, phase,
+/// amplitude in K).
+pub fn fit_lattice(img: &[f32; IMG_PIXELS], g: &Geometry) -> Option<(f32, f32, f32)> {
+    const NB: usize = 48;
+    let mut sum = [0f32; NB];
+    let mut cnt = [0u16; NB];
+    let mut tmin = f32::INFINITY;
+    for r in 0..IMG_ROWS {
+        for c in 0..IMG_COLS {
+            let (u, t) = g.coords(r, c);
+            if u < CORE_U {
+                tmin = tmin.min(t);
+            }
+        }
+    }
+    if !tmin.is_finite() {
+        return None;
+    }
+    let t0 = libm::floorf(tmin);
+    for r in 0..IMG_ROWS {
+        for c in 0..IMG_COLS {
+            let (u, t) = g.coords(r, c);
+            if u < CORE_U {
+                let b = ((t - t0) as usize).min(NB - 1);
+                sum[b] += img[r * IMG_COLS + c];
+                cnt[b] += 1;
+            }
+        }
+    }
+    let used = cnt.iter().rposition(|&n| n > 0)? + 1;
+    let mut prof = [0f32; NB];
+    for b in 0..used {
+        prof[b] = if cnt[b] > 0 { sum[b] / cnt[b] as f32 } else { f32::NAN };
+    }
+    let mut best: Option<(f32, f32, f32)> = None;
+    let mut period = PERIOD_MIN_PX;
+    while period <= PERIOD_MAX_PX + 1e-3 {
+        let mut phase = 0.0;
+        while phase < period {
+            let (mut sg, mut ng, mut ss, mut ns) = (0f32, 0f32, 0f32, 0f32);
+            for (b, &p) in prof[..used].iter().enumerate() {
+                if p.is_nan() {
+                    continue;
+                }
+                let x = b as f32 + 0.5 + t0 - phase;
+                let ph = x - libm::floorf(x / period) * period;
+                if ph < LATTICE_GAP_FRACTION * period {
+                    sg += p;
+                    ng += 1.0;
+                } else {
+                    ss += p;
+                    ns += 1.0;
+                }
+            }
+            if ng >= 2.0 && ns >= 2.0 {
+                let amp = libm::fabsf(sg / ng - ss / ns);
+                if best.is_none_or(|b| amp > b.2) {
+                    best = Some((period, phase, amp));
+                }
+            }
+            phase += 1.0;
+        }
+        period += 0.5;
+    }
+    best
+}
+
+/// Lattice amplitude of a given period and phase (for the continuity comparison).
+fn lattice_amplitude(img: &[f32; IMG_PIXELS], g: &Geometry) -> f32 {
+    let (mut sg, mut ng, mut ss, mut ns) = (0f32, 0f32, 0f32, 0f32);
+    for r in 0..IMG_ROWS {
+        for c in 0..IMG_COLS {
+            let (u, t) = g.coords(r, c);
+            if u < CORE_U {
+                let v = img[r * IMG_COLS + c];
+                if g.in_gap(t) {
+                    sg += v;
+                    ng += 1.0;
+                } else {
+                    ss += v;
+                    ns += 1.0;
+                }
+            }
+        }
+    }
+    if ng < 1.0 || ns < 1.0 {
+        return 0.0;
+    }
+    libm::fabsf(sg / ng - ss / ns)
+}
+
+/// Update the geometry from a frame (keeping what cannot be re-estimated).
+pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Quality) {
+    let mut g = *prev;
+    let mut q = Quality::default();
+    if let Some((col0, slope, half)) = fit_cylinder(img) {
+        g.axis_col0 = col0;
+        g.axis_slope = slope;
+        g.half_width_px = half;
+        q.cylinder_fresh = true;
+    }
+    if let Some((period, phase, amp)) = fit_lattice(img, &g) {
+        let keep = g.lattice_known && lattice_amplitude(img, &g) >= 0.8 * amp;
+        if amp >= MIN_LATTICE_K && !keep {
+            g.period_px = period;
+            g.phase_px = phase;
+            g.lattice_known = true;
+            q.lattice_fresh = true;
+        }
+    }
+    (g, q)
+}
+
+/// Zone × cluster pixel counts.
+pub type Overlap = [[u16; MAX_K]; REGIONS];
+
+/// Count, for every pixel, its zone and its value's cluster.
+pub fn overlap(img: &[f32; IMG_PIXELS], g: &Geometry, cl: &Clusters) -> Overlap {
+    let mut o = [[0u16; MAX_K]; REGIONS];
+    for r in 0..IMG_ROWS {
+        for c in 0..IMG_COLS {
+            let z = g.zone(r, c) as usize;
+            o[z][cl.label(img[r * IMG_COLS + c])] += 1;
+        }
+    }
+    o
+}
+
+/// Assign a cluster to every region (see the module doc); `None` for a zone with no pixels
+/// when no cluster is left to give it.
+pub fn assign(o: &Overlap, k: usize) -> [Option<usize>; REGIONS] {
+    let size: [u32; REGIONS] = core::array::from_fn(|z| o[z].iter().map(|&n| n as u32).sum());
+    let share = |z: usize, c: usize| {
+        if size[z] == 0 {
+            0.0
+        } else {
+            o[z][c] as f32 / size[z] as f32
+        }
+    };
+    let mut out = [None; REGIONS];
+    let mut used = [false; MAX_K];
+    loop {
+        let mut best: Option<(usize, usize, f32)> = None;
+        for z in 0..REGIONS {
+            if out[z].is_some() || size[z] == 0 {
+                continue;
+            }
+            for (c, &u) in used.iter().enumerate().take(k) {
+                let s = share(z, c);
+                if !u && s > 0.0 && best.is_none_or(|b| s > b.2) {
+                    best = Some((z, c, s));
+                }
+            }
+        }
+        match best {
+            Some((z, c, _)) => {
+                out[z] = Some(c);
+                used[c] = true;
+            }
+            None => break,
+        }
+    }
+    // Zones left over (more zones than clusters, or no free cluster present): their largest
+    // share, reused.
+    for z in 0..REGIONS {
+        if out[z].is_none() && size[z] > 0 {
+            out[z] = (0..k).max_by(|&a, &b| share(z, a).total_cmp(&share(z, b)));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cylinder_image(col0: f32, slope: f32, half: f32, inverted: bool) -> [f32; IMG_PIXELS] {
+        let g = Geometry {
+            axis_col0: col0,
+            axis_slope: slope,
+            half_width_px: half,
+            period_px: 14.0,
+            phase_px: 3.0,
+            lattice_known: true,
+        };
+        core::array::from_fn(|p| {
+            let (r, c) = (p / IMG_COLS, p % IMG_COLS);
+            let (u, t) = g.coords(r, c);
+            let (heater, surface) = if inverted { (330.0, 345.0) } else { (360.0, 340.0) };
+            if u < 1.0 {
+                if g.in_gap(t) { heater } else { surface }
+            } else if u < 1.6 {
+                300.0
+            } else {
+                298.0
+            }
+        })
+    }
+
+    #[test]
+    fn finds_a_shifted_tilted_cylinder() {
+        let img = cylinder_image(13.0, 0.15, 6.0, false);
+        let (col0, slope, half) = fit_cylinder(&img).unwrap();
+        assert!((col0 - 13.0).abs() < 1.0, "{col0}");
+        assert!((slope - 0.15).abs() < 0.05, "{slope}");
+        assert!((half - 6.0).abs() < 1.5, "{half}");
+    }
+
+    #[test]
+    fn lattice_phase_survives_inversion() {
+        for inverted in [false, true] {
+            let img = cylinder_image(15.5, 0.0, 7.0, inverted);
+            let (g, q) = update_geometry(&img, &Geometry::default());
+            assert!(q.cylinder_fresh && q.lattice_fresh);
+            assert!((g.period_px - 14.0).abs() <= 0.5, "period {}", g.period_px);
+            // Gap rows agree with the truth on most core pixels.
+            let truth = Geometry {
+                axis_col0: 15.5,
+                axis_slope: 0.0,
+                half_width_px: 7.0,
+                period_px: 14.0,
+                phase_px: 3.0,
+                lattice_known: true,
+            };
+            let agree = (0..IMG_ROWS).filter(|&r| g.in_gap(r as f32) == truth.in_gap(r as f32)).count();
+            assert!(agree >= 20, "inverted={inverted}: {agree}/24 rows agree");
+        }
+    }
+
+    #[test]
+    fn uniform_scene_keeps_previous_geometry() {
+        let img = [300.0f32; IMG_PIXELS];
+        let prev = Geometry {
+            axis_col0: 10.0,
+            ..Geometry::default()
+        };
+        let (g, q) = update_geometry(&img, &prev);
+        assert_eq!(q, Quality::default());
+        assert_eq!(g, prev);
+    }
+
+    #[test]
+    fn greedy_assignment_is_one_to_one() {
+        let mut o: Overlap = [[0; MAX_K]; REGIONS];
+        o[0][4] = 100;
+        o[0][3] = 20;
+        o[1][3] = 40;
+        o[1][4] = 30;
+        o[2][2] = 50;
+        o[3][1] = 60;
+        o[4][0] = 300;
+        let a = assign(&o, 5);
+        assert_eq!(a, [Some(4), Some(3), Some(2), Some(1), Some(0)]);
+        // Fewer clusters than zones: reuse the largest share.
+        let a = assign(&o, 3);
+        assert_eq!(a[4], Some(0));
+        assert!(a.iter().all(|x| x.is_some()));
+    }
+}
