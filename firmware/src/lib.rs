@@ -6,13 +6,17 @@
 //! - [`units`]: physical quantities as newtypes (Kelvin inside, as the thesis).
 //! - [`mlx90640`]: the MLX90640 thermal camera — typed registers, calibration extraction, the
 //!   Melexis temperature calculation, and an async driver generic over the I2C trait.
+//! - [`mtts`]: multi-target thermal sensing — five region temperatures from a frame.
+//! - [`block`]: the block's geometry.
 //! - [`console`]: the line-based serial console protocol.
 //! - [`fmath`]: the few float functions the target lacks in `core` (square root).
 #![cfg_attr(not(test), no_std)]
 
+pub mod block;
 pub mod console;
 pub mod fmath;
 pub mod mlx90640;
+pub mod mtts;
 pub mod units;
 
 /// Firmware version string shown by the console's `version` command.

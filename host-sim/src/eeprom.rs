@@ -126,7 +126,11 @@ pub struct EepromFields {
 
 fn sx(v: u16, bits: u32) -> i16 {
     let v = v as i32 & ((1 << bits) - 1);
-    (if v >= 1 << (bits - 1) { v - (1 << bits) } else { v }) as i16
+    (if v >= 1 << (bits - 1) {
+        v - (1 << bits)
+    } else {
+        v
+    }) as i16
 }
 
 fn ux(v: i64, bits: u32) -> u16 {
@@ -163,7 +167,9 @@ fn check(name: &str, v: i64, bits: u32, signed: bool) -> Result<(), String> {
     if (lo..=hi).contains(&v) {
         Ok(())
     } else {
-        Err(format!("EEPROM field {name} = {v} does not fit {bits} bits ({lo}..={hi})"))
+        Err(format!(
+            "EEPROM field {name} = {v} does not fit {bits} bits ({lo}..={hi})"
+        ))
     }
 }
 
@@ -296,13 +302,30 @@ impl EepromFields {
                     || self.kta_delta[p] != 0
                     || self.outlier[p]
                 {
-                    return Err(format!("pixel {p} is broken (word 0) but has non-zero fields"));
+                    return Err(format!(
+                        "pixel {p} is broken (word 0) but has non-zero fields"
+                    ));
                 }
                 continue;
             }
-            check(&format!("offset_delta[{p}]"), self.offset_delta[p] as i64, 6, true)?;
-            check(&format!("alpha_delta[{p}]"), self.alpha_delta[p] as i64, 6, true)?;
-            check(&format!("kta_delta[{p}]"), self.kta_delta[p] as i64, 3, true)?;
+            check(
+                &format!("offset_delta[{p}]"),
+                self.offset_delta[p] as i64,
+                6,
+                true,
+            )?;
+            check(
+                &format!("alpha_delta[{p}]"),
+                self.alpha_delta[p] as i64,
+                6,
+                true,
+            )?;
+            check(
+                &format!("kta_delta[{p}]"),
+                self.kta_delta[p] as i64,
+                3,
+                true,
+            )?;
             if self.pixel_word(p) == 0 {
                 return Err(format!(
                     "pixel {p} is not marked broken but its word would be 0 (set outlier or a delta)"
@@ -380,8 +403,8 @@ impl EepromFields {
 /// The datasheet worked example's words 0x2430–0x243F (Rev. 12 §11, table 12): gain, PTAT,
 /// Vdd, Kv, IL/chess, Kta, scales, CP, TGC/KsTa, KsTo and corner temperatures of a real part.
 pub const DATASHEET_WORDS_48_63: [u16; 16] = [
-    0x18EF, 0x2FF1, 0x5952, 0x9D68, 0x5454, 0x0994, 0x6956, 0x5354, 0x2363, 0xE446, 0xFBB5,
-    0x044B, 0xF020, 0x9797, 0x9797, 0x2889,
+    0x18EF, 0x2FF1, 0x5952, 0x9D68, 0x5454, 0x0994, 0x6956, 0x5354, 0x2363, 0xE446, 0xFBB5, 0x044B,
+    0xF020, 0x9797, 0x9797, 0x2889,
 ];
 /// The datasheet example's word 0x2410 (Alpha_PTAT code and offset scales) and 0x2411
 /// (offset reference −69).

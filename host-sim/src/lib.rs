@@ -7,9 +7,9 @@
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
 
 pub mod data;
+pub mod decode;
 pub mod dump;
 pub mod eeprom;
+pub mod sensor_demo;
 pub mod sim_time;
 pub mod virtual_mlx;
-pub mod decode;
-pub mod sensor_demo;

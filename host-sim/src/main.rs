@@ -31,7 +31,11 @@ enum Command {
         #[arg(long, default_value_t = 1.0)]
         emissivity: f32,
         /// Reflected temperature = Ta − S (K or °C, the same step).
-        #[arg(long = "ta-shift", default_value_t = 8.0, allow_negative_numbers = true)]
+        #[arg(
+            long = "ta-shift",
+            default_value_t = 8.0,
+            allow_negative_numbers = true
+        )]
         ta_shift: f32,
     },
     /// Run the virtual MLX90640 through the firmware's driver and print a summary.

@@ -128,8 +128,8 @@ pub fn round_trip(
                 rig.image = Image::new();
             }
         }
-        for p in 0..PIXELS {
-            worst = worst.max((rig.image.to_k[p] as f64 - field[p] as f64).abs());
+        for (got, want) in rig.image.to_k.iter().zip(field.iter()) {
+            worst = worst.max((*got as f64 - *want as f64).abs());
         }
     }
     Ok(worst)
@@ -184,8 +184,12 @@ pub fn demo_scene() -> [f32; PIXELS] {
 
 /// Run `host-sim sensor`.
 pub fn run(args: &SensorArgs) -> Result<(), String> {
-    let refresh = RefreshRate::from_hz(args.refresh_hz)
-        .ok_or_else(|| format!("refresh rate {} Hz is not one of 0.5, 1, 2, …, 64", args.refresh_hz))?;
+    let refresh = RefreshRate::from_hz(args.refresh_hz).ok_or_else(|| {
+        format!(
+            "refresh rate {} Hz is not one of 0.5, 1, 2, …, 64",
+            args.refresh_hz
+        )
+    })?;
     let resolution = Resolution::from_bits(args.resolution)
         .ok_or_else(|| format!("resolution {} is not 16–19 bits", args.resolution))?;
     if !(args.noise_k >= 0.0 && args.noise_k.is_finite()) {
@@ -222,8 +226,8 @@ pub fn run(args: &SensorArgs) -> Result<(), String> {
                 if sp == 1 && rig.image.complete() {
                     let s = rig.image.stats().ok_or("empty image")?;
                     let (mut se, mut me) = (0f64, 0f64);
-                    for p in 0..PIXELS {
-                        let d = (rig.image.to_k[p] - scene[p]) as f64;
+                    for (got, want) in rig.image.to_k.iter().zip(scene.iter()) {
+                        let d = (got - want) as f64;
                         se += d * d;
                         me = me.max(d.abs());
                     }
@@ -254,7 +258,10 @@ pub fn run(args: &SensorArgs) -> Result<(), String> {
     println!("round trip without noise, 20 random fields of 263–573 K:");
     for res in Resolution::ALL {
         let e = round_trip(args.seed, res, ReadingPattern::Chess, 20, 263.0, 573.0)?;
-        println!("  {} bit: max |decode(encode(T)) - T| = {e:.4} K", res.bits());
+        println!(
+            "  {} bit: max |decode(encode(T)) - T| = {e:.4} K",
+            res.bits()
+        );
     }
     Ok(())
 }

@@ -26,7 +26,8 @@ use std::rc::Rc;
 use embedded_hal::i2c::{ErrorKind, ErrorType, NoAcknowledgeSource, Operation};
 use embedded_hal_async::i2c::I2c;
 use thermorph::mlx90640::calc::{
-    IDX_CP_SP0, IDX_CP_SP1, IDX_GAIN, IDX_PTAT, IDX_VBE, IDX_VDD, pixel_in_subpage,
+    IDX_CP_SP0, IDX_CP_SP1, IDX_GAIN, IDX_PTAT, IDX_VBE, IDX_VDD, conversion_pattern, il_pattern,
+    pixel_in_subpage,
 };
 use thermorph::mlx90640::{
     AUX_WORDS, Calibration, CalibrationError, Control, EEPROM_START, EEPROM_WORDS, PIXELS,
@@ -252,7 +253,8 @@ impl VirtualMlx90640 {
         match addr {
             Status::ADDRESS => {
                 // Bits 0–2 (subpage) are read-only; writing 0 to bit 3 clears new data.
-                self.status = (self.status & 0x0007) | (value & !0x0007 & !Status::NEW_DATA)
+                self.status = (self.status & 0x0007)
+                    | (value & !0x0007 & !Status::NEW_DATA)
                     | (self.status & value & Status::NEW_DATA);
                 Ok(())
             }
@@ -416,10 +418,22 @@ impl<'a> Encoder<'a> {
         let ct = |i: usize| cal.ct[i] as f64;
         let corr = {
             let r2 = 1.0 + ks(1) * ct(2);
-            [1.0 / (1.0 + ks(0) * 40.0), 1.0, r2, r2 * (1.0 + ks(2) * (ct(3) - ct(2)))]
+            [
+                1.0 / (1.0 + ks(0) * 40.0),
+                1.0,
+                r2,
+                r2 * (1.0 + ks(2) * (ct(3) - ct(2))),
+            ]
         };
-        let sx = (alpha.powi(3) * (ir + alpha * self.ta4)).max(0.0).sqrt().sqrt() * ks(1);
-        let to1 = (ir / (alpha * (1.0 - ks(1) * 273.15) + sx) + self.ta4).max(0.0).sqrt().sqrt()
+        let sx = (alpha.powi(3) * (ir + alpha * self.ta4))
+            .max(0.0)
+            .sqrt()
+            .sqrt()
+            * ks(1);
+        let to1 = (ir / (alpha * (1.0 - ks(1) * 273.15) + sx) + self.ta4)
+            .max(0.0)
+            .sqrt()
+            .sqrt()
             - 273.15;
         let range = if to1 < ct(1) {
             0
@@ -465,10 +479,7 @@ impl<'a> Encoder<'a> {
         let kv = cal.kv_of(p) as f64;
         let mut v = ir + self.ir_cp_tgc;
         if !self.calibration_mode {
-            let il = (p / 32 - (p / 64) * 2) as i64;
-            let conv = (((p + 2) / 4) as i64 - ((p + 3) / 4) as i64 + ((p + 1) / 4) as i64
-                - (p / 4) as i64)
-                * (1 - 2 * il);
+            let (il, conv) = (il_pattern(p), conversion_pattern(p));
             v -= cal.il_chess_c[2] as f64 * (2 * il - 1) as f64
                 - cal.il_chess_c[1] as f64 * conv as f64;
         }

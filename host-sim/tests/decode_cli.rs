@@ -33,7 +33,11 @@ fn decodes_the_melexis_example() {
     let f0 = dir.join("melexis_example_frame0.hex");
     let f1 = dir.join("melexis_example_frame1.hex");
     let out = run(&["decode", "--eeprom", s(&ee), "--frame", s(&f0)]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8(out.stdout).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], "pixel,row,col,value");
@@ -41,11 +45,23 @@ fn decodes_the_melexis_example() {
     assert_eq!(lines[2], "1,0,1,nan", "subpage 1 pixels uncovered");
     let v: f64 = lines[1].rsplit(',').next().unwrap().parse().unwrap();
     assert!((v - 28.711).abs() < 1e-3, "pixel 0: {v}");
-    let decimals = lines[1].rsplit(',').next().unwrap().split('.').nth(1).unwrap();
+    let decimals = lines[1]
+        .rsplit(',')
+        .next()
+        .unwrap()
+        .split('.')
+        .nth(1)
+        .unwrap();
     assert!(decimals.len() >= 6);
 
     let out = run(&[
-        "decode", "--eeprom", s(&ee), "--frame", s(&f0), "--frame", s(&f1),
+        "decode",
+        "--eeprom",
+        s(&ee),
+        "--frame",
+        s(&f0),
+        "--frame",
+        s(&f1),
     ]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
@@ -57,15 +73,42 @@ fn decodes_the_melexis_example() {
     let first = |args: &[&str]| -> f64 {
         let out = run(args);
         assert!(out.status.success());
-        String::from_utf8(out.stdout).unwrap().lines().nth(1).unwrap()
-            .rsplit(',').next().unwrap().parse().unwrap()
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .lines()
+            .nth(1)
+            .unwrap()
+            .rsplit(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
     };
-    let v_eps = first(&["decode", "--eeprom", s(&ee), "--frame", s(&f0), "--emissivity", "0.9"]);
+    let v_eps = first(&[
+        "decode",
+        "--eeprom",
+        s(&ee),
+        "--frame",
+        s(&f0),
+        "--emissivity",
+        "0.9",
+    ]);
     assert!(v_eps > v + 0.1, "ε = 0.9 reads warmer: {v_eps} vs {v}");
     let v_shift = first(&[
-        "decode", "--eeprom", s(&ee), "--frame", s(&f0), "--emissivity", "0.9", "--ta-shift", "-20",
+        "decode",
+        "--eeprom",
+        s(&ee),
+        "--frame",
+        s(&f0),
+        "--emissivity",
+        "0.9",
+        "--ta-shift",
+        "-20",
     ]);
-    assert!((v_shift - v_eps).abs() > 0.1, "the Ta shift matters: {v_shift} vs {v_eps}");
+    assert!(
+        (v_shift - v_eps).abs() > 0.1,
+        "the Ta shift matters: {v_shift} vs {v_eps}"
+    );
 }
 
 fn assert_one_error_naming(out: &Output, file: &Path, what: &str) {
@@ -89,7 +132,12 @@ fn bad_files_get_one_clear_error() {
     assert_one_error_naming(&out, &short, "832 words");
     let out = run(&["decode", "--eeprom", s(&ee), "--frame", s(&short)]);
     assert_one_error_naming(&out, &short, "834 words");
-    let nonhex = tmp("nonhex.hex", &"00AE\n".repeat(400).replace("00AE\n00AE\n00AE", "00AE\nXYZ\n00AE"));
+    let nonhex = tmp(
+        "nonhex.hex",
+        &"00AE\n"
+            .repeat(400)
+            .replace("00AE\n00AE\n00AE", "00AE\nXYZ\n00AE"),
+    );
     let out = run(&["decode", "--eeprom", s(&nonhex), "--frame", s(&f0)]);
     assert_one_error_naming(&out, &nonhex, "`XYZ`");
     let refused = dir.join("kedziorno_eeprom1.hex");
@@ -98,7 +146,15 @@ fn bad_files_get_one_clear_error() {
     let missing = dir.join("no_such_file.hex");
     let out = run(&["decode", "--eeprom", s(&missing), "--frame", s(&f0)]);
     assert_one_error_naming(&out, &missing, "cannot read");
-    let out = run(&["decode", "--eeprom", s(&ee), "--frame", s(&f0), "--emissivity", "1.5"]);
+    let out = run(&[
+        "decode",
+        "--eeprom",
+        s(&ee),
+        "--frame",
+        s(&f0),
+        "--emissivity",
+        "1.5",
+    ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("emissivity"));
 }

@@ -16,11 +16,27 @@ fn rig(config: Config) -> Rig {
 
 #[test]
 fn round_trip_within_0_1_k_at_18_bit() {
-    let e = round_trip(3, Resolution::Bits18, ReadingPattern::Chess, 10, 263.0, 573.0).unwrap();
+    let e = round_trip(
+        3,
+        Resolution::Bits18,
+        ReadingPattern::Chess,
+        10,
+        263.0,
+        573.0,
+    )
+    .unwrap();
     eprintln!("18 bit round trip max error {e:.4} K");
     assert!(e <= 0.1, "18-bit round trip error {e} K");
     // Finer ADC, smaller steps.
-    let e19 = round_trip(3, Resolution::Bits19, ReadingPattern::Chess, 10, 263.0, 573.0).unwrap();
+    let e19 = round_trip(
+        3,
+        Resolution::Bits19,
+        ReadingPattern::Chess,
+        10,
+        263.0,
+        573.0,
+    )
+    .unwrap();
     assert!(e19 < e, "19 bit ({e19}) must beat 18 bit ({e})");
     assert!(e19 <= 0.05, "19-bit round trip error {e19} K");
 }
@@ -28,10 +44,26 @@ fn round_trip_within_0_1_k_at_18_bit() {
 #[test]
 fn round_trip_interleaved_and_other_seeds() {
     for seed in [11, 12] {
-        let e = round_trip(seed, Resolution::Bits18, ReadingPattern::Chess, 4, 263.0, 573.0).unwrap();
+        let e = round_trip(
+            seed,
+            Resolution::Bits18,
+            ReadingPattern::Chess,
+            4,
+            263.0,
+            573.0,
+        )
+        .unwrap();
         assert!(e <= 0.1, "seed {seed}: {e} K");
     }
-    let e = round_trip(5, Resolution::Bits18, ReadingPattern::Interleaved, 4, 263.0, 573.0).unwrap();
+    let e = round_trip(
+        5,
+        Resolution::Bits18,
+        ReadingPattern::Interleaved,
+        4,
+        263.0,
+        573.0,
+    )
+    .unwrap();
     assert!(e <= 0.1, "interleaved: {e} K");
 }
 
@@ -66,7 +98,10 @@ fn configure_sets_the_device_and_timing_follows_the_rate() {
             (per - period).abs() < 0.1 * period,
             "{rate:?}: {per} µs per subpage, expected {period}"
         );
-        assert!(subpages.windows(2).all(|w| w[0] != w[1]), "subpages alternate");
+        assert!(
+            subpages.windows(2).all(|w| w[0] != w[1]),
+            "subpages alternate"
+        );
     }
     // Above 16 Hz a 400 kHz bus cannot keep pace (SPEC section 2): subpages are still read,
     // just not every one.
@@ -95,7 +130,10 @@ fn nack_is_a_typed_error_and_recovers() {
         }
     );
     let mut cal = thermorph::mlx90640::Calibration::new();
-    assert!(matches!(block_on(r.driver.calibrate(&mut cal)), Err(Error::Bus { .. })));
+    assert!(matches!(
+        block_on(r.driver.calibrate(&mut cal)),
+        Err(Error::Bus { .. })
+    ));
     r.bus.0.borrow_mut().set_fault(None);
     r.step(&params).unwrap();
 }
@@ -106,7 +144,10 @@ fn bus_timeout_is_a_typed_error() {
     let params = DecodeParams::default();
     r.bus.0.borrow_mut().set_fault(Some(Fault::BusTimeout));
     let t0 = r.clock.now_us();
-    assert_eq!(r.step(&params).unwrap_err(), Error::Timeout { register: 0x8000 });
+    assert_eq!(
+        r.step(&params).unwrap_err(),
+        Error::Timeout { register: 0x8000 }
+    );
     let waited = r.clock.now_us() - t0;
     assert_eq!(waited, thermorph::mlx90640::driver::BUS_TIMEOUT_US as u64);
     r.bus.0.borrow_mut().set_fault(None);
@@ -125,9 +166,15 @@ fn stuck_sensor_is_stale_after_two_periods() {
         Ok(_) => r.step(&params).unwrap_err(),
         Err(e) => e,
     };
-    assert!(matches!(e, Error::Stale { waited_ms } if waited_ms >= 250), "{e:?}");
+    assert!(
+        matches!(e, Error::Stale { waited_ms } if waited_ms >= 250),
+        "{e:?}"
+    );
     let elapsed = r.clock.now_us() - t0;
-    assert!(elapsed < 4 * RefreshRate::Hz8.period_us() as u64, "gave up in bounded time");
+    assert!(
+        elapsed < 4 * RefreshRate::Hz8.period_us() as u64,
+        "gave up in bounded time"
+    );
     r.bus.0.borrow_mut().set_fault(None);
     r.step(&params).unwrap();
 }

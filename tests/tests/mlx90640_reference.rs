@@ -2,6 +2,8 @@
 //! the example sheet's parameters and both expected images, the datasheet worked example, the
 //! other public dumps, and a refused EEPROM.
 
+#![allow(clippy::needless_range_loop)] // pixel loops index several parallel arrays
+
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -336,8 +338,12 @@ fn broken_and_outlier_pixels_are_corrected_from_neighbours() {
     assert_eq!(cal.outlier_pixels.as_slice(), &[500]);
     let mut img = Image::new();
     for f in ["melexis_example_frame0.hex", "melexis_example_frame1.hex"] {
-        img.update(&read_frame(&dir.join(f)).unwrap(), &cal, &DecodeParams::default())
-            .unwrap();
+        img.update(
+            &read_frame(&dir.join(f)).unwrap(),
+            &cal,
+            &DecodeParams::default(),
+        )
+        .unwrap();
     }
     let t = &img.to_k;
     let median = |p: usize| {

@@ -213,11 +213,24 @@ pub fn ta_c(frame: &SubpageFrame, cal: &Calibration, vdd_v: f32) -> f32 {
 /// Return whether pixel `p` belongs to `subpage` under `pattern` (library `ilPattern` /
 /// `chessPattern`).
 pub fn pixel_in_subpage(p: usize, pattern: ReadingPattern, subpage: u8) -> bool {
-    let il = (p / 32 - (p / 64) * 2) as u8;
+    let il = il_pattern(p) as u8;
     match pattern {
         ReadingPattern::Interleaved => il == subpage,
         ReadingPattern::Chess => (il ^ (p % 2) as u8) == subpage,
     }
+}
+
+/// Return the library's `ilPattern` of pixel `p`: its row's parity (0 or 1).
+pub fn il_pattern(p: usize) -> i32 {
+    (p / 32 - (p / 64) * 2) as i32
+}
+
+/// Return the library's `conversionPattern` of pixel `p` (−1, 0 or 1): which pixels of a row
+/// get the IL/chess correction IL_CHESS_C2, with the row's sign.
+#[allow(clippy::manual_div_ceil)] // the library's integer formula, kept as written
+pub fn conversion_pattern(p: usize) -> i32 {
+    (((p + 2) / 4) as i32 - ((p + 3) / 4) as i32 + ((p + 1) / 4) as i32 - (p / 4) as i32)
+        * (1 - 2 * il_pattern(p))
 }
 
 /// Compute To (Kelvin) for the pixels of one subpage into `out`, leaving the other pixels
@@ -321,15 +334,12 @@ pub fn calculate_to(
         if !pixel_in_subpage(p, pattern, subpage) {
             continue;
         }
-        let il = (p / 32 - (p / 64) * 2) as i32;
         let kta = cal.kta[p] as f32 / kta_scale;
         let kv = cal.kv[p] as f32 / kv_scale;
         let mut ir = frame.words[p] as i16 as f32 * gain;
         ir -= cal.offset[p] as f32 * (1.0 + kta * dta) * (1.0 + kv * dvdd);
         if mode != cal.calibration_mode_ee {
-            let conv = (((p + 2) / 4) as i32 - ((p + 3) / 4) as i32 + ((p + 1) / 4) as i32
-                - (p / 4) as i32)
-                * (1 - 2 * il);
+            let (il, conv) = (il_pattern(p), conversion_pattern(p));
             ir += cal.il_chess_c[2] * (2 * il - 1) as f32 - cal.il_chess_c[1] * conv as f32;
         }
         ir -= tgc_cp;

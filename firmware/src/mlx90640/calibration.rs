@@ -345,7 +345,7 @@ impl Calibration {
                 + a) as f32;
             let a = ((a as f64) / pow2_f64(alpha_scale)) as f32;
             let a = a - cp_mean;
-            if !(a > 0.0) {
+            if a.is_nan() || a <= 0.0 {
                 return Err(CalibrationError::BadEepromData {
                     word: (64 + p) as u16,
                 });

@@ -42,8 +42,25 @@ pub struct Histogram {
 }
 
 impl Histogram {
+    /// An all-zero histogram of no bins (storage for [`Histogram::reset`]).
+    pub const EMPTY: Histogram = Histogram {
+        lo: 0.0,
+        scale: 0.0,
+        width: 0.0,
+        bins: 0,
+        count: [0; MAX_BINS],
+        sum: [0.0; MAX_BINS],
+    };
+
     /// Make an empty histogram of `bins` bins over [lo_k, hi_k] (hi may equal lo).
     pub fn new(lo_k: f32, hi_k: f32, bins: usize) -> Result<Self, MttsError> {
+        let mut h = Self::EMPTY;
+        h.reset(lo_k, hi_k, bins)?;
+        Ok(h)
+    }
+
+    /// Empty the histogram and give it `bins` bins over [lo_k, hi_k]; on error it is unchanged.
+    pub fn reset(&mut self, lo_k: f32, hi_k: f32, bins: usize) -> Result<(), MttsError> {
         if !(2..=MAX_BINS).contains(&bins) {
             return Err(MttsError::BadBins { bins: bins as u16 });
         }
@@ -51,14 +68,13 @@ impl Histogram {
             return Err(MttsError::NoValidPixels);
         }
         let span = (hi_k - lo_k).max(1e-6);
-        Ok(Histogram {
-            lo: lo_k,
-            scale: bins as f32 / span,
-            width: span / bins as f32,
-            bins,
-            count: [0; MAX_BINS],
-            sum: [0.0; MAX_BINS],
-        })
+        self.lo = lo_k;
+        self.scale = bins as f32 / span;
+        self.width = span / bins as f32;
+        self.bins = bins;
+        self.count = [0; MAX_BINS];
+        self.sum = [0.0; MAX_BINS];
+        Ok(())
     }
 
     /// Return the number of bins.
@@ -311,8 +327,12 @@ pub struct XorShift(u64);
 
 impl XorShift {
     /// Make a generator (a zero seed is replaced by a constant).
-    pub fn new(seed: u64) -> Self {
-        XorShift(if seed == 0 { 0x9E37_79B9_7F4A_7C15 } else { seed })
+    pub const fn new(seed: u64) -> Self {
+        XorShift(if seed == 0 {
+            0x9E37_79B9_7F4A_7C15
+        } else {
+            seed
+        })
     }
 
     /// Return a uniform value in [0, 1).
@@ -379,8 +399,14 @@ pub fn lloyd(
                     return 0.0;
                 }
                 let v = mean_of(b);
-                let d = c[..kk].iter().fold(f32::INFINITY, |m, &ci| m.min((v - ci).abs()));
-                if kk == 0 { h.count[b] as f32 } else { h.count[b] as f32 * d * d }
+                let d = c[..kk]
+                    .iter()
+                    .fold(f32::INFINITY, |m, &ci| m.min((v - ci).abs()));
+                if kk == 0 {
+                    h.count[b] as f32
+                } else {
+                    h.count[b] as f32 * d * d
+                }
             }),
         };
         match chosen {
@@ -395,7 +421,7 @@ pub fn lloyd(
     let mut assign = [0u8; MAX_BINS];
     for it in 0..=max_iter {
         let mut changed = false;
-        for b in 0..bins {
+        for (b, a) in assign.iter_mut().enumerate().take(bins) {
             if h.count[b] == 0 {
                 continue;
             }
@@ -406,8 +432,8 @@ pub fn lloyd(
                     best = j;
                 }
             }
-            changed |= assign[b] as usize != best;
-            assign[b] = best as u8;
+            changed |= *a as usize != best;
+            *a = best as u8;
         }
         if it > 0 && !changed {
             break;
@@ -564,8 +590,14 @@ mod tests {
     fn argument_errors() {
         let h = Histogram::new(0.0, 1.0, 8).unwrap();
         let mut sc = std::boxed::Box::new(DpScratch::new());
-        assert_eq!(exact_binned(&h, 3, &mut sc).unwrap_err(), MttsError::NoValidPixels);
-        assert_eq!(exact_binned(&h, 9, &mut sc).unwrap_err(), MttsError::BadK { k: 9 });
+        assert_eq!(
+            exact_binned(&h, 3, &mut sc).unwrap_err(),
+            MttsError::NoValidPixels
+        );
+        assert_eq!(
+            exact_binned(&h, 9, &mut sc).unwrap_err(),
+            MttsError::BadK { k: 9 }
+        );
         assert!(Histogram::new(0.0, 1.0, 1).is_err());
         assert!(Histogram::new(f32::NAN, 1.0, 8).is_err());
     }

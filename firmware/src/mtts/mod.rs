@@ -10,8 +10,9 @@
 //!    phase, continuity with the previous frame), so T1 stays the heater area and T2 the SMP
 //!    surface through the forming mode's hot-zone inversion.
 //!
-//! [`Mtts`] owns the state that persists between frames (the last geometry) and the scratch
-//! memory (≈ 31 KB, no heap); [`Mtts::process`] runs one frame.
+//! [`Mtts`] owns the settings and the state that persists between frames (the last geometry);
+//! [`Scratch`] is the working memory (≈ 30 KB, all zero at start so a `static` of it costs no
+//! flash); [`Mtts::process`] runs one frame. No heap.
 
 pub mod cluster;
 pub mod regions;
@@ -228,20 +229,42 @@ pub fn inpaint(img: &mut [f32; IMG_PIXELS]) -> Result<u16, MttsError> {
     Ok(bad)
 }
 
-/// The MTTS state and scratch (keep it in a static on the target).
+/// Working memory of the pipeline (keep it in a `static` on the target).
+pub struct Scratch {
+    up: UpsampleScratch,
+    dp: DpScratch,
+    /// The last frame's histogram of upsampled values.
+    pub hist: Histogram,
+}
+
+impl Default for Scratch {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Scratch {
+    /// Return zeroed working memory.
+    pub const fn new() -> Self {
+        Scratch {
+            up: UpsampleScratch::new(),
+            dp: DpScratch::new(),
+            hist: Histogram::EMPTY,
+        }
+    }
+}
+
+/// The MTTS settings and the state kept between frames.
+#[derive(Clone, Debug)]
 pub struct Mtts {
     config: Config,
     upsampler: Upsampler,
     geometry: Geometry,
     rng: XorShift,
-    up: UpsampleScratch,
-    dp: DpScratch,
-    /// The last frame's histogram (for inspection and benches).
-    pub hist: Option<Histogram>,
 }
 
 impl Mtts {
-    /// Make the pipeline for `config`.
+    /// Make the pipeline for `config` (checked).
     pub fn new(config: Config) -> Result<Self, MttsError> {
         if !(2..=cluster::MAX_K as u8).contains(&config.k) {
             return Err(MttsError::BadK { k: config.k });
@@ -252,11 +275,8 @@ impl Mtts {
         Ok(Mtts {
             upsampler: Upsampler::new(config.scale)?,
             config,
-            geometry: Geometry::default(),
+            geometry: Geometry::DEFAULT,
             rng: XorShift::new(config.seed),
-            up: UpsampleScratch::new(),
-            dp: DpScratch::new(),
-            hist: None,
         })
     }
 
@@ -272,33 +292,35 @@ impl Mtts {
 
     /// Forget the previous frames (geometry back to the default).
     pub fn reset(&mut self) {
-        self.geometry = Geometry::default();
+        self.geometry = Geometry::DEFAULT;
         self.rng = XorShift::new(self.config.seed);
     }
 
-    /// Stage 1–2: inpaint, upsample into a histogram. Returns the filled image and count.
+    /// Stage 1–2: inpaint, upsample into `scratch.hist`. Returns the filled image and count.
     pub fn stage_upsample(
         &mut self,
         image: &[f32; IMG_PIXELS],
+        scratch: &mut Scratch,
     ) -> Result<([f32; IMG_PIXELS], u16), MttsError> {
         let mut work = *image;
         let filled = inpaint(&mut work)?;
         let (lo, hi) = work
             .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-        let mut hist = Histogram::new(lo, hi, self.config.bins as usize)?;
-        self.upsampler
-            .run(&work, &mut self.up, |_, row| hist.add_slice(row));
-        self.hist = Some(hist);
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        scratch.hist.reset(lo, hi, self.config.bins as usize)?;
+        let Scratch { up, hist, .. } = scratch;
+        self.upsampler.run(&work, up, |_, row| hist.add_slice(row));
         Ok((work, filled))
     }
 
     /// Stage 3: cluster the histogram of the last [`Mtts::stage_upsample`].
-    pub fn stage_cluster(&mut self) -> Result<Clusters, MttsError> {
-        let hist = self.hist.as_ref().ok_or(MttsError::NoValidPixels)?;
+    pub fn stage_cluster(&mut self, scratch: &mut Scratch) -> Result<Clusters, MttsError> {
+        let hist = &scratch.hist;
         let k = self.config.k as usize;
         match self.config.method {
-            Method::Exact => cluster::exact_binned(hist, k, &mut self.dp),
+            Method::Exact => cluster::exact_binned(hist, k, &mut scratch.dp),
             Method::Lloyd => cluster::lloyd(hist, k, Seeding::Random, &mut self.rng, 100),
             Method::KMeansPlusPlus => {
                 cluster::lloyd(hist, k, Seeding::KMeansPlusPlus, &mut self.rng, 100)
@@ -307,7 +329,12 @@ impl Mtts {
     }
 
     /// Stage 4: regions from the filled image and the clusters; updates the geometry.
-    pub fn stage_regions(&mut self, work: &[f32; IMG_PIXELS], clusters: &Clusters, filled: u16) -> Output {
+    pub fn stage_regions(
+        &mut self,
+        work: &[f32; IMG_PIXELS],
+        clusters: &Clusters,
+        filled: u16,
+    ) -> Output {
         let (g, quality) = regions::update_geometry(work, &self.geometry);
         self.geometry = g;
         let o = regions::overlap(work, &g, clusters);
@@ -349,9 +376,13 @@ impl Mtts {
     }
 
     /// Run the whole pipeline on one frame (K, NaN for broken pixels).
-    pub fn process(&mut self, image: &[f32; IMG_PIXELS]) -> Result<Output, MttsError> {
-        let (work, filled) = self.stage_upsample(image)?;
-        let clusters = self.stage_cluster()?;
+    pub fn process(
+        &mut self,
+        image: &[f32; IMG_PIXELS],
+        scratch: &mut Scratch,
+    ) -> Result<Output, MttsError> {
+        let (work, filled) = self.stage_upsample(image, scratch)?;
+        let clusters = self.stage_cluster(scratch)?;
         Ok(self.stage_regions(&work, &clusters, filled))
     }
 }
@@ -360,16 +391,24 @@ impl Mtts {
 mod tests {
     use super::*;
 
+    fn scratch() -> std::boxed::Box<Scratch> {
+        std::boxed::Box::new(Scratch::new())
+    }
+
     #[test]
     fn all_broken_is_an_error() {
         let mut m = Mtts::new(Config::default()).unwrap();
-        assert_eq!(m.process(&[f32::NAN; IMG_PIXELS]).unwrap_err(), MttsError::NoValidPixels);
+        assert_eq!(
+            m.process(&[f32::NAN; IMG_PIXELS], &mut scratch())
+                .unwrap_err(),
+            MttsError::NoValidPixels
+        );
     }
 
     #[test]
     fn uniform_scene_gives_one_temperature() {
         let mut m = Mtts::new(Config::default()).unwrap();
-        let out = m.process(&[300.0; IMG_PIXELS]).unwrap();
+        let out = m.process(&[300.0; IMG_PIXELS], &mut scratch()).unwrap();
         assert_eq!(out.clusters.k, 1);
         for r in out.regions {
             assert!((r.temp.k() - 300.0).abs() < 1e-4 || r.temp.k().is_nan());
@@ -381,8 +420,12 @@ mod tests {
     fn single_hot_pixel_is_its_own_cluster() {
         let mut img = [300.0; IMG_PIXELS];
         img[100] = 400.0;
-        let mut m = Mtts::new(Config { scale: 1, ..Config::default() }).unwrap();
-        let out = m.process(&img).unwrap();
+        let mut m = Mtts::new(Config {
+            scale: 1,
+            ..Config::default()
+        })
+        .unwrap();
+        let out = m.process(&img, &mut scratch()).unwrap();
         assert_eq!(out.clusters.k, 2, "two distinct values");
         assert_eq!(out.clusters.counts[1], 1);
         assert!((out.clusters.means[1] - 400.0).abs() < 1e-3);
@@ -395,17 +438,41 @@ mod tests {
         img[6] = f32::INFINITY;
         img[7] = 5000.0;
         let mut m = Mtts::new(Config::default()).unwrap();
-        let out = m.process(&img).unwrap();
+        let out = m.process(&img, &mut scratch()).unwrap();
         assert_eq!(out.filled_pixels, 3);
         assert!((out.t1().k() - 300.0).abs() < 1e-3);
     }
 
     #[test]
     fn config_is_checked() {
-        assert!(Mtts::new(Config { k: 1, ..Config::default() }).is_err());
-        assert!(Mtts::new(Config { k: 9, ..Config::default() }).is_err());
-        assert!(Mtts::new(Config { scale: 0, ..Config::default() }).is_err());
-        assert!(Mtts::new(Config { bins: 1000, ..Config::default() }).is_err());
+        assert!(
+            Mtts::new(Config {
+                k: 1,
+                ..Config::default()
+            })
+            .is_err()
+        );
+        assert!(
+            Mtts::new(Config {
+                k: 9,
+                ..Config::default()
+            })
+            .is_err()
+        );
+        assert!(
+            Mtts::new(Config {
+                scale: 0,
+                ..Config::default()
+            })
+            .is_err()
+        );
+        assert!(
+            Mtts::new(Config {
+                bins: 1000,
+                ..Config::default()
+            })
+            .is_err()
+        );
     }
 
     #[test]

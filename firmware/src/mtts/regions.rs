@@ -80,18 +80,21 @@ pub struct Geometry {
 
 impl Default for Geometry {
     fn default() -> Self {
-        Geometry {
-            axis_col0: (IMG_COLS as f32 - 1.0) / 2.0,
-            axis_slope: 0.0,
-            half_width_px: DEFAULT_HALF_WIDTH_PX,
-            period_px: 16.0,
-            phase_px: 0.0,
-            lattice_known: false,
-        }
+        Self::DEFAULT
     }
 }
 
 impl Geometry {
+    /// A centred vertical cylinder of the default width, lattice unknown.
+    pub const DEFAULT: Geometry = Geometry {
+        axis_col0: (IMG_COLS as f32 - 1.0) / 2.0,
+        axis_slope: 0.0,
+        half_width_px: DEFAULT_HALF_WIDTH_PX,
+        period_px: 16.0,
+        phase_px: 0.0,
+        lattice_known: false,
+    };
+
     /// Return (distance ratio u, axial coordinate t) of a pixel.
     pub fn coords(&self, row: usize, col: usize) -> (f32, f32) {
         let norm = crate::fmath::sqrt(1.0 + self.axis_slope * self.axis_slope);
@@ -114,7 +117,11 @@ impl Geometry {
     pub fn zone(&self, row: usize, col: usize) -> Zone {
         let (u, t) = self.coords(row, col);
         if u < CORE_U {
-            if self.in_gap(t) { Zone::Heater } else { Zone::Surface }
+            if self.in_gap(t) {
+                Zone::Heater
+            } else {
+                Zone::Surface
+            }
         } else if u < EDGE_U {
             Zone::Edge
         } else if u < RADIATION_U {
@@ -224,7 +231,11 @@ pub fn fit_lattice(img: &[f32; IMG_PIXELS], g: &Geometry) -> Option<(f32, f32, f
     let used = cnt.iter().rposition(|&n| n > 0)? + 1;
     let mut prof = [0f32; NB];
     for b in 0..used {
-        prof[b] = if cnt[b] > 0 { sum[b] / cnt[b] as f32 } else { f32::NAN };
+        prof[b] = if cnt[b] > 0 {
+            sum[b] / cnt[b] as f32
+        } else {
+            f32::NAN
+        };
     }
     let mut best: Option<(f32, f32, f32)> = None;
     let mut period = PERIOD_MIN_PX;
@@ -380,7 +391,11 @@ mod tests {
         core::array::from_fn(|p| {
             let (r, c) = (p / IMG_COLS, p % IMG_COLS);
             let (u, t) = g.coords(r, c);
-            let (heater, surface) = if inverted { (330.0, 345.0) } else { (360.0, 340.0) };
+            let (heater, surface) = if inverted {
+                (330.0, 345.0)
+            } else {
+                (360.0, 340.0)
+            };
             if u < 1.0 {
                 if g.in_gap(t) { heater } else { surface }
             } else if u < 1.6 {
@@ -416,7 +431,9 @@ mod tests {
                 phase_px: 3.0,
                 lattice_known: true,
             };
-            let agree = (0..IMG_ROWS).filter(|&r| g.in_gap(r as f32) == truth.in_gap(r as f32)).count();
+            let agree = (0..IMG_ROWS)
+                .filter(|&r| g.in_gap(r as f32) == truth.in_gap(r as f32))
+                .count();
             assert!(agree >= 20, "inverted={inverted}: {agree}/24 rows agree");
         }
     }

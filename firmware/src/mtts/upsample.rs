@@ -50,7 +50,7 @@ impl UpsampleScratch {
             ring: [[0.0; MAX_OUT_COLS]; RING],
             ring_lo: [[0.0; WINDOWS]; RING],
             ring_hi: [[0.0; WINDOWS]; RING],
-            ring_tag: [-1; RING],
+            ring_tag: [0; RING],
             row: [0.0; MAX_OUT_COLS],
         }
     }
