@@ -3,6 +3,8 @@
 //! - [`dump`]: reading MLX90640 EEPROM and frame dumps (the shared test-data format).
 //! - [`data`]: where the shared sensor dumps live.
 //! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
+//! - [`mtts_cli`]: MTTS on image files, scenes as image files.
+//! - [`scene`]: the camera's view of the block, with ground truth.
 //! - [`sim_time`]: the simulated clock and delay.
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
 
@@ -10,6 +12,8 @@ pub mod data;
 pub mod decode;
 pub mod dump;
 pub mod eeprom;
+pub mod mtts_cli;
+pub mod scene;
 pub mod sensor_demo;
 pub mod sim_time;
 pub mod virtual_mlx;

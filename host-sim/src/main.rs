@@ -3,6 +3,8 @@
 //! - `host-sim` (or `host-sim sensor`): the main job at this stage — the virtual MLX90640 on a
 //!   simulated I2C bus, read and decoded by the firmware's own driver, with a summary.
 //! - `host-sim decode --eeprom FILE --frame FILE [...]`: decode real sensor dumps to CSV.
+//! - `host-sim mtts --image FILE [...]`: the five region temperatures of an image.
+//! - `host-sim scene NAME`: a rendered standard scene as an image file.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -40,6 +42,33 @@ enum Command {
     },
     /// Run the virtual MLX90640 through the firmware's driver and print a summary.
     Sensor(host_sim::sensor_demo::SensorArgs),
+    /// Find the five region temperatures of a 24×32 image (CSV, K, `nan` = broken pixel) and
+    /// print `region,name,temp_k,pixels`.
+    Mtts {
+        /// Image CSV: 24 lines of 32 values.
+        #[arg(long)]
+        image: PathBuf,
+        /// Upsampling factor, 1–8.
+        #[arg(long, default_value_t = 4)]
+        scale: u8,
+        /// Number of clusters, 2–8.
+        #[arg(long, default_value_t = 5)]
+        k: u8,
+        /// Clustering method: exact, lloyd or kmeanspp.
+        #[arg(long, default_value = "exact")]
+        method: String,
+        /// Seed of the lloyd and kmeanspp methods.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+    /// Print a standard rendered scene as an image CSV (truth in `#` comment lines).
+    Scene {
+        /// Scene name (an unknown name lists them).
+        name: String,
+        /// Noise seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
 }
 
 fn main() -> ExitCode {
@@ -63,6 +92,25 @@ fn main() -> ExitCode {
             })
         }
         Command::Sensor(args) => host_sim::sensor_demo::run(&args),
+        Command::Mtts {
+            image,
+            scale,
+            k,
+            method,
+            seed,
+        } => host_sim::mtts_cli::parse_method(&method).and_then(|method| {
+            let config = thermorph::mtts::Config {
+                scale,
+                k,
+                method,
+                seed,
+                ..Default::default()
+            };
+            host_sim::mtts_cli::run(&image, config, &mut std::io::stdout().lock())
+        }),
+        Command::Scene { name, seed } => {
+            host_sim::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -31,7 +31,7 @@ use thermorph::mlx90640::calc::{
 };
 use thermorph::mlx90640::{
     AUX_WORDS, Calibration, CalibrationError, Control, EEPROM_START, EEPROM_WORDS, PIXELS,
-    RAM_START, Status,
+    RAM_START, Status, SubpageFrame,
 };
 
 use crate::sim_time::SimClock;
@@ -230,6 +230,22 @@ impl VirtualMlx90640 {
             }
             self.ram[p] = enc.pixel_raw(p, t) as u16;
         }
+    }
+
+    /// Encode subpage `sp` of the current field and return it as the driver would read it
+    /// (RAM, control register, subpage number) — for benches and tests that skip the bus.
+    pub fn raw_subpage(&mut self, sp: u8) -> SubpageFrame {
+        self.encode_subpage(sp);
+        let mut f = SubpageFrame::new();
+        f.words[..PIXELS + AUX_WORDS].copy_from_slice(&self.ram);
+        f.words[PIXELS + AUX_WORDS] = self.control;
+        f.words[PIXELS + AUX_WORDS + 1] = sp as u16;
+        f
+    }
+
+    /// Set the control register directly (as a write over the bus would).
+    pub fn set_control(&mut self, control: Control) {
+        self.control = control.0;
     }
 
     fn read_word(&self, addr: u16) -> u16 {

@@ -2,8 +2,6 @@
 //! the example sheet's parameters and both expected images, the datasheet worked example, the
 //! other public dumps, and a refused EEPROM.
 
-#![allow(clippy::needless_range_loop)] // pixel loops index several parallel arrays
-
 use std::collections::HashMap;
 use std::path::Path;
 

@@ -37,7 +37,7 @@ pub const CORE_U: f32 = 0.75;
 /// Edge zone (region 3): distance ratio below this.
 pub const EDGE_U: f32 = 1.15;
 /// Radiation zone (region 4): distance ratio below this.
-pub const RADIATION_U: f32 = 2.2;
+pub const RADIATION_U: f32 = 1.6;
 /// Shortest lattice period searched, pixels (a 30 mm unit at 100 mm distance).
 pub const PERIOD_MIN_PX: f32 = 8.0;
 /// Longest lattice period searched, pixels (a 30 mm unit at 50 mm distance).

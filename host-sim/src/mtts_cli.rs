@@ -1,0 +1,160 @@
+//! `host-sim mtts` and `host-sim scene`: MTTS on an image file, and rendered scenes as images.
+
+use std::io::Write;
+use std::path::Path;
+
+use thermorph::mtts::{self, IMG_COLS, IMG_PIXELS, IMG_ROWS, Method, Mtts, REGION_NAMES, Scratch};
+
+use crate::scene::standard_scenes;
+
+/// Parse an image CSV: 24 lines of 32 comma-separated Kelvin values (`nan` for a broken pixel);
+/// blank lines and lines starting with `#` are skipped. Errors name the line and column.
+pub fn parse_image(text: &str) -> Result<[f32; IMG_PIXELS], String> {
+    let mut img = [0f32; IMG_PIXELS];
+    let mut row = 0;
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        if row == IMG_ROWS {
+            return Err(format!("line {}: more than {IMG_ROWS} rows", n + 1));
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cells.len() != IMG_COLS {
+            return Err(format!(
+                "line {}: {} values, a row needs {IMG_COLS}",
+                n + 1,
+                cells.len()
+            ));
+        }
+        for (c, cell) in cells.iter().enumerate() {
+            let v = if cell.eq_ignore_ascii_case("nan") {
+                f32::NAN
+            } else {
+                cell.parse::<f32>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| {
+                        format!("line {}, column {}: `{cell}` is not a number", n + 1, c + 1)
+                    })?
+            };
+            img[row * IMG_COLS + c] = v;
+        }
+        row += 1;
+    }
+    if row != IMG_ROWS {
+        return Err(format!("{row} rows, an image needs {IMG_ROWS}"));
+    }
+    Ok(img)
+}
+
+/// Write an image as CSV (24 lines of 32 values, K).
+pub fn write_image(img: &[f32; IMG_PIXELS], out: &mut impl Write) -> std::io::Result<()> {
+    for r in 0..IMG_ROWS {
+        let row: Vec<String> = img[r * IMG_COLS..(r + 1) * IMG_COLS]
+            .iter()
+            .map(|v| {
+                if v.is_nan() {
+                    "nan".into()
+                } else {
+                    format!("{v:.3}")
+                }
+            })
+            .collect();
+        writeln!(out, "{}", row.join(","))?;
+    }
+    Ok(())
+}
+
+/// Parse a method name.
+pub fn parse_method(s: &str) -> Result<Method, String> {
+    match s {
+        "exact" => Ok(Method::Exact),
+        "lloyd" => Ok(Method::Lloyd),
+        "kmeanspp" => Ok(Method::KMeansPlusPlus),
+        _ => Err(format!("method `{s}` is not exact, lloyd or kmeanspp")),
+    }
+}
+
+/// Run MTTS on an image file and write `region,name,temp_k,pixels` (pixels: upsampled pixels
+/// in the region's cluster).
+pub fn run(path: &Path, config: mtts::Config, out: &mut impl Write) -> Result<(), String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let img = parse_image(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut m = Mtts::new(config).map_err(|e| e.to_string())?;
+    let mut scratch = Box::new(Scratch::new());
+    let res = m
+        .process(&img, &mut scratch)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut s = String::from("region,name,temp_k,pixels\n");
+    for (i, r) in res.regions.iter().enumerate() {
+        s += &format!(
+            "{},{},{:.3},{}\n",
+            i + 1,
+            REGION_NAMES[i],
+            r.temp.k(),
+            r.pixels
+        );
+    }
+    out.write_all(s.as_bytes()).map_err(|e| e.to_string())
+}
+
+/// Write standard scene `name` (rendered with `seed`) as an image CSV, with its truth as
+/// `#` comment lines.
+pub fn scene(name: &str, seed: u64, out: &mut impl Write) -> Result<(), String> {
+    let scenes = standard_scenes();
+    let Some(s) = scenes.iter().find(|s| s.name == name) else {
+        let names: Vec<&str> = scenes.iter().map(|s| s.name).collect();
+        return Err(format!("no scene `{name}`; scenes: {}", names.join(", ")));
+    };
+    let r = s.render(seed);
+    let mut buf = Vec::new();
+    writeln!(buf, "# scene {name}, noise seed {seed}").map_err(|e| e.to_string())?;
+    for (i, t) in r.truth_k.iter().enumerate() {
+        writeln!(
+            buf,
+            "# truth region {} {}: {t:.3} K",
+            i + 1,
+            REGION_NAMES[i]
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    write_image(&r.image_k, &mut buf).map_err(|e| e.to_string())?;
+    out.write_all(&buf).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_round_trip_and_errors() {
+        let mut img = [300.5f32; IMG_PIXELS];
+        img[40] = f32::NAN;
+        let mut buf = Vec::new();
+        write_image(&img, &mut buf).unwrap();
+        let back = parse_image(std::str::from_utf8(&buf).unwrap()).unwrap();
+        assert!(back[40].is_nan());
+        assert_eq!(back[41], 300.5);
+        assert!(
+            parse_image("1,2,3\n")
+                .unwrap_err()
+                .contains("line 1: 3 values")
+        );
+        let bad = std::str::from_utf8(&buf)
+            .unwrap()
+            .replacen("300.500", "hot", 1);
+        assert!(parse_image(&bad).unwrap_err().contains("`hot`"));
+        let short: String = std::str::from_utf8(&buf)
+            .unwrap()
+            .lines()
+            .take(5)
+            .collect::<Vec<_>>()
+            .join("\n");
+        assert!(parse_image(&short).unwrap_err().contains("5 rows"));
+        assert!(parse_image(&"1.0,".repeat(32)).is_err());
+        assert!(parse_method("kmeans").is_err());
+    }
+}

@@ -1,0 +1,122 @@
+//! MTTS on rendered scenes: region temperatures against ground truth, region identity through
+//! the hot-zone inversion, tilt, shift, springs, noise and low contrast.
+
+use host_sim::scene::{Scene, standard_scenes};
+use thermorph::mtts::{Config, Method, Mtts, Output, Scratch};
+
+fn run(scene: &Scene, config: Config, seeds: u64) -> Vec<(Output, [f64; 5])> {
+    let mut scratch = Box::new(Scratch::new());
+    let mut m = Mtts::new(config).unwrap();
+    (1..=seeds)
+        .map(|seed| {
+            let r = scene.render(seed);
+            (m.process(&r.image_k, &mut scratch).unwrap(), r.truth_k)
+        })
+        .collect()
+}
+
+#[test]
+fn t1_and_t2_within_2_k_on_every_standard_scene() {
+    for scene in standard_scenes() {
+        for (out, truth) in run(&scene, Config::default(), 4) {
+            for z in 0..2 {
+                let err = (out.regions[z].temp.k() as f64 - truth[z]).abs();
+                assert!(err <= 2.0, "{}: T{} off by {err:.2} K", scene.name, z + 1);
+            }
+        }
+    }
+}
+
+#[test]
+fn heater_area_stays_region_1_through_the_inversion() {
+    let scenes = standard_scenes();
+    let forming = scenes
+        .iter()
+        .find(|s| s.name == "forming-inversion")
+        .unwrap();
+    assert!(
+        forming.temps.heater_k < forming.temps.surface_k,
+        "the scene is inverted"
+    );
+    for (out, _) in run(forming, Config::default(), 4) {
+        assert!(
+            out.t1().k() < out.t2().k() - 10.0,
+            "T1 stays the (now colder) heater area"
+        );
+        // Ranking clusters by temperature, as the thesis does, would call the hottest cylinder
+        // cluster T1 — the SMP surface here.
+        let hottest = out.clusters.means[out.clusters.k - 1];
+        assert!((hottest - out.t2().k()).abs() < 1e-3);
+    }
+}
+
+#[test]
+fn geometry_follows_tilt_and_shift() {
+    let scenes = standard_scenes();
+    for name in ["tilt-12deg", "shifted-left"] {
+        let scene = scenes.iter().find(|s| s.name == name).unwrap();
+        let (out, _) = run(scene, Config::default(), 1).remove(0);
+        let slope = scene.geometry.tilt_deg.to_radians().tan();
+        assert!(
+            (out.geometry.axis_slope as f64 - slope).abs() < 0.03,
+            "{name}: {:?}",
+            out.geometry
+        );
+        assert!((out.geometry.axis_col0 as f64 - scene.geometry.axis_col0).abs() < 0.5);
+        assert!((out.geometry.half_width_px as f64 - scene.geometry.half_width_px).abs() < 1.5);
+        assert!(out.quality.cylinder_fresh && out.quality.lattice_fresh);
+    }
+}
+
+#[test]
+fn low_contrast_keeps_the_previous_geometry() {
+    let scenes = standard_scenes();
+    let warm = scenes.iter().find(|s| s.name == "heating-358").unwrap();
+    let mut flat = *warm;
+    flat.temps.heater_k = 298.3;
+    flat.temps.surface_k = 298.2;
+    flat.temps.edge_k = 298.1;
+    flat.temps.radiation_k = 298.0;
+    let mut scratch = Box::new(Scratch::new());
+    let mut m = Mtts::new(Config::default()).unwrap();
+    let a = m.process(&warm.render(1).image_k, &mut scratch).unwrap();
+    let b = m.process(&flat.render(2).image_k, &mut scratch).unwrap();
+    assert!(!b.quality.cylinder_fresh && !b.quality.lattice_fresh);
+    assert_eq!(a.geometry, b.geometry);
+}
+
+#[test]
+fn methods_are_deterministic_and_exact_is_never_worse_in_sse() {
+    let scene = standard_scenes()[1];
+    let r = scene.render(3);
+    let mut scratch = Box::new(Scratch::new());
+    let exact = Mtts::new(Config::default())
+        .unwrap()
+        .process(&r.image_k, &mut scratch)
+        .unwrap();
+    let again = Mtts::new(Config::default())
+        .unwrap()
+        .process(&r.image_k, &mut scratch)
+        .unwrap();
+    assert_eq!(format!("{exact:?}"), format!("{again:?}"));
+    for method in [Method::Lloyd, Method::KMeansPlusPlus] {
+        for seed in 1..6 {
+            let config = Config {
+                method,
+                seed,
+                ..Config::default()
+            };
+            let out = Mtts::new(config)
+                .unwrap()
+                .process(&r.image_k, &mut scratch)
+                .unwrap();
+            // Same data, same bins: the exact optimum of the binned problem bounds Lloyd's.
+            let w = scratch.hist.width();
+            let slack = scratch.hist.total() as f32 * w * w / 4.0;
+            assert!(
+                out.clusters.sse + slack >= exact.clusters.sse,
+                "{method:?} seed {seed}"
+            );
+        }
+    }
+}
