@@ -4,7 +4,9 @@ fn main() {
     if std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
         let manifest = std::path::PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
         let root = manifest.parent().expect("firmware/ sits in the workspace");
-        println!("cargo:rustc-link-search={}", root.display());
+        // Only this package's binaries: a search path would propagate to every crate that
+        // depends on the library (the QEMU bench links its own memory map).
+        println!("cargo:rustc-link-arg-bins=-L{}", root.display());
         println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     }
     println!("cargo:rerun-if-changed=build.rs");

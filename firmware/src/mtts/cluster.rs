@@ -1,7 +1,11 @@
 //! One-dimensional k-means on temperature (thesis eq. 6.11–6.13): exact and deterministic.
 //!
 //! The upsampled values are streamed into a [`Histogram`] of `B` equal bins between the
-//! image's minimum and maximum, keeping each bin's count and the sum of its values.
+//! image's minimum and maximum, keeping each bin's count (the hot loop of the pipeline: a
+//! conversion, a saturation and an increment per value). Values are handled in bin units,
+//! u = (T − lo)/w; an interpolated value beyond the image's range (cubic ringing) counts in
+//! the end bin. Every value stands at its bin's centre: cluster means and SSE are those of the
+//! binned values, within w/2 of the unbinned ones.
 //!
 //! [`exact_binned`] finds the partition of the bins into K contiguous groups with the least
 //! SSE, by dynamic programming (D[m][j] = min_i D[m−1][i−1] + cost(i, j)) with the
@@ -28,7 +32,7 @@ pub const MAX_BINS: usize = 512;
 /// Default number of bins.
 pub const DEFAULT_BINS: usize = 256;
 
-/// Counts and value sums of equal-width bins over [lo, hi].
+/// Counts of equal-width bins over [lo, hi].
 #[derive(Clone)]
 pub struct Histogram {
     lo: f32,
@@ -37,8 +41,6 @@ pub struct Histogram {
     bins: usize,
     /// Values per bin.
     pub count: [u32; MAX_BINS],
-    /// Sum of the values per bin, K.
-    pub sum: [f32; MAX_BINS],
 }
 
 impl Histogram {
@@ -49,7 +51,6 @@ impl Histogram {
         width: 0.0,
         bins: 0,
         count: [0; MAX_BINS],
-        sum: [0.0; MAX_BINS],
     };
 
     /// Make an empty histogram of `bins` bins over [lo_k, hi_k] (hi may equal lo).
@@ -73,7 +74,6 @@ impl Histogram {
         self.width = span / bins as f32;
         self.bins = bins;
         self.count = [0; MAX_BINS];
-        self.sum = [0.0; MAX_BINS];
         Ok(())
     }
 
@@ -87,20 +87,42 @@ impl Histogram {
         self.width
     }
 
-    /// Return the bin of a value (values outside the range go to the end bins).
+    /// Return the bin of a value, K (values outside the range go to the end bins).
     #[inline]
     pub fn bin_of(&self, v: f32) -> usize {
         let b = ((v - self.lo) * self.scale) as i32;
         b.clamp(0, self.bins as i32 - 1) as usize
     }
 
-    /// Add values.
+    /// Return a temperature in bin units.
     #[inline]
+    pub fn to_units(&self, v_k: f32) -> f32 {
+        (v_k - self.lo) * self.scale
+    }
+
+    /// Return the centre of bin `b`, K.
+    #[inline]
+    pub fn bin_mean_k(&self, b: usize) -> f32 {
+        self.lo + (b as f32 + 0.5) * self.width
+    }
+
+    /// Add values given in K.
     pub fn add_slice(&mut self, values: &[f32]) {
         for &v in values {
-            let b = self.bin_of(v);
+            self.add_units(&[self.to_units(v)]);
+        }
+    }
+
+    /// Add values given in bin units (the fast path: MTTS upsamples in bin units).
+    #[inline]
+    pub fn add_units(&mut self, values: &[f32]) {
+        let last = self.bins as u32 - 1;
+        for &u in values {
+            // `as u32` saturates (negative and NaN → 0, too large → u32::MAX); `min` puts
+            // values beyond the range in the end bins; the mask (a no-op, bins ≤ MAX_BINS, a
+            // power of two) spares the bounds check.
+            let b = (u as u32).min(last) as usize & (MAX_BINS - 1);
             self.count[b] += 1;
-            self.sum[b] += v;
         }
     }
 
@@ -153,9 +175,11 @@ impl Clusters {
 
 /// Scratch of the dynamic programme.
 pub struct DpScratch {
-    n: [i64; MAX_BINS + 1],
-    s1: [i64; MAX_BINS + 1],
-    s2: [i64; MAX_BINS + 1],
+    // Prefix sums over the non-empty bins of the count, count·index and count·index² (at most
+    // 256·192 values · 511 < 2^25 and · 511² < 2^34: u32, u32, u64).
+    n: [u32; MAX_BINS + 1],
+    s1: [u32; MAX_BINS + 1],
+    s2: [u64; MAX_BINS + 1],
     idx: [u16; MAX_BINS],
     prev: [f32; MAX_BINS],
     cur: [f32; MAX_BINS],
@@ -188,8 +212,16 @@ impl DpScratch {
         let n = self.n[j + 1] - self.n[i];
         let s1 = self.s1[j + 1] - self.s1[i];
         let s2 = self.s2[j + 1] - self.s2[i];
-        ((n * s2 - s1 * s1) as f32) / n as f32
+        // n·S2 − S1² ≥ 0 (Cauchy–Schwarz), exact in u64.
+        u64_to_f32(n as u64 * s2 - s1 as u64 * s1 as u64) / n as f32
     }
+}
+
+/// Convert without the soft-float library call `u64 as f32` becomes on the Cortex-M4: two
+/// 32-bit conversions (the result may differ from `as f32` in the last bit).
+#[inline]
+fn u64_to_f32(x: u64) -> f32 {
+    (x >> 32) as u32 as f32 * 4_294_967_296.0 + x as u32 as f32
 }
 
 /// Fill `cur[j]` for j in lo..=hi knowing its optimal split lies in opt_lo..=opt_hi.
@@ -240,14 +272,14 @@ pub fn exact_binned(h: &Histogram, k: usize, sc: &mut DpScratch) -> Result<Clust
     sc.s1[0] = 0;
     sc.s2[0] = 0;
     for b in 0..h.bins {
-        let c = h.count[b] as i64;
+        let c = h.count[b];
         if c == 0 {
             continue;
         }
         sc.idx[ne] = b as u16;
         sc.n[ne + 1] = sc.n[ne] + c;
-        sc.s1[ne + 1] = sc.s1[ne] + c * b as i64;
-        sc.s2[ne + 1] = sc.s2[ne] + c * (b * b) as i64;
+        sc.s1[ne + 1] = sc.s1[ne] + c * b as u32;
+        sc.s2[ne + 1] = sc.s2[ne] + c as u64 * (b * b) as u64;
         ne += 1;
     }
     if ne == 0 {
@@ -258,12 +290,24 @@ pub fn exact_binned(h: &Histogram, k: usize, sc: &mut DpScratch) -> Result<Clust
         sc.prev[j] = sc.cost(0, j);
         sc.opt[0][j] = 0;
     }
-    for m in 1..k {
-        // Layer m needs at least m + 1 bins: j ≥ m.
-        dc_layer(sc, m, m, ne - 1, m, ne - 1);
-        for j in m..ne {
-            sc.prev[j] = sc.cur[j];
+    for m in 1..k.saturating_sub(1) {
+        // Layer m needs at least m + 1 bins (j ≥ m) and must leave one bin to each later
+        // cluster (j ≤ ne − 1 − (k − 1 − m)).
+        let hi = ne - k + m;
+        dc_layer(sc, m, m, hi, m, hi);
+        sc.prev[m..=hi].copy_from_slice(&sc.cur[m..=hi]);
+    }
+    if k >= 2 {
+        // The last layer is only needed at j = ne − 1.
+        let (m, j) = (k - 1, ne - 1);
+        let mut best = (f32::INFINITY, m);
+        for i in m..=j {
+            let c = sc.prev[i - 1] + sc.cost(i, j);
+            if c < best.0 {
+                best = (c, i);
+            }
         }
+        sc.opt[m][j] = best.1 as u16;
     }
     // Walk the splits back: cluster m covers compressed bins start[m]..=end[m].
     let mut start = [0usize; MAX_K];
@@ -280,14 +324,11 @@ pub fn exact_binned(h: &Histogram, k: usize, sc: &mut DpScratch) -> Result<Clust
     out.k = k;
     let w = h.width();
     for m in 0..k {
-        let (mut n, mut sum) = (0u32, 0f64);
-        for c in start[m]..=ends[m] {
-            let b = sc.idx[c] as usize;
-            n += h.count[b];
-            sum += h.sum[b] as f64;
-        }
-        out.counts[m] = n;
-        out.means[m] = (sum / n as f64) as f32;
+        // Mean of the bin centres, from the exact integer prefix sums.
+        let n = (sc.n[ends[m] + 1] - sc.n[start[m]]) as u64;
+        let s1 = (sc.s1[ends[m] + 1] - sc.s1[start[m]]) as u64;
+        out.counts[m] = n as u32;
+        out.means[m] = (h.lo as f64 + (s1 as f64 / n as f64 + 0.5) * w as f64) as f32;
         // The boundary is the lower edge of the next cluster's first bin.
         out.upper[m] = if m + 1 < k {
             h.lo + sc.idx[start[m + 1]] as f32 * w
@@ -362,7 +403,7 @@ pub fn lloyd(
         return Err(MttsError::NoValidPixels);
     }
     let bins = h.bins;
-    let mean_of = |b: usize| h.sum[b] / h.count[b] as f32;
+    let mean_of = |b: usize| h.bin_mean_k(b);
     // Draw a bin with probability ∝ weight(b).
     let draw = |rng: &mut XorShift, weight: &dyn Fn(usize) -> f32| -> Option<usize> {
         let tot: f32 = (0..bins).map(weight).sum();
@@ -443,7 +484,7 @@ pub fn lloyd(
         for b in 0..bins {
             if h.count[b] > 0 {
                 n[assign[b] as usize] += h.count[b] as f64;
-                s[assign[b] as usize] += h.sum[b] as f64;
+                s[assign[b] as usize] += h.count[b] as f64 * mean_of(b) as f64;
             }
         }
         for j in 0..k {

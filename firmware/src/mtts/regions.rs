@@ -103,19 +103,45 @@ impl Geometry {
         (libm::fabsf(d) / self.half_width_px, t)
     }
 
+    /// Return every pixel's (u, t), as [`Geometry::coords`], computed incrementally.
+    pub fn coords_all(&self) -> Coords {
+        let inv_norm = 1.0 / crate::fmath::sqrt(1.0 + self.axis_slope * self.axis_slope);
+        let inv_half = inv_norm / self.half_width_px;
+        let mut out = Coords {
+            u: [0.0; IMG_PIXELS],
+            t: [0.0; IMG_PIXELS],
+        };
+        for r in 0..IMG_ROWS {
+            let d0 = -(self.axis_col0 + self.axis_slope * r as f32);
+            let t0 = (r as f32 - self.axis_slope * self.axis_col0) * inv_norm;
+            let dt = self.axis_slope * inv_norm;
+            for c in 0..IMG_COLS {
+                let p = r * IMG_COLS + c;
+                out.u[p] = libm::fabsf(c as f32 + d0) * inv_half;
+                out.t[p] = t0 + c as f32 * dt;
+            }
+        }
+        out
+    }
+
     /// Return whether axial coordinate `t` falls in a gap.
     pub fn in_gap(&self, t: f32) -> bool {
         if !self.lattice_known {
             return true;
         }
         let x = t - self.phase_px;
-        let ph = x - libm::floorf(x / self.period_px) * self.period_px;
+        let ph = x - floor(x / self.period_px) * self.period_px;
         ph < LATTICE_GAP_FRACTION * self.period_px
     }
 
     /// Return the zone of a pixel.
     pub fn zone(&self, row: usize, col: usize) -> Zone {
         let (u, t) = self.coords(row, col);
+        self.zone_of(u, t)
+    }
+
+    /// Return the zone of a pixel at distance ratio `u`, axial coordinate `t`.
+    pub fn zone_of(&self, u: f32, t: f32) -> Zone {
         if u < CORE_U {
             if self.in_gap(t) {
                 Zone::Heater
@@ -132,6 +158,20 @@ impl Geometry {
     }
 }
 
+/// Every pixel's distance ratio and axial coordinate under a geometry.
+pub struct Coords {
+    /// Perpendicular distance from the axis over the half-width.
+    pub u: [f32; IMG_PIXELS],
+    /// Position along the axis, pixels.
+    pub t: [f32; IMG_PIXELS],
+}
+
+/// Floor without a library call (|x| < 2^31).
+fn floor(x: f32) -> f32 {
+    let i = x as i32 as f32;
+    if i > x { i - 1.0 } else { i }
+}
+
 /// What the region finder could estimate this frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Quality {
@@ -141,19 +181,45 @@ pub struct Quality {
     pub lattice_fresh: bool,
 }
 
-/// Return the `q`-quantile (0…1) of `v` by partial selection on a copy.
-fn quantile(v: &[f32; IMG_PIXELS], q: f32) -> f32 {
-    let mut c = *v;
-    let k = ((IMG_PIXELS - 1) as f32 * q) as usize;
-    let (_, kth, _) = c.select_nth_unstable_by(k, f32::total_cmp);
-    *kth
+/// Return the 20th and 95th percentiles of `v`, to 1/256 of its range: a counting pass over
+/// 256 bins (a copy and a selection would cost ten times as much on the Cortex-M4).
+fn percentiles_20_95(v: &[f32; IMG_PIXELS]) -> (f32, f32) {
+    let (mut lo, mut hi) = (v[0], v[0]);
+    for &x in v.iter() {
+        if x < lo {
+            lo = x;
+        }
+        if x > hi {
+            hi = x;
+        }
+    }
+    let span = hi - lo;
+    if span <= 0.0 {
+        return (lo, hi);
+    }
+    let scale = 255.0 / span;
+    let mut count = [0u16; 256];
+    for &x in v.iter() {
+        count[((x - lo) * scale) as usize & 255] += 1;
+    }
+    let at = |q: f32| {
+        let target = (q * (IMG_PIXELS - 1) as f32) as u32;
+        let mut acc = 0u32;
+        for (b, &c) in count.iter().enumerate() {
+            acc += c as u32;
+            if acc > target {
+                return lo + (b as f32 + 0.5) / scale;
+            }
+        }
+        hi
+    };
+    (at(0.20), at(0.95))
 }
 
 /// Re-estimate the cylinder from an image (finite values); `None` when the contrast is too low
 /// or too few rows show it.
 pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
-    let bg = quantile(img, 0.20);
-    let top = quantile(img, 0.95);
+    let (bg, top) = percentiles_20_95(img);
     if top - bg < MIN_CONTRAST_K {
         return None;
     }
@@ -199,92 +265,103 @@ pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
     Some((col0, slope, half.max(1.0)))
 }
 
+/// Square-wave amplitude of an axial profile (`prof[b]` at t = t0 + b + ½, NaN = no data)
+/// for one period and phase: |mean over gaps − mean over rings|, or `None` if either part has
+/// fewer than two samples.
+fn square_wave(prof: &[f32], t0: f32, period: f32, phase: f32) -> Option<f32> {
+    let (mut sg, mut ng, mut ss, mut ns) = (0f32, 0f32, 0f32, 0f32);
+    let gap = LATTICE_GAP_FRACTION * period;
+    let x = t0 + 0.5 - phase;
+    let mut ph = x - floor(x / period) * period;
+    for &p in prof {
+        if !p.is_nan() {
+            if ph < gap {
+                sg += p;
+                ng += 1.0;
+            } else {
+                ss += p;
+                ns += 1.0;
+            }
+        }
+        ph += 1.0;
+        if ph >= period {
+            ph -= period;
+        }
+    }
+    (ng >= 2.0 && ns >= 2.0).then(|| libm::fabsf(sg / ng - ss / ns))
+}
+
 /// Fit the lattice square wave to the core's axial profile; return (period, phase,
-/// amplitude in K).
-pub fn fit_lattice(img: &[f32; IMG_PIXELS], g: &Geometry) -> Option<(f32, f32, f32)> {
+/// amplitude in K). Coarse search (periods in 1 px, phases in 2 px steps), then a fine one
+/// (0.5 px) around the best.
+pub fn fit_lattice(img: &[f32; IMG_PIXELS], xy: &Coords) -> Option<(f32, f32, f32)> {
     const NB: usize = 48;
     let mut sum = [0f32; NB];
     let mut cnt = [0u16; NB];
     let mut tmin = f32::INFINITY;
-    for r in 0..IMG_ROWS {
-        for c in 0..IMG_COLS {
-            let (u, t) = g.coords(r, c);
-            if u < CORE_U {
-                tmin = tmin.min(t);
-            }
+    for p in 0..IMG_PIXELS {
+        if xy.u[p] < CORE_U && xy.t[p] < tmin {
+            tmin = xy.t[p];
         }
     }
     if !tmin.is_finite() {
         return None;
     }
-    let t0 = libm::floorf(tmin);
-    for r in 0..IMG_ROWS {
-        for c in 0..IMG_COLS {
-            let (u, t) = g.coords(r, c);
-            if u < CORE_U {
-                let b = ((t - t0) as usize).min(NB - 1);
-                sum[b] += img[r * IMG_COLS + c];
-                cnt[b] += 1;
-            }
+    let t0 = floor(tmin);
+    for p in 0..IMG_PIXELS {
+        if xy.u[p] < CORE_U {
+            let b = ((xy.t[p] - t0) as usize).min(NB - 1);
+            sum[b] += img[p];
+            cnt[b] += 1;
         }
     }
     let used = cnt.iter().rposition(|&n| n > 0)? + 1;
-    let mut prof = [0f32; NB];
+    let mut prof = [f32::NAN; NB];
     for b in 0..used {
-        prof[b] = if cnt[b] > 0 {
-            sum[b] / cnt[b] as f32
-        } else {
-            f32::NAN
-        };
+        if cnt[b] > 0 {
+            prof[b] = sum[b] / cnt[b] as f32;
+        }
     }
+    let prof = &prof[..used];
     let mut best: Option<(f32, f32, f32)> = None;
+    let consider = |best: &mut Option<(f32, f32, f32)>, period: f32, phase: f32| {
+        if let Some(amp) = square_wave(prof, t0, period, phase) {
+            if best.is_none_or(|b| amp > b.2) {
+                *best = Some((period, phase, amp));
+            }
+        }
+    };
     let mut period = PERIOD_MIN_PX;
     while period <= PERIOD_MAX_PX + 1e-3 {
         let mut phase = 0.0;
         while phase < period {
-            let (mut sg, mut ng, mut ss, mut ns) = (0f32, 0f32, 0f32, 0f32);
-            for (b, &p) in prof[..used].iter().enumerate() {
-                if p.is_nan() {
-                    continue;
-                }
-                let x = b as f32 + 0.5 + t0 - phase;
-                let ph = x - libm::floorf(x / period) * period;
-                if ph < LATTICE_GAP_FRACTION * period {
-                    sg += p;
-                    ng += 1.0;
-                } else {
-                    ss += p;
-                    ns += 1.0;
-                }
-            }
-            if ng >= 2.0 && ns >= 2.0 {
-                let amp = libm::fabsf(sg / ng - ss / ns);
-                if best.is_none_or(|b| amp > b.2) {
-                    best = Some((period, phase, amp));
-                }
-            }
-            phase += 1.0;
+            consider(&mut best, period, phase);
+            phase += 2.0;
         }
-        period += 0.5;
+        period += 1.0;
+    }
+    let (p0, f0, _) = best?;
+    for dp in [-0.5f32, 0.0, 0.5] {
+        let period = (p0 + dp).clamp(PERIOD_MIN_PX, PERIOD_MAX_PX);
+        for df in [-1.5f32, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5] {
+            let phase = f0 + df;
+            consider(&mut best, period, phase - floor(phase / period) * period);
+        }
     }
     best
 }
 
-/// Lattice amplitude of a given period and phase (for the continuity comparison).
-fn lattice_amplitude(img: &[f32; IMG_PIXELS], g: &Geometry) -> f32 {
+/// Lattice amplitude of the geometry's own period and phase (the continuity comparison).
+fn lattice_amplitude(img: &[f32; IMG_PIXELS], g: &Geometry, xy: &Coords) -> f32 {
     let (mut sg, mut ng, mut ss, mut ns) = (0f32, 0f32, 0f32, 0f32);
-    for r in 0..IMG_ROWS {
-        for c in 0..IMG_COLS {
-            let (u, t) = g.coords(r, c);
-            if u < CORE_U {
-                let v = img[r * IMG_COLS + c];
-                if g.in_gap(t) {
-                    sg += v;
-                    ng += 1.0;
-                } else {
-                    ss += v;
-                    ns += 1.0;
-                }
+    for p in 0..IMG_PIXELS {
+        if xy.u[p] < CORE_U {
+            if g.in_gap(xy.t[p]) {
+                sg += img[p];
+                ng += 1.0;
+            } else {
+                ss += img[p];
+                ns += 1.0;
             }
         }
     }
@@ -294,8 +371,9 @@ fn lattice_amplitude(img: &[f32; IMG_PIXELS], g: &Geometry) -> f32 {
     libm::fabsf(sg / ng - ss / ns)
 }
 
-/// Update the geometry from a frame (keeping what cannot be re-estimated).
-pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Quality) {
+/// Update the geometry from a frame (keeping what cannot be re-estimated); also return every
+/// pixel's coordinates under the new geometry.
+pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Quality, Coords) {
     let mut g = *prev;
     let mut q = Quality::default();
     if let Some((col0, slope, half)) = fit_cylinder(img) {
@@ -304,8 +382,9 @@ pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Q
         g.half_width_px = half;
         q.cylinder_fresh = true;
     }
-    if let Some((period, phase, amp)) = fit_lattice(img, &g) {
-        let keep = g.lattice_known && lattice_amplitude(img, &g) >= 0.8 * amp;
+    let xy = g.coords_all();
+    if let Some((period, phase, amp)) = fit_lattice(img, &xy) {
+        let keep = g.lattice_known && lattice_amplitude(img, &g, &xy) >= 0.8 * amp;
         if amp >= MIN_LATTICE_K && !keep {
             g.period_px = period;
             g.phase_px = phase;
@@ -313,20 +392,18 @@ pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Q
             q.lattice_fresh = true;
         }
     }
-    (g, q)
+    (g, q, xy)
 }
 
 /// Zone × cluster pixel counts.
 pub type Overlap = [[u16; MAX_K]; REGIONS];
 
 /// Count, for every pixel, its zone and its value's cluster.
-pub fn overlap(img: &[f32; IMG_PIXELS], g: &Geometry, cl: &Clusters) -> Overlap {
+pub fn overlap(img: &[f32; IMG_PIXELS], g: &Geometry, xy: &Coords, cl: &Clusters) -> Overlap {
     let mut o = [[0u16; MAX_K]; REGIONS];
-    for r in 0..IMG_ROWS {
-        for c in 0..IMG_COLS {
-            let z = g.zone(r, c) as usize;
-            o[z][cl.label(img[r * IMG_COLS + c])] += 1;
-        }
+    for p in 0..IMG_PIXELS {
+        let z = g.zone_of(xy.u[p], xy.t[p]) as usize;
+        o[z][cl.label(img[p])] += 1;
     }
     o
 }
@@ -419,7 +496,7 @@ mod tests {
     fn lattice_phase_survives_inversion() {
         for inverted in [false, true] {
             let img = cylinder_image(15.5, 0.0, 7.0, inverted);
-            let (g, q) = update_geometry(&img, &Geometry::default());
+            let (g, q, _) = update_geometry(&img, &Geometry::default());
             assert!(q.cylinder_fresh && q.lattice_fresh);
             assert!((g.period_px - 14.0).abs() <= 0.5, "period {}", g.period_px);
             // Gap rows agree with the truth on most core pixels.
@@ -445,9 +522,42 @@ mod tests {
             axis_col0: 10.0,
             ..Geometry::default()
         };
-        let (g, q) = update_geometry(&img, &prev);
+        let (g, q, _) = update_geometry(&img, &prev);
         assert_eq!(q, Quality::default());
         assert_eq!(g, prev);
+    }
+
+    #[test]
+    fn coords_all_matches_coords_and_floor_is_floor() {
+        let g = Geometry {
+            axis_col0: 13.2,
+            axis_slope: -0.2,
+            half_width_px: 6.5,
+            ..Geometry::DEFAULT
+        };
+        let xy = g.coords_all();
+        for p in [0, 17, 300, 767] {
+            let (u, t) = g.coords(p / 32, p % 32);
+            assert!((u - xy.u[p]).abs() < 1e-4 && (t - xy.t[p]).abs() < 1e-4);
+        }
+        for x in [-2.5f32, -2.0, -0.1, 0.0, 0.3, 7.0, 7.9] {
+            assert_eq!(floor(x), libm::floorf(x));
+        }
+    }
+
+    #[test]
+    fn percentiles_are_within_a_bin() {
+        let v: [f32; IMG_PIXELS] = core::array::from_fn(|i| 300.0 + (i as f32 * 7.0) % 100.0);
+        let mut sorted = v;
+        sorted.sort_by(f32::total_cmp);
+        let (p20, p95) = percentiles_20_95(&v);
+        let bin = 100.0 / 255.0;
+        assert!((p20 - sorted[(0.2 * 767.0) as usize]).abs() <= bin, "{p20}");
+        assert!(
+            (p95 - sorted[(0.95 * 767.0) as usize]).abs() <= bin,
+            "{p95}"
+        );
+        assert_eq!(percentiles_20_95(&[3.0; IMG_PIXELS]), (3.0, 3.0));
     }
 
     #[test]

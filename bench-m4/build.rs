@@ -1,0 +1,53 @@
+//! Build script of the QEMU bench: the mps2-an386 memory map, and the bench's input — the
+//! realistic virtual sensor's EEPROM and two raw subpages of a rendered heating scene, made by
+//! the simulator's encoder so the bench decodes real raw words.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use host_sim::scene::standard_scenes;
+use host_sim::sim_time::SimClock;
+use host_sim::virtual_mlx::VirtualMlx90640;
+use thermorph::mlx90640::{Control, ReadingPattern, RefreshRate, Resolution};
+
+fn main() {
+    let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    std::fs::write(
+        out.join("memory.x"),
+        "/* QEMU mps2-an386: 4 MiB code SRAM at 0, 4 MiB data SRAM at 0x20000000. */\n\
+         MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 4M\n  \
+         RAM : ORIGIN = 0x20000000, LENGTH = 4M\n}\n",
+    )
+    .unwrap();
+    if std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
+        println!("cargo:rustc-link-search={}", out.display());
+    }
+
+    let eeprom = host_sim::eeprom::realistic(1).encode().unwrap();
+    let mut dev = VirtualMlx90640::new(eeprom, SimClock::new(), 7).unwrap();
+    dev.set_control(Control(0).with(RefreshRate::Hz8, Resolution::Bits18, ReadingPattern::Chess));
+    let scene = standard_scenes()
+        .into_iter()
+        .find(|s| s.name == "heating-358")
+        .unwrap();
+    dev.field_k = scene.render(1).image_k;
+    let frames = [dev.raw_subpage(0), dev.raw_subpage(1)];
+    let mut src = String::new();
+    let words = |src: &mut String, name: &str, w: &[u16]| {
+        write!(
+            src,
+            "/// Generated.\npub static {name}: [u16; {}] = [",
+            w.len()
+        )
+        .unwrap();
+        for x in w {
+            write!(src, "{x},").unwrap();
+        }
+        src.push_str("];\n");
+    };
+    words(&mut src, "EEPROM", &eeprom);
+    words(&mut src, "FRAME0", &frames[0].words);
+    words(&mut src, "FRAME1", &frames[1].words);
+    std::fs::write(out.join("data.rs"), src).unwrap();
+    println!("cargo:rerun-if-changed=build.rs");
+}
