@@ -111,10 +111,24 @@ fn main() -> ! {
             up.run(&w2, &mut us, |_, row| acc += row[0]);
             black_box(acc)
         });
+        let mut h = thermorph::mtts::cluster::Histogram::EMPTY;
+        let (_, t_reset) = measure(|| black_box(h.reset(300.0, 400.0, 256)));
+        let (_, t_hist) = measure(|| up.run(&w2, &mut us, |_, row| h.add_units(row)));
+        let (_, t_minmax) = measure(|| {
+            black_box(
+                w2.iter()
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+                        (a.min(v), b.max(v))
+                    }),
+            )
+        });
         hprintln!(
-            "part inpaint insns={} interpolate_only insns={}",
+            "part inpaint insns={} interpolate_only insns={} interpolate_hist insns={} reset insns={} minmax insns={}",
             t_inpaint,
-            t_interp
+            t_interp,
+            t_hist,
+            t_reset,
+            t_minmax
         );
     }
     let g0 = thermorph::mtts::regions::Geometry::DEFAULT;
