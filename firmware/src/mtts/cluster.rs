@@ -30,7 +30,7 @@ pub const MAX_K: usize = 8;
 /// Most histogram bins.
 pub const MAX_BINS: usize = 512;
 /// Default number of bins.
-pub const DEFAULT_BINS: usize = 256;
+pub const DEFAULT_BINS: usize = 128;
 
 /// Counts of equal-width bins over [lo, hi].
 #[derive(Clone)]
