@@ -101,6 +101,8 @@ fn main() -> ! {
     let Ok(clusters) = cl else { fail("cluster") };
     let (out, regions) = measure(|| mtts.stage_regions(&work, &clusters, filled));
     let total = to_768 + upsample + cluster + regions;
+    // The next frame starts from this one's geometry (the lattice search narrows to ±2 px).
+    let (_, regions_next) = measure(|| black_box(mtts.stage_regions(&work, &clusters, filled)));
     // Parts of the upsample stage, for profiling.
     let mut w2 = image.to_k;
     let (_, t_inpaint) = measure(|| thermorph::mtts::inpaint(&mut w2));
@@ -134,7 +136,7 @@ fn main() -> ! {
     let g0 = thermorph::mtts::regions::Geometry::DEFAULT;
     let (_, t_cyl) = measure(|| black_box(thermorph::mtts::regions::fit_cylinder(&work)));
     let (xy, t_xy) = measure(|| g0.coords_all());
-    let (_, t_lat) = measure(|| black_box(thermorph::mtts::regions::fit_lattice(&work, &xy)));
+    let (_, t_lat) = measure(|| black_box(thermorph::mtts::regions::fit_lattice(&work, &xy, None)));
     let (_, t_ov) = measure(|| {
         black_box(thermorph::mtts::regions::overlap(
             &work,
@@ -155,6 +157,14 @@ fn main() -> ! {
     hprintln!("cluster insns={}", cluster.saturating_sub(overhead));
     hprintln!("regions insns={}", regions.saturating_sub(overhead));
     hprintln!("total insns={}", total.saturating_sub(4 * overhead));
+    hprintln!(
+        "regions_next_frame insns={}",
+        regions_next.saturating_sub(overhead)
+    );
+    hprintln!(
+        "total_next_frame insns={}",
+        (total - regions + regions_next).saturating_sub(4 * overhead)
+    );
     // The result, to show the bench computed something real (truth: T1 372 K, T2 352 K).
     hprintln!(
         "result t1_k={} t2_k={} clusters={}",

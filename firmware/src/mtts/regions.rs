@@ -294,7 +294,14 @@ fn square_wave(prof: &[f32], t0: f32, period: f32, phase: f32) -> Option<f32> {
 /// Fit the lattice square wave to the core's axial profile; return (period, phase,
 /// amplitude in K). Coarse search (periods in 1 px, phases in 2 px steps), then a fine one
 /// (0.5 px) around the best.
-pub fn fit_lattice(img: &[f32; IMG_PIXELS], xy: &Coords) -> Option<(f32, f32, f32)> {
+///
+/// With `near` (the previous frame's period), only periods within 2 px of it are searched:
+/// the lattice's image period changes only as the camera distance does.
+pub fn fit_lattice(
+    img: &[f32; IMG_PIXELS],
+    xy: &Coords,
+    near: Option<f32>,
+) -> Option<(f32, f32, f32)> {
     const NB: usize = 48;
     let mut sum = [0f32; NB];
     let mut cnt = [0u16; NB];
@@ -331,8 +338,12 @@ pub fn fit_lattice(img: &[f32; IMG_PIXELS], xy: &Coords) -> Option<(f32, f32, f3
             }
         }
     };
-    let mut period = PERIOD_MIN_PX;
-    while period <= PERIOD_MAX_PX + 1e-3 {
+    let (pmin, pmax) = match near {
+        Some(p) => ((p - 2.0).max(PERIOD_MIN_PX), (p + 2.0).min(PERIOD_MAX_PX)),
+        None => (PERIOD_MIN_PX, PERIOD_MAX_PX),
+    };
+    let mut period = pmin;
+    while period <= pmax + 1e-3 {
         let mut phase = 0.0;
         while phase < period {
             consider(&mut best, period, phase);
@@ -383,7 +394,8 @@ pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Q
         q.cylinder_fresh = true;
     }
     let xy = g.coords_all();
-    if let Some((period, phase, amp)) = fit_lattice(img, &xy) {
+    let near = g.lattice_known.then_some(g.period_px);
+    if let Some((period, phase, amp)) = fit_lattice(img, &xy, near) {
         let keep = g.lattice_known && lattice_amplitude(img, &g, &xy) >= 0.8 * amp;
         if amp >= MIN_LATTICE_K && !keep {
             g.period_px = period;
