@@ -5,11 +5,6 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use host_sim::scene::standard_scenes;
-use host_sim::sim_time::SimClock;
-use host_sim::virtual_mlx::VirtualMlx90640;
-use thermorph::mlx90640::{Control, ReadingPattern, RefreshRate, Resolution};
-
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     std::fs::write(
@@ -23,15 +18,7 @@ fn main() {
         println!("cargo:rustc-link-search={}", out.display());
     }
 
-    let eeprom = host_sim::eeprom::realistic(1).encode().unwrap();
-    let mut dev = VirtualMlx90640::new(eeprom, SimClock::new(), 7).unwrap();
-    dev.set_control(Control(0).with(RefreshRate::Hz8, Resolution::Bits18, ReadingPattern::Chess));
-    let scene = standard_scenes()
-        .into_iter()
-        .find(|s| s.name == "heating-358")
-        .unwrap();
-    dev.field_k = scene.render(1).image_k;
-    let frames = [dev.raw_subpage(0), dev.raw_subpage(1)];
+    let (eeprom, frames) = host_sim::sensor_demo::bench_input("heating-358").unwrap();
     let mut src = String::new();
     let words = |src: &mut String, name: &str, w: &[u16]| {
         write!(

@@ -7,25 +7,12 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use host_sim::scene::standard_scenes;
-use host_sim::sim_time::SimClock;
-use host_sim::virtual_mlx::VirtualMlx90640;
-use thermorph::mlx90640::{
-    Calibration, Control, DecodeParams, Image, ReadingPattern, RefreshRate, Resolution,
-};
+use thermorph::mlx90640::{Calibration, DecodeParams, Image};
 use thermorph::mtts::{Config, Method, Mtts, Scratch};
 
 fn stages(c: &mut Criterion) {
-    let eeprom = host_sim::eeprom::realistic(1).encode().unwrap();
+    let (eeprom, frames) = host_sim::sensor_demo::bench_input("heating-358").unwrap();
     let cal = Calibration::from_eeprom(&eeprom).unwrap();
-    let mut dev = VirtualMlx90640::new(eeprom, SimClock::new(), 7).unwrap();
-    dev.set_control(Control(0).with(RefreshRate::Hz8, Resolution::Bits18, ReadingPattern::Chess));
-    let scene = standard_scenes()
-        .into_iter()
-        .find(|s| s.name == "heating-358")
-        .unwrap();
-    dev.field_k = scene.render(1).image_k;
-    let frames = [dev.raw_subpage(0), dev.raw_subpage(1)];
     let params = DecodeParams::default();
     let mut image = Image::new();
 

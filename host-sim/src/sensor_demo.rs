@@ -81,6 +81,25 @@ impl Rig {
     }
 }
 
+/// The benches' input: the realistic sensor of seed 1 (its EEPROM words) and two raw
+/// subpages (8 Hz, 18 bit, chess) of the rendered standard scene `scene` — what the driver
+/// would read from a sensor looking at it.
+pub fn bench_input(scene: &str) -> Result<([u16; 832], [SubpageFrame; 2]), String> {
+    let eeprom = eeprom::realistic(1).encode()?;
+    let mut dev = VirtualMlx90640::new(eeprom, SimClock::new(), 7).map_err(|e| e.to_string())?;
+    dev.set_control(thermorph::mlx90640::Control(0).with(
+        RefreshRate::Hz8,
+        Resolution::Bits18,
+        ReadingPattern::Chess,
+    ));
+    let s = crate::scene::standard_scenes()
+        .into_iter()
+        .find(|s| s.name == scene)
+        .ok_or_else(|| format!("no scene `{scene}`"))?;
+    dev.field_k = s.render(1).image_k;
+    Ok((eeprom, [dev.raw_subpage(0), dev.raw_subpage(1)]))
+}
+
 /// Return a random field, each pixel uniform in [`lo_k`, `hi_k`].
 pub fn random_field(rng: &mut Rng, lo_k: f64, hi_k: f64) -> [f32; PIXELS] {
     let mut f = [0f32; PIXELS];
