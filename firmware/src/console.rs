@@ -3,9 +3,9 @@
 //! Line-based ASCII, 115200 8N1 on the board and byte for byte the same in the simulator
 //! (SPEC section 6). One command per line, ended by CR, LF or CR LF; every command gets exactly
 //! one reply line, `ok …` or `err <code>: <message>`, ended by CR LF. An empty (or blank) line
-//! gets no reply. A line longer than [`MAX_LINE`] bytes is discarded up to its end and answered with one
-//! `err line-too-long`; a line holding bytes other than printable ASCII and TAB is answered
-//! `err binary-input`; neither loses the command on the following line. Asynchronous lines
+//! gets no reply. A line longer than [`MAX_LINE`] bytes is discarded up to its end and answered
+//! with one `err line-too-long`; a line holding bytes other than printable ASCII and TAB is
+//! answered `err binary-input`; neither loses the command on the following line. Asynchronous lines
 //! (telemetry, events) will start with `#`, so a program can tell them from replies.
 //!
 //! Commands so far: `help`, `version`, `status`. Words are case-insensitive and separated by
@@ -356,6 +356,105 @@ mod tests {
             "ok ta_k=303.15 vdd_v=3.300 frames=42 min_k=297.50 mean_k=310.00 max_k=338.25 \
              t1_k=340.00 t2_k=330.00 t3_k=320.00 t4_k=305.00 t5_k=298.00 errors=3 estop=1 \
              sensor_error=\"no new frame for 250 ms\""
+        );
+    }
+
+    #[test]
+    fn lone_cr_ends_lines_and_crlf_gives_one_reply() {
+        let s = Status::default();
+        let r = session(b"help\rversion\rhelp\r\nversion\r\n\r\n\r\r", &s);
+        assert_eq!(r.len(), 4, "{r:?}");
+        assert!(r[0].starts_with("ok commands") && r[2].starts_with("ok commands"));
+        assert!(r[1].starts_with("ok thermorph") && r[3].starts_with("ok thermorph"));
+    }
+
+    #[test]
+    fn a_line_split_across_pushes_is_one_line() {
+        let mut r: LineReader = LineReader::new();
+        for &b in b"vers" {
+            assert!(r.push(b).is_none());
+        }
+        assert!(r.push(b'i').is_none());
+        for &b in b"on\r" {
+            let got = r.push(b).map(|l| l.map(std::string::String::from));
+            if b == b'\r' {
+                assert_eq!(got, Some(Ok("version".into())));
+            } else {
+                assert!(got.is_none());
+            }
+        }
+        // The LF of the CR LF arrives in the next read: no empty command.
+        assert!(r.push(b'\n').is_none());
+        assert!(r.push(b'\n').is_none(), "an empty line gets no reply");
+    }
+
+    #[test]
+    fn overlong_line_gets_one_err_whatever_it_holds() {
+        let s = Status::default();
+        let mut input = Vec::new();
+        input.extend(core::iter::repeat_n(b'a', MAX_LINE + 1));
+        input.extend_from_slice(b"\x01\x02status\r\n");
+        input.extend(core::iter::repeat_n(b'\xff', 3 * MAX_LINE));
+        input.extend_from_slice(b"\r\nstatus\r\n");
+        let r = session(&input, &s);
+        assert_eq!(r.len(), 3, "{r:?}");
+        assert!(r[0].starts_with("err line-too-long: "));
+        assert!(r[1].starts_with("err binary-input: "));
+        assert!(r[2].starts_with("ok ta_k="));
+    }
+
+    #[test]
+    fn parse_words() {
+        assert_eq!(parse("help"), Ok(Command::Help));
+        assert_eq!(parse("  \tVeRsIoN \t"), Ok(Command::Version));
+        assert_eq!(parse("status"), Ok(Command::Status));
+        assert_eq!(parse(""), Err(ConsoleError::UnknownCommand));
+        assert_eq!(parse("statusx"), Err(ConsoleError::UnknownCommand));
+        assert_eq!(parse("mode standby"), Err(ConsoleError::UnknownCommand));
+        assert_eq!(parse("status now"), Err(ConsoleError::BadArguments));
+        assert_eq!(parse("help\tme"), Err(ConsoleError::BadArguments));
+    }
+
+    #[test]
+    fn error_replies_use_stable_codes() {
+        let all = [
+            (ConsoleError::LineTooLong, "line-too-long"),
+            (ConsoleError::BinaryInput, "binary-input"),
+            (ConsoleError::UnknownCommand, "unknown-command"),
+            (ConsoleError::BadArguments, "bad-arguments"),
+        ];
+        for (e, code) in all {
+            assert_eq!(e.code(), code);
+            if e == ConsoleError::LineTooLong {
+                assert!(e.message().contains(&std::format!(" {MAX_LINE} ")));
+            }
+            let mut out = String::new();
+            respond_error(e, &mut out).unwrap();
+            assert_eq!(out, std::format!("err {code}: {}\r\n", e.message()));
+            assert!(
+                out.bytes()
+                    .all(|b| b == b'\r' || b == b'\n' || (0x20..0x7F).contains(&b))
+            );
+        }
+    }
+
+    #[test]
+    fn status_of_a_broken_image_prints_dashes() {
+        let s = Status {
+            ta: Some(Kelvin(f32::NAN)),
+            image: Some(ImageStats {
+                min: Kelvin(f32::NEG_INFINITY),
+                mean: Kelvin(f32::NAN),
+                max: Kelvin(f32::INFINITY),
+                valid: 0,
+            }),
+            ..Status::default()
+        };
+        let r = session(b"status\n", &s);
+        assert!(
+            r[0].starts_with("ok ta_k=- vdd_v=- frames=0 min_k=- mean_k=- max_k=- t1_k=-"),
+            "{}",
+            r[0]
         );
     }
 

@@ -144,8 +144,9 @@ async fn console_task(uart: BufferedUart<'static>) {
         let n = match rx.read(&mut buf).await {
             Ok(n) => n,
             Err(e) => {
-                // Framing, noise or overrun: the bytes are lost; the line reader resyncs at
-                // the next line end.
+                // embassy logs framing, noise and overrun errors itself and returns none from
+                // a buffered read today; should one come, the bytes are lost and the line
+                // reader carries on to the next line end.
                 warn!("console: {}", e);
                 continue;
             }
@@ -177,6 +178,20 @@ async fn estop_task(mut button: ExtiInput<'static, Async>) {
         button.wait_for_falling_edge().await;
         warn!("emergency stop");
         STATUS.lock(|s| s.borrow_mut().estop = true);
+    }
+}
+
+/// Turn every output off, then wait for the watchdog to reset the chip.
+///
+/// Every panic ends here (panic-probe prints it over RTT, then executes `udf`), as does any
+/// fault. Under `probe-rs run` the probe halts the core on entry to print a backtrace; the
+/// watchdog, which keeps counting, then resets the chip and the pull-downs hold the gates low.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    // SAFETY: nothing else runs after a hard fault; the pins are never handed back.
+    unsafe { pins::force_outputs_off() };
+    loop {
+        cortex_m::asm::nop();
     }
 }
 

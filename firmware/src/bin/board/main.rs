@@ -16,9 +16,10 @@
 //! - `console_task`: USART2 bytes → `thermorph::console` → one reply line per command.
 //! - `estop_task`: the user button (PC13) latches the emergency stop.
 //!
-//! A panic ends in panic-probe's `udf`, the core halts, the watchdog resets the chip, and at
-//! reset every gate pin is a floating input: the board needs (and the block has) pull-down
-//! resistors on the heater, fan and spring MOSFET gates, so outputs are off.
+//! A panic leaves every output off: panic-probe prints it and executes `udf`, the hard-fault
+//! handler drives the heater, fan and spring gates low and spins until the watchdog resets the
+//! chip. From reset until `pins::Board::new` runs every gate pin is a floating input, so the
+//! hardware must have (and the block has) pull-down resistors on the low-side MOSFET gates.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]

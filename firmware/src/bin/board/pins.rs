@@ -14,7 +14,7 @@
 //! AHB 180 MHz, APB1 45 MHz, APB2 90 MHz.
 
 use embassy_stm32::exti::{self, ExtiInput};
-use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
+use embassy_stm32::gpio::{Level, Output, OutputType, Pin, Pull, Speed};
 use embassy_stm32::i2c::{self, I2c, Master};
 use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals;
@@ -23,7 +23,7 @@ use embassy_stm32::timer::low_level::CountingMode;
 use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::usart::{self, BufferedUart};
 use embassy_stm32::wdg::IndependentWatchdog;
-use embassy_stm32::{Config, Peripherals, bind_interrupts, dma, interrupt};
+use embassy_stm32::{Config, Peri, Peripherals, bind_interrupts, dma, interrupt};
 use static_cell::ConstStaticCell;
 
 bind_interrupts!(struct Irqs {
@@ -46,8 +46,11 @@ pub const FAN_PWM_HZ: u32 = 25_000;
 /// Independent watchdog timeout, µs.
 pub const WATCHDOG_TIMEOUT_US: u32 = 500_000;
 
-static CONSOLE_TX: ConstStaticCell<[u8; 512]> = ConstStaticCell::new([0; 512]);
-static CONSOLE_RX: ConstStaticCell<[u8; 256]> = ConstStaticCell::new([0; 256]);
+// The ST-LINK's virtual COM port has no flow control, and the buffered UART drops what does not
+// fit: these hold about 90 ms of input and of replies, so a host may send a burst of commands
+// without waiting for each reply.
+static CONSOLE_TX: ConstStaticCell<[u8; 1024]> = ConstStaticCell::new([0; 1024]);
+static CONSOLE_RX: ConstStaticCell<[u8; 1024]> = ConstStaticCell::new([0; 1024]);
 
 /// The clock tree: 180 MHz from the 8 MHz HSE bypass.
 pub fn clocks() -> Config {
@@ -90,6 +93,31 @@ impl Outputs {
         for s in &mut self.springs {
             s.set_low();
         }
+    }
+}
+
+/// Drive the heater, fan and spring gates low, whoever holds them.
+///
+/// For the hard-fault handler, where every panic ends (panic-probe's `udf`): the pins are taken
+/// back from their drivers and made plain low outputs, so a panic or a fault turns the outputs
+/// off at once instead of leaving them as they were until the watchdog resets the chip. Keep
+/// the pins in step with [`Board::new`].
+///
+/// # Safety
+///
+/// Steals the pins from their owners: call it only where no other code runs afterwards.
+pub unsafe fn force_outputs_off() {
+    fn low(pin: Peri<'static, impl Pin>) {
+        // Dropping the driver would disconnect (float) the pin: keep it driven low.
+        core::mem::forget(Output::new(pin, Level::Low, Speed::Low));
+    }
+    // SAFETY: the caller guarantees that nothing uses these pins any more.
+    unsafe {
+        low(peripherals::PA6::steal());
+        low(peripherals::PB6::steal());
+        low(peripherals::PB4::steal());
+        low(peripherals::PB5::steal());
+        low(peripherals::PB10::steal());
     }
 }
 
