@@ -5,7 +5,7 @@ use core::hint::black_box;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use thermorph::mlx90640::{Calibration, DecodeParams, Image, SubpageFrame};
-use thermorph::mtts::{Config, Mtts, Scratch};
+use thermorph::mtts::{Config, Method, Mtts, Scratch};
 
 mod data {
     include!(concat!(env!("OUT_DIR"), "/data.rs"));
@@ -94,15 +94,13 @@ fn main() -> ! {
         fail("config")
     };
     let (up, upsample) = measure(|| mtts.stage_upsample(&image.to_k, scratch));
-    let Ok((work, filled)) = up else {
-        fail("upsample")
-    };
+    let Ok(filled) = up else { fail("upsample") };
     let (cl, cluster) = measure(|| mtts.stage_cluster(scratch));
     let Ok(clusters) = cl else { fail("cluster") };
-    let (out, regions) = measure(|| mtts.stage_regions(&work, &clusters, filled));
+    let (out, regions) = measure(|| mtts.stage_regions(&clusters, filled, scratch));
     let total = to_768 + upsample + cluster + regions;
     // The next frame starts from this one's geometry (the lattice search narrows to ±2 px).
-    let (_, regions_next) = measure(|| black_box(mtts.stage_regions(&work, &clusters, filled)));
+    let (_, regions_next) = measure(|| black_box(mtts.stage_regions(&clusters, filled, scratch)));
     // Parts of the upsample stage, for profiling.
     let mut w2 = image.to_k;
     let (_, t_inpaint) = measure(|| thermorph::mtts::inpaint(&mut w2));
@@ -114,8 +112,8 @@ fn main() -> ! {
             black_box(acc)
         });
         let mut h = thermorph::mtts::cluster::Histogram::EMPTY;
-        let (_, t_reset) = measure(|| black_box(h.reset(300.0, 400.0, 256)));
-        let (_, t_hist) = measure(|| up.run(&w2, &mut us, |_, row| h.add_units(row)));
+        let (_, t_reset) = measure(|| black_box(h.reset(300.0, 400.0, 128)));
+        let (_, t_hist) = measure(|| up.histogram(&w2, &mut h, &mut us));
         let (_, t_minmax) = measure(|| {
             black_box(
                 w2.iter()
@@ -125,7 +123,7 @@ fn main() -> ! {
             )
         });
         hprintln!(
-            "part inpaint insns={} interpolate_only insns={} interpolate_hist insns={} reset insns={} minmax insns={}",
+            "part inpaint insns={} interpolate_only insns={} fused_histogram insns={} reset insns={} minmax insns={}",
             t_inpaint,
             t_interp,
             t_hist,
@@ -134,12 +132,17 @@ fn main() -> ! {
         );
     }
     let g0 = thermorph::mtts::regions::Geometry::DEFAULT;
-    let (_, t_cyl) = measure(|| black_box(thermorph::mtts::regions::fit_cylinder(&work)));
+    let (_, t_cyl) = measure(|| black_box(thermorph::mtts::regions::fit_cylinder(&scratch.work)));
     let (xy, t_xy) = measure(|| g0.coords_all());
-    let (_, t_lat) = measure(|| black_box(thermorph::mtts::regions::fit_lattice(&work, &xy, None)));
+    let (_, t_lat) = measure(|| {
+        black_box(
+            thermorph::mtts::regions::Profile::of(&scratch.work, &xy)
+                .and_then(|p| thermorph::mtts::regions::fit_lattice(&p, None)),
+        )
+    });
     let (_, t_ov) = measure(|| {
         black_box(thermorph::mtts::regions::overlap(
-            &work,
+            &scratch.work,
             &out.geometry,
             &xy,
             &clusters,
@@ -172,6 +175,35 @@ fn main() -> ! {
         out.t2().k(),
         out.clusters.k
     );
+
+    // Work-precision figures: MTTS instructions per frame (upsample + cluster + regions, a first
+    // frame: fresh geometry) for each factor and method (`host-sim mtts-wp --m4` reads these).
+    for scale in [1u8, 2, 4, 8] {
+        for (method, name) in [
+            (Method::Exact, "exact"),
+            (Method::Lloyd, "lloyd"),
+            (Method::KMeansPlusPlus, "kmeanspp"),
+        ] {
+            let config = Config {
+                scale,
+                method,
+                ..Config::default()
+            };
+            let Ok(mut m) = Mtts::new(config) else {
+                fail("wp config")
+            };
+            let (r, t) = measure(|| m.process(&image.to_k, scratch).is_ok());
+            if !r {
+                fail("wp frame");
+            }
+            hprintln!(
+                "wp_mtts scale={} method={} insns={}",
+                scale,
+                name,
+                t.saturating_sub(overhead)
+            );
+        }
+    }
 
     // Square and fourth roots: cost per call.
     let xs: [f32; 8] = [8.1e9, 1.2e10, 2.0e10, 4.4e9, 9.9e10, 6.5e9, 3.3e10, 7.7e9];

@@ -30,7 +30,7 @@ fn stages(c: &mut Criterion) {
         })
         .unwrap();
         let tag = format!("{method:?}").to_lowercase();
-        let (work, filled) = m.stage_upsample(&image.to_k, &mut scratch).unwrap();
+        let filled = m.stage_upsample(&image.to_k, &mut scratch).unwrap();
         let clusters = m.stage_cluster(&mut scratch).unwrap();
         if method == Method::Exact {
             c.bench_function("upsample", |b| {
@@ -40,7 +40,7 @@ fn stages(c: &mut Criterion) {
                 })
             });
             c.bench_function("regions", |b| {
-                b.iter(|| m.stage_regions(black_box(&work), &clusters, filled))
+                b.iter(|| m.stage_regions(black_box(&clusters), filled, &mut scratch))
             });
         }
         c.bench_function(&format!("cluster_{tag}"), |b| {

@@ -94,6 +94,13 @@ impl Histogram {
         b.clamp(0, self.bins as i32 - 1) as usize
     }
 
+    /// Return the range's low end, K, and bins per kelvin: a value's bin units are
+    /// `(v − lo) · scale`.
+    #[inline]
+    pub fn units(&self) -> (f32, f32) {
+        (self.lo, self.scale)
+    }
+
     /// Return a temperature in bin units.
     #[inline]
     pub fn to_units(&self, v_k: f32) -> f32 {
@@ -153,12 +160,23 @@ pub struct Clusters {
 
 impl Clusters {
     /// Return the cluster index of a value.
+    ///
+    /// The count of boundaries at or below `v`, by a three-step binary search over the eight
+    /// ascending boundaries (those from `k − 1` on are +∞); NaN is cluster 0.
+    #[inline]
     pub fn label(&self, v: f32) -> usize {
+        let u = &self.upper;
         let mut c = 0;
-        while c + 1 < self.k && v >= self.upper[c] {
+        if v >= u[3] {
+            c = 4;
+        }
+        if v >= u[(c + 1) & (MAX_K - 1)] {
+            c += 2;
+        }
+        if v >= u[c & (MAX_K - 1)] {
             c += 1;
         }
-        c
+        c.min(self.k.saturating_sub(1))
     }
 
     fn empty() -> Self {
@@ -184,6 +202,8 @@ pub struct DpScratch {
     prev: [f32; MAX_BINS],
     cur: [f32; MAX_BINS],
     opt: [[u16; MAX_BINS]; MAX_K],
+    /// Highest j whose `opt[m][j]` layer m has filled.
+    done: [usize; MAX_K],
 }
 
 impl Default for DpScratch {
@@ -203,18 +223,26 @@ impl DpScratch {
             prev: [0.0; MAX_BINS],
             cur: [0.0; MAX_BINS],
             opt: [[0; MAX_BINS]; MAX_K],
+            done: [0; MAX_K],
         }
     }
 
     /// SSE of the non-empty bins i..=j in bin-index units.
     #[inline]
     fn cost(&self, i: usize, j: usize) -> f32 {
-        let n = self.n[j + 1] - self.n[i];
-        let s1 = self.s1[j + 1] - self.s1[i];
-        let s2 = self.s2[j + 1] - self.s2[i];
-        // n·S2 − S1² ≥ 0 (Cauchy–Schwarz), exact in u64.
-        u64_to_f32(n as u64 * s2 - s1 as u64 * s1 as u64) / n as f32
+        sse(
+            self.n[j + 1] - self.n[i],
+            self.s1[j + 1] - self.s1[i],
+            self.s2[j + 1] - self.s2[i],
+        )
     }
+}
+
+/// SSE of a group of `n` values with sum `s1` and sum of squares `s2` (bin-index units).
+#[inline(always)]
+fn sse(n: u32, s1: u32, s2: u64) -> f32 {
+    // n·S2 − S1² ≥ 0 (Cauchy–Schwarz), exact in u64.
+    u64_to_f32(n as u64 * s2 - s1 as u64 * s1 as u64) / n as f32
 }
 
 /// Convert without the soft-float library call `u64 as f32` becomes on the Cortex-M4: two
@@ -239,13 +267,31 @@ fn dc_layer(sc: &mut DpScratch, m: usize, lo: usize, hi: usize, opt_lo: usize, o
         }
         let j = (lo + hi) / 2;
         // Split i: cluster m covers bins i..=j, clusters before cover 0..i (needs i ≥ m).
+        // Knuth's bound: with one cluster fewer the last cluster starts no later
+        // (opt[m − 1][j] ≤ opt[m][j], the split points of 1-D k-means are monotone).
+        let knuth = if m >= 2 && j <= sc.done[m - 1] {
+            sc.opt[m - 1][j] as usize
+        } else {
+            0
+        };
+        let first = olo.max(m).max(knuth.min(ohi.min(j)));
         let mut best = f32::INFINITY;
-        let mut best_i = olo.max(m);
-        for i in olo.max(m)..=ohi.min(j) {
-            let c = sc.prev[i - 1] + sc.cost(i, j);
-            if c < best {
-                best = c;
-                best_i = i;
+        let mut best_i = first;
+        let last = ohi.min(j);
+        if first <= last {
+            // The loop over zipped slices has no bounds checks: it is most of the clustering.
+            let (nj, s1j, s2j) = (sc.n[j + 1], sc.s1[j + 1], sc.s2[j + 1]);
+            let prev = &sc.prev[first - 1..last];
+            let ns = &sc.n[first..=last];
+            let s1s = &sc.s1[first..=last];
+            let s2s = &sc.s2[first..=last];
+            for (d, (((&p, &ni), &s1i), &s2i)) in prev.iter().zip(ns).zip(s1s).zip(s2s).enumerate()
+            {
+                let c = p + sse(nj - ni, s1j - s1i, s2j - s2i);
+                if c < best {
+                    best = c;
+                    best_i = first + d;
+                }
             }
         }
         sc.cur[j] = best;
@@ -286,6 +332,7 @@ pub fn exact_binned(h: &Histogram, k: usize, sc: &mut DpScratch) -> Result<Clust
         return Err(MttsError::NoValidPixels);
     }
     let k = k.min(ne);
+    sc.done = [0; MAX_K];
     for j in 0..ne {
         sc.prev[j] = sc.cost(0, j);
         sc.opt[0][j] = 0;
@@ -295,6 +342,7 @@ pub fn exact_binned(h: &Histogram, k: usize, sc: &mut DpScratch) -> Result<Clust
         // cluster (j ≤ ne − 1 − (k − 1 − m)).
         let hi = ne - k + m;
         dc_layer(sc, m, m, hi, m, hi);
+        sc.done[m] = hi;
         sc.prev[m..=hi].copy_from_slice(&sc.cur[m..=hi]);
     }
     if k >= 2 {
@@ -641,5 +689,22 @@ mod tests {
         );
         assert!(Histogram::new(0.0, 1.0, 1).is_err());
         assert!(Histogram::new(f32::NAN, 1.0, 8).is_err());
+    }
+
+    #[test]
+    fn label_is_the_count_of_boundaries_below() {
+        for k in 1..=MAX_K {
+            let mut c = Clusters::empty();
+            c.k = k;
+            for m in 0..k - 1 {
+                c.upper[m] = 300.0 + 5.0 * m as f32;
+            }
+            for i in 0..200 {
+                let v = 295.0 + i as f32 * 0.25;
+                let want = (0..k - 1).filter(|&m| v >= c.upper[m]).count();
+                assert_eq!(c.label(v), want, "k={k} v={v}");
+            }
+            assert_eq!(c.label(f32::NAN), 0);
+        }
     }
 }

@@ -11,7 +11,7 @@
 //!    surface through the forming mode's hot-zone inversion.
 //!
 //! [`Mtts`] owns the settings and the state that persists between frames (the last geometry);
-//! [`Scratch`] is the working memory (≈ 30 KB, all zero at start so a `static` of it costs no
+//! [`Scratch`] is the working memory (≈ 43 KB, all zero at start so a `static` of it costs no
 //! flash); [`Mtts::process`] runs one frame. No heap.
 
 pub mod cluster;
@@ -19,7 +19,7 @@ pub mod regions;
 pub mod upsample;
 
 use cluster::{Clusters, DEFAULT_BINS, DpScratch, Histogram, Seeding, XorShift};
-use regions::{Geometry, Quality};
+use regions::{Coords, Geometry, Quality};
 use upsample::{UpsampleScratch, Upsampler};
 
 use crate::units::Kelvin;
@@ -188,10 +188,24 @@ impl Weights {
 /// Fill non-finite or implausible pixels with the mean of their valid 8-neighbours, repeating
 /// until all are filled; returns how many were broken, or `NoValidPixels`.
 pub fn inpaint(img: &mut [f32; IMG_PIXELS]) -> Result<u16, MttsError> {
-    let ok = |v: f32| v.is_finite() && v >= PLAUSIBLE_K.0 && v <= PLAUSIBLE_K.1;
+    inpaint_range(img).map(|(bad, _, _)| bad)
+}
+
+/// [`inpaint`], also returning the image's range (lowest, highest value), K. Filled pixels are
+/// means of valid ones, so the range is that of the valid pixels.
+fn inpaint_range(img: &mut [f32; IMG_PIXELS]) -> Result<(u16, f32, f32), MttsError> {
     let mut bad = 0u16;
+    let (mut lo, mut hi) = (PLAUSIBLE_K.1, PLAUSIBLE_K.0);
     for v in img.iter_mut() {
-        if !ok(*v) {
+        // NaN fails both comparisons.
+        if *v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1 {
+            if *v < lo {
+                lo = *v;
+            }
+            if *v > hi {
+                hi = *v;
+            }
+        } else {
             *v = f32::NAN;
             bad += 1;
         }
@@ -226,13 +240,16 @@ pub fn inpaint(img: &mut [f32; IMG_PIXELS]) -> Result<u16, MttsError> {
             }
         }
     }
-    Ok(bad)
+    Ok((bad, lo, hi))
 }
 
 /// Working memory of the pipeline (keep it in a `static` on the target).
 pub struct Scratch {
     up: UpsampleScratch,
     dp: DpScratch,
+    xy: Coords,
+    /// The last frame with its broken pixels filled, K.
+    pub work: [f32; IMG_PIXELS],
     /// The last frame's histogram of upsampled values.
     pub hist: Histogram,
 }
@@ -249,6 +266,8 @@ impl Scratch {
         Scratch {
             up: UpsampleScratch::new(),
             dp: DpScratch::new(),
+            xy: Coords::ZERO,
+            work: [0.0; IMG_PIXELS],
             hist: Histogram::EMPTY,
         }
     }
@@ -296,25 +315,19 @@ impl Mtts {
         self.rng = XorShift::new(self.config.seed);
     }
 
-    /// Stage 1–2: inpaint, upsample into `scratch.hist`. Returns the filled image and count.
+    /// Stage 1–2: inpaint into `scratch.work`, upsample into `scratch.hist`. Returns how many
+    /// pixels were broken and filled.
     pub fn stage_upsample(
         &mut self,
         image: &[f32; IMG_PIXELS],
         scratch: &mut Scratch,
-    ) -> Result<([f32; IMG_PIXELS], u16), MttsError> {
-        let mut work = *image;
-        let filled = inpaint(&mut work)?;
-        let (lo, hi) = work
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
+    ) -> Result<u16, MttsError> {
+        scratch.work = *image;
+        let (filled, lo, hi) = inpaint_range(&mut scratch.work)?;
         scratch.hist.reset(lo, hi, self.config.bins as usize)?;
-        // Interpolation is linear, so upsample in bin units and bin without a conversion.
-        let units: [f32; IMG_PIXELS] = core::array::from_fn(|p| scratch.hist.to_units(work[p]));
-        let Scratch { up, hist, .. } = scratch;
-        self.upsampler.run(&units, up, |_, row| hist.add_units(row));
-        Ok((work, filled))
+        let Scratch { up, hist, work, .. } = scratch;
+        self.upsampler.histogram(work, hist, up);
+        Ok(filled)
     }
 
     /// Stage 3: cluster the histogram of the last [`Mtts::stage_upsample`].
@@ -333,13 +346,14 @@ impl Mtts {
     /// Stage 4: regions from the filled image and the clusters; updates the geometry.
     pub fn stage_regions(
         &mut self,
-        work: &[f32; IMG_PIXELS],
         clusters: &Clusters,
         filled: u16,
+        scratch: &mut Scratch,
     ) -> Output {
-        let (g, quality, xy) = regions::update_geometry(work, &self.geometry);
+        let Scratch { work, xy, .. } = scratch;
+        let (g, quality) = regions::update_geometry(work, &self.geometry, xy);
         self.geometry = g;
-        let o = regions::overlap(work, &g, &xy, clusters);
+        let o = regions::overlap(work, &g, xy, clusters);
         let pick = regions::assign(&o, clusters.k);
         let regions: [Region; REGIONS] = core::array::from_fn(|z| {
             let zone_pixels = o[z].iter().sum();
@@ -358,9 +372,14 @@ impl Mtts {
         });
         let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
         for (&u, &v) in xy.u.iter().zip(work.iter()) {
+            // Plain comparisons: `f32::min` is a library call on the Cortex-M4.
             if u < regions::EDGE_U {
-                mn = mn.min(v);
-                mx = mx.max(v);
+                if v < mn {
+                    mn = v;
+                }
+                if v > mx {
+                    mx = v;
+                }
             }
         }
         Output {
@@ -380,9 +399,9 @@ impl Mtts {
         image: &[f32; IMG_PIXELS],
         scratch: &mut Scratch,
     ) -> Result<Output, MttsError> {
-        let (work, filled) = self.stage_upsample(image, scratch)?;
+        let filled = self.stage_upsample(image, scratch)?;
         let clusters = self.stage_cluster(scratch)?;
-        Ok(self.stage_regions(&work, &clusters, filled))
+        Ok(self.stage_regions(&clusters, filled, scratch))
     }
 }
 

@@ -105,12 +105,15 @@ impl Geometry {
 
     /// Return every pixel's (u, t), as [`Geometry::coords`], computed incrementally.
     pub fn coords_all(&self) -> Coords {
+        let mut out = Coords::ZERO;
+        self.coords_into(&mut out);
+        out
+    }
+
+    /// Write every pixel's (u, t) into `out` (no 6 KB copy, for the Cortex-M4).
+    pub fn coords_into(&self, out: &mut Coords) {
         let inv_norm = 1.0 / crate::fmath::sqrt(1.0 + self.axis_slope * self.axis_slope);
         let inv_half = inv_norm / self.half_width_px;
-        let mut out = Coords {
-            u: [0.0; IMG_PIXELS],
-            t: [0.0; IMG_PIXELS],
-        };
         for r in 0..IMG_ROWS {
             let d0 = -(self.axis_col0 + self.axis_slope * r as f32);
             let t0 = (r as f32 - self.axis_slope * self.axis_col0) * inv_norm;
@@ -121,7 +124,6 @@ impl Geometry {
                 out.t[p] = t0 + c as f32 * dt;
             }
         }
-        out
     }
 
     /// Return whether axial coordinate `t` falls in a gap.
@@ -164,6 +166,14 @@ pub struct Coords {
     pub u: [f32; IMG_PIXELS],
     /// Position along the axis, pixels.
     pub t: [f32; IMG_PIXELS],
+}
+
+impl Coords {
+    /// All zero (storage for [`Geometry::coords_into`]).
+    pub const ZERO: Coords = Coords {
+        u: [0.0; IMG_PIXELS],
+        t: [0.0; IMG_PIXELS],
+    };
 }
 
 /// Floor without a library call (|x| < 2^31).
@@ -291,100 +301,186 @@ fn square_wave(prof: &[f32], t0: f32, period: f32, phase: f32) -> Option<f32> {
     (ng >= 2.0 && ns >= 2.0).then(|| libm::fabsf(sg / ng - ss / ns))
 }
 
-/// Fit the lattice square wave to the core's axial profile; return (period, phase,
-/// amplitude in K). Coarse search (periods in 1 px, phases in 2 px steps), then a fine one
-/// (0.5 px) around the best.
-///
-/// With `near` (the previous frame's period), only periods within 2 px of it are searched:
-/// the lattice's image period changes only as the camera distance does.
-pub fn fit_lattice(
-    img: &[f32; IMG_PIXELS],
-    xy: &Coords,
-    near: Option<f32>,
-) -> Option<(f32, f32, f32)> {
-    const NB: usize = 48;
-    let mut sum = [0f32; NB];
-    let mut cnt = [0u16; NB];
-    let mut tmin = f32::INFINITY;
-    for p in 0..IMG_PIXELS {
-        if xy.u[p] < CORE_U && xy.t[p] < tmin {
-            tmin = xy.t[p];
-        }
-    }
-    if !tmin.is_finite() {
-        return None;
-    }
-    let t0 = floor(tmin);
-    for p in 0..IMG_PIXELS {
-        if xy.u[p] < CORE_U {
-            let b = ((xy.t[p] - t0) as usize).min(NB - 1);
-            sum[b] += img[p];
-            cnt[b] += 1;
-        }
-    }
-    let used = cnt.iter().rposition(|&n| n > 0)? + 1;
-    let mut prof = [f32::NAN; NB];
-    for b in 0..used {
-        if cnt[b] > 0 {
-            prof[b] = sum[b] / cnt[b] as f32;
-        }
-    }
-    let prof = &prof[..used];
-    let mut best: Option<(f32, f32, f32)> = None;
-    let consider = |best: &mut Option<(f32, f32, f32)>, period: f32, phase: f32| {
-        if let Some(amp) = square_wave(prof, t0, period, phase) {
-            if best.is_none_or(|b| amp > b.2) {
-                *best = Some((period, phase, amp));
+/// Bins of the axial profile (one per pixel of axial length).
+const PROFILE_BINS: usize = 48;
+
+/// The core's mean temperature along the axis: `v[b]` at t = t0 + b + ½ (NaN = no pixel).
+#[derive(Clone, Debug)]
+pub struct Profile {
+    v: [f32; PROFILE_BINS],
+    /// `v` less the first sample (precision of the folded sums), 0 where NaN.
+    dev: [f32; PROFILE_BINS],
+    /// 1 where `v` holds a sample, else 0.
+    valid: [f32; PROFILE_BINS],
+    used: usize,
+    t0: f32,
+}
+
+impl Profile {
+    /// Return the profile of the core pixels (u < [`CORE_U`]), or `None` if there are none.
+    pub fn of(img: &[f32; IMG_PIXELS], xy: &Coords) -> Option<Profile> {
+        let mut sum = [0f32; PROFILE_BINS];
+        let mut cnt = [0u16; PROFILE_BINS];
+        let mut tmin = f32::INFINITY;
+        for p in 0..IMG_PIXELS {
+            if xy.u[p] < CORE_U && xy.t[p] < tmin {
+                tmin = xy.t[p];
             }
         }
-    };
-    let (pmin, pmax) = match near {
-        Some(p) => ((p - 2.0).max(PERIOD_MIN_PX), (p + 2.0).min(PERIOD_MAX_PX)),
-        None => (PERIOD_MIN_PX, PERIOD_MAX_PX),
-    };
-    let mut period = pmin;
-    while period <= pmax + 1e-3 {
-        let mut phase = 0.0;
-        while phase < period {
-            consider(&mut best, period, phase);
-            phase += 2.0;
+        if !tmin.is_finite() {
+            return None;
         }
-        period += 1.0;
+        let t0 = floor(tmin);
+        for p in 0..IMG_PIXELS {
+            if xy.u[p] < CORE_U {
+                let b = ((xy.t[p] - t0) as usize).min(PROFILE_BINS - 1);
+                sum[b] += img[p];
+                cnt[b] += 1;
+            }
+        }
+        let used = cnt.iter().rposition(|&n| n > 0)? + 1;
+        let mut v = [f32::NAN; PROFILE_BINS];
+        let mut dev = [0f32; PROFILE_BINS];
+        let mut valid = [0f32; PROFILE_BINS];
+        let mut reference = None;
+        for b in 0..used {
+            if cnt[b] > 0 {
+                v[b] = sum[b] / cnt[b] as f32;
+                let r = *reference.get_or_insert(v[b]);
+                dev[b] = v[b] - r;
+                valid[b] = 1.0;
+            }
+        }
+        Some(Profile {
+            v,
+            dev,
+            valid,
+            used,
+            t0,
+        })
+    }
+
+    /// Return the square-wave amplitude |mean over gaps − mean over rings| for a period and
+    /// phase (pixels), or `None` if either part has fewer than two samples.
+    pub fn amplitude(&self, period: f32, phase: f32) -> Option<f32> {
+        square_wave(&self.v[..self.used], self.t0, period, phase)
+    }
+
+    /// Return the best (phase, amplitude) of an integer period over the even phases 0, 2, …
+    /// (ties keep the lower phase), or `None` if no phase leaves two samples to each part.
+    ///
+    /// Equal to [`Profile::amplitude`] at those phases up to rounding, in O(bins + period)
+    /// instead of O(bins · period): with t0 and the phase integers, sample b lies in a gap iff
+    /// (t0 + b − phase) mod period < m, where m counts the j with j + ½ < gap fraction ·
+    /// period; so the profile is folded modulo the period once, and each phase's gap is a
+    /// circular window of m folded bins, summed from prefix sums.
+    pub fn best_integer_phase(&self, period: usize) -> Option<(usize, f32)> {
+        const W: usize = 32;
+        let p = period.clamp(1, MAX_PERIOD);
+        let mut f = [0f32; W];
+        let mut c = [0f32; W];
+        let mut i = (self.t0 as i32).rem_euclid(p as i32) as usize;
+        for (&d, &n) in self.dev[..self.used].iter().zip(&self.valid[..self.used]) {
+            // Masks and clamps (no-ops: i < p ≤ 24 < W) spare the bounds checks.
+            f[i & (W - 1)] += d;
+            c[i & (W - 1)] += n;
+            i += 1;
+            if i == p {
+                i = 0;
+            }
+        }
+        let gap = LATTICE_GAP_FRACTION * p as f32;
+        let m = (0..p).filter(|&j| (j as f32 + 0.5) < gap).count();
+        // Prefix sums over one period; a window phase..phase + m past the end wraps around.
+        let mut sf = [0f32; W + 1];
+        let mut sc = [0f32; W + 1];
+        let (mut af, mut ac) = (0f32, 0f32);
+        for j in 0..p {
+            af += f[j & (W - 1)];
+            ac += c[j & (W - 1)];
+            sf[(j + 1).min(W)] = af;
+            sc[(j + 1).min(W)] = ac;
+        }
+        let (tf, tc) = (af, ac);
+        let mut best: Option<(usize, f32)> = None;
+        for phase in (0..p).step_by(2) {
+            let e = phase + m;
+            let (sg, ng) = if e <= p {
+                (
+                    sf[e.min(W)] - sf[phase.min(W)],
+                    sc[e.min(W)] - sc[phase.min(W)],
+                )
+            } else {
+                let e = e - p;
+                (
+                    tf - sf[phase.min(W)] + sf[e.min(W)],
+                    tc - sc[phase.min(W)] + sc[e.min(W)],
+                )
+            };
+            let (ss, ns) = (tf - sg, tc - ng);
+            if ng >= 2.0 && ns >= 2.0 {
+                let amp = libm::fabsf(sg / ng - ss / ns);
+                if best.is_none_or(|b| amp > b.1) {
+                    best = Some((phase, amp));
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Longest period [`Profile::best_integer_phase`] folds.
+const MAX_PERIOD: usize = PERIOD_MAX_PX as usize;
+
+/// Fit the lattice square wave to the core's axial profile; return (period, phase,
+/// amplitude in K). Coarse search (integer periods, even phases, by folding — see
+/// [`Profile::best_integer_phase`]), then a fine one (0.5 px) around the best.
+///
+/// With `near` (the previous frame's period), only the integer periods within 2 px of it are
+/// searched: the lattice's image period changes only as the camera distance does.
+pub fn fit_lattice(prof: &Profile, near: Option<f32>) -> Option<(f32, f32, f32)> {
+    let (pmin, pmax) = match near {
+        Some(p) => {
+            let r = libm::roundf(p.clamp(PERIOD_MIN_PX, PERIOD_MAX_PX)) as usize;
+            (r.saturating_sub(2), r + 2)
+        }
+        None => (PERIOD_MIN_PX as usize, PERIOD_MAX_PX as usize),
+    };
+    let (pmin, pmax) = (
+        pmin.max(PERIOD_MIN_PX as usize),
+        pmax.min(PERIOD_MAX_PX as usize),
+    );
+    let mut best: Option<(f32, f32, f32)> = None;
+    for period in pmin..=pmax {
+        if let Some((phase, amp)) = prof.best_integer_phase(period) {
+            if best.is_none_or(|b| amp > b.2) {
+                best = Some((period as f32, phase as f32, amp));
+            }
+        }
     }
     let (p0, f0, _) = best?;
     for dp in [-0.5f32, 0.0, 0.5] {
         let period = (p0 + dp).clamp(PERIOD_MIN_PX, PERIOD_MAX_PX);
         for df in [-1.5f32, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5] {
             let phase = f0 + df;
-            consider(&mut best, period, phase - floor(phase / period) * period);
+            let phase = phase - floor(phase / period) * period;
+            if let Some(amp) = prof.amplitude(period, phase) {
+                if best.is_none_or(|b| amp > b.2) {
+                    best = Some((period, phase, amp));
+                }
+            }
         }
     }
     best
 }
 
-/// Lattice amplitude of the geometry's own period and phase (the continuity comparison).
-fn lattice_amplitude(img: &[f32; IMG_PIXELS], g: &Geometry, xy: &Coords) -> f32 {
-    let (mut sg, mut ng, mut ss, mut ns) = (0f32, 0f32, 0f32, 0f32);
-    for p in 0..IMG_PIXELS {
-        if xy.u[p] < CORE_U {
-            if g.in_gap(xy.t[p]) {
-                sg += img[p];
-                ng += 1.0;
-            } else {
-                ss += img[p];
-                ns += 1.0;
-            }
-        }
-    }
-    if ng < 1.0 || ns < 1.0 {
-        return 0.0;
-    }
-    libm::fabsf(sg / ng - ss / ns)
-}
-
-/// Update the geometry from a frame (keeping what cannot be re-estimated); also return every
+/// Update the geometry from a frame (keeping what cannot be re-estimated); `xy` receives every
 /// pixel's coordinates under the new geometry.
-pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Quality, Coords) {
+pub fn update_geometry(
+    img: &[f32; IMG_PIXELS],
+    prev: &Geometry,
+    xy: &mut Coords,
+) -> (Geometry, Quality) {
     let mut g = *prev;
     let mut q = Quality::default();
     if let Some((col0, slope, half)) = fit_cylinder(img) {
@@ -393,10 +489,14 @@ pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Q
         g.half_width_px = half;
         q.cylinder_fresh = true;
     }
-    let xy = g.coords_all();
+    g.coords_into(xy);
     let near = g.lattice_known.then_some(g.period_px);
-    if let Some((period, phase, amp)) = fit_lattice(img, &xy, near) {
-        let keep = g.lattice_known && lattice_amplitude(img, &g, &xy) >= 0.8 * amp;
+    let prof = Profile::of(img, xy);
+    let fit = prof.as_ref().and_then(|p| fit_lattice(p, near));
+    if let (Some(prof), Some((period, phase, amp))) = (&prof, fit) {
+        // Continuity: the previous lattice, measured on the same profile.
+        let prev_amp = prof.amplitude(g.period_px, g.phase_px).unwrap_or(0.0);
+        let keep = g.lattice_known && prev_amp >= 0.8 * amp;
         if amp >= MIN_LATTICE_K && !keep {
             g.period_px = period;
             g.phase_px = phase;
@@ -404,7 +504,7 @@ pub fn update_geometry(img: &[f32; IMG_PIXELS], prev: &Geometry) -> (Geometry, Q
             q.lattice_fresh = true;
         }
     }
-    (g, q, xy)
+    (g, q)
 }
 
 /// Zone × cluster pixel counts.
@@ -508,7 +608,11 @@ mod tests {
     fn lattice_phase_survives_inversion() {
         for inverted in [false, true] {
             let img = cylinder_image(15.5, 0.0, 7.0, inverted);
-            let (g, q, _) = update_geometry(&img, &Geometry::default());
+            let (g, q) = update_geometry(
+                &img,
+                &Geometry::default(),
+                &mut Geometry::DEFAULT.coords_all(),
+            );
             assert!(q.cylinder_fresh && q.lattice_fresh);
             assert!((g.period_px - 14.0).abs() <= 0.5, "period {}", g.period_px);
             // Gap rows agree with the truth on most core pixels.
@@ -534,7 +638,7 @@ mod tests {
             axis_col0: 10.0,
             ..Geometry::default()
         };
-        let (g, q, _) = update_geometry(&img, &prev);
+        let (g, q) = update_geometry(&img, &prev, &mut prev.coords_all());
         assert_eq!(q, Quality::default());
         assert_eq!(g, prev);
     }
@@ -588,5 +692,44 @@ mod tests {
         let a = assign(&o, 3);
         assert_eq!(a[4], Some(0));
         assert!(a.iter().all(|x| x.is_some()));
+    }
+
+    #[test]
+    fn folded_phase_search_equals_the_direct_one() {
+        for (t0, n) in [(-3.0f32, 40usize), (0.0, 24), (5.0, 33)] {
+            let mut v = [f32::NAN; PROFILE_BINS];
+            for (b, x) in v.iter_mut().enumerate().take(n) {
+                if b % 7 != 3 {
+                    *x = 330.0 + 8.0 * libm::sinf(b as f32 * 0.61) + (b % 5) as f32;
+                }
+            }
+            let r = v[..n].iter().copied().find(|x| !x.is_nan()).unwrap();
+            let prof = Profile {
+                v,
+                dev: core::array::from_fn(|b| if v[b].is_nan() { 0.0 } else { v[b] - r }),
+                valid: core::array::from_fn(|b| if v[b].is_nan() { 0.0 } else { 1.0 }),
+                used: n,
+                t0,
+            };
+            for period in 8..=24usize {
+                let mut want: Option<(usize, f32)> = None;
+                for phase in (0..period).step_by(2) {
+                    if let Some(a) = prof.amplitude(period as f32, phase as f32) {
+                        if want.is_none_or(|w| a > w.1 + 1e-4) {
+                            want = Some((phase, a));
+                        }
+                    }
+                }
+                let got = prof.best_integer_phase(period);
+                match (got, want) {
+                    (Some(g), Some(w)) => {
+                        assert!((g.1 - w.1).abs() < 1e-3, "t0={t0} p={period}: {g:?} {w:?}");
+                        let at = prof.amplitude(period as f32, g.0 as f32).unwrap();
+                        assert!((at - g.1).abs() < 1e-3);
+                    }
+                    (g, w) => assert_eq!(g.is_some(), w.is_some(), "p={period}"),
+                }
+            }
+        }
     }
 }
