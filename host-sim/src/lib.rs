@@ -4,6 +4,7 @@
 //! - [`data`]: where the shared sensor dumps live.
 //! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files.
+//! - [`plant`]: the simulated block: thermal network, SMA springs, SMP, bending.
 //! - [`scene`]: the camera's view of the block, with ground truth.
 //! - [`sim_time`]: the simulated clock and delay.
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
@@ -13,6 +14,7 @@ pub mod decode;
 pub mod dump;
 pub mod eeprom;
 pub mod mtts_cli;
+pub mod plant;
 pub mod scene;
 pub mod sensor_demo;
 pub mod sim_time;

@@ -1,0 +1,509 @@
+//! The simulated block (the plant): a lumped thermal network of the heater film, the SMP wall,
+//! the inner air duct and the three SMA springs, the SMA phase kinetics, the SMP's frozen
+//! fraction and viscoelastic lag, and the bending of the column.
+//!
+//! Submodules: [`params`] (every constant, unit and source), [`thermal`] (network and
+//! integrators), [`sma`] (spring kinetics, enthalpy, supply, force law), [`smp`] (frozen
+//! fraction, modulus, WLF, Maxwell branch), [`mechanics`] (bending balance), [`linalg`] (small
+//! dense solves and the matrix exponential).
+//!
+//! Each [`Plant::step`] call sub-steps at most [`PlantConfig::max_step_s`]; per sub-step, with
+//! the inputs held (duty-averaged power): the cylinder network and the spring nodes advance with
+//! the chosen [`Integrator`], the springs settle their phase on their enthalpy, the SMP's frozen
+//! fraction moves (storing or releasing bend), and the column's moment balance is solved with
+//! the Maxwell branch updated exactly. See `docs/PLANT-API.md`.
+
+pub mod linalg;
+pub mod mechanics;
+pub mod params;
+pub mod sma;
+pub mod smp;
+pub mod thermal;
+
+use mechanics::Balance;
+use smp::SmpState;
+use thermal::{Network, ZohCache};
+
+/// How much of the physics a scene computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fidelity {
+    /// Thermal network resolution.
+    pub thermal: ThermalFidelity,
+    /// SMA phase model.
+    pub sma: SmaFidelity,
+    /// SMP model.
+    pub smp: SmpFidelity,
+    /// Compute the bending (angle, plane, k_b); off: they stay at their initial values.
+    pub mechanics: bool,
+}
+
+/// Thermal network resolution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ThermalFidelity {
+    /// One lumped node for the cylinder (heater film = SMP = air), springs separate.
+    Lumped,
+    /// The full network.
+    Full,
+}
+
+/// SMA phase model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SmaFidelity {
+    /// Austenite above a single switching temperature, martensite below; no latent heat.
+    Switch,
+    /// Hysteretic phase kinetics with partial cycles and latent heat.
+    Hysteretic,
+}
+
+/// SMP model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SmpFidelity {
+    /// Temperature-dependent modulus only; no shape fixing.
+    Elastic,
+    /// Frozen fraction, shape fixing and recovery, WLF-shifted viscous lag.
+    Viscoelastic,
+}
+
+impl Default for Fidelity {
+    /// Full fidelity.
+    fn default() -> Self {
+        Fidelity {
+            thermal: ThermalFidelity::Full,
+            sma: SmaFidelity::Hysteretic,
+            smp: SmpFidelity::Viscoelastic,
+            mechanics: true,
+        }
+    }
+}
+
+/// Time integrator of the thermal network.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Integrator {
+    /// Backward Euler.
+    BackwardEuler,
+    /// TR-BDF2.
+    TrBdf2,
+    /// Exact zero-order-hold update of the linear network (the default).
+    #[default]
+    ExponentialZoh,
+}
+
+/// Everything a plant is built from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantConfig {
+    /// Ambient (and background) temperature, K.
+    pub ambient_k: f64,
+    /// Initial temperature of every node, K.
+    pub initial_k: f64,
+    /// Fidelity levels.
+    pub fidelity: Fidelity,
+    /// Integrator.
+    pub integrator: Integrator,
+    /// Largest internal step, s (`Plant::step` sub-steps longer calls).
+    pub max_step_s: f64,
+}
+
+impl Default for PlantConfig {
+    /// 298.15 K ambient and start, full fidelity, the default integrator and step.
+    fn default() -> Self {
+        PlantConfig {
+            ambient_k: 298.15,
+            initial_k: 298.15,
+            fidelity: Fidelity::default(),
+            integrator: Integrator::default(),
+            max_step_s: params::DEFAULT_MAX_STEP_S,
+        }
+    }
+}
+
+/// Actuator inputs held constant over one `Plant::step` call.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Inputs {
+    /// Heater PWM duty, 0…1 (clamped).
+    pub heater_duty: f64,
+    /// Fan PWM duty, 0…1 (clamped).
+    pub fan_duty: f64,
+    /// Spring MOSFETs A, B, C on.
+    pub springs_on: [bool; 3],
+    /// Fault: the heater is open-circuit (no power whatever the duty).
+    pub heater_open: bool,
+}
+
+/// What the plant shows at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Observation {
+    /// Simulated time since start, s.
+    pub time_s: f64,
+    /// Heater film surface (what region 1 shows), K.
+    pub heater_k: f64,
+    /// SMP inner layer, K.
+    pub smp_inner_k: f64,
+    /// SMP outer surface (region 2), K.
+    pub smp_outer_k: f64,
+    /// Air in the inner duct, K.
+    pub duct_air_k: f64,
+    /// Ambient, K.
+    pub ambient_k: f64,
+    /// Spring wire temperatures A, B, C, K.
+    pub springs_k: [f64; 3],
+    /// Spring austenite fractions A, B, C, 0…1.
+    pub austenite: [f64; 3],
+    /// SMP frozen fraction, 0…1 (1 glassy).
+    pub frozen_fraction: f64,
+    /// Bending angle, degrees (≥ 0).
+    pub bend_deg: f64,
+    /// Bending plane, degrees from spring A, (−180, 180].
+    pub bend_plane_deg: f64,
+    /// Bending stiffness k_b = M/θ for a small probe moment, N·mm/rad.
+    pub k_b_nmm_per_rad: f64,
+    /// Heater electrical power, W.
+    pub heater_power_w: f64,
+    /// Electrical power per spring, W.
+    pub spring_power_w: [f64; 3],
+}
+
+/// Model options beyond the contract's [`PlantConfig`] (defaults: no plates, not adiabatic).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ModelOptions {
+    /// Add the two PMMA end plates as a thermal node (Full thermal fidelity only).
+    pub pmma_plates: bool,
+    /// Cut every path to ambient (cylinder and springs): for energy-conservation checks.
+    pub adiabatic: bool,
+}
+
+/// One spring's thermal and phase state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SpringState {
+    t_k: f64,
+    /// Martensite fraction.
+    xi: f64,
+}
+
+/// The plant.
+pub struct Plant {
+    config: PlantConfig,
+    options: ModelOptions,
+    time_s: f64,
+    /// Cylinder node temperatures (see `thermal` for the indices), K.
+    nodes_k: linalg::Vector,
+    n_nodes: usize,
+    springs: [SpringState; 3],
+    smp: SmpState,
+    bend_rad: [f64; 2],
+    k_b_nmm_per_rad: f64,
+    heater_power_w: f64,
+    spring_power_w: [f64; 3],
+    electrical_energy_j: f64,
+    /// Network matrices for the last fan duty (key, A, network).
+    net_cache: Option<(u64, linalg::Mat, Network)>,
+    zoh_cache: Option<ZohCache>,
+}
+
+fn check_k(name: &str, v: f64) -> Result<(), String> {
+    if !v.is_finite() || !(params::MIN_CONFIG_K..=params::MAX_CONFIG_K).contains(&v) {
+        return Err(format!(
+            "{name}: {v} K is outside {}–{} K",
+            params::MIN_CONFIG_K,
+            params::MAX_CONFIG_K
+        ));
+    }
+    Ok(())
+}
+
+fn duty(v: f64) -> f64 {
+    if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) }
+}
+
+impl Plant {
+    /// Build a plant in its initial state; a bad config (non-finite or out-of-range
+    /// temperature, non-positive step) is an error naming the field.
+    pub fn new(config: &PlantConfig) -> Result<Plant, String> {
+        Plant::with_options(config, ModelOptions::default())
+    }
+
+    /// [`Plant::new`] with model options.
+    pub fn with_options(config: &PlantConfig, options: ModelOptions) -> Result<Plant, String> {
+        check_k("ambient_k", config.ambient_k)?;
+        check_k("initial_k", config.initial_k)?;
+        if !config.max_step_s.is_finite() || config.max_step_s <= 0.0 {
+            return Err(format!(
+                "max_step_s: {} s must be positive and finite",
+                config.max_step_s
+            ));
+        }
+        let plates = options.pmma_plates && config.fidelity.thermal == ThermalFidelity::Full;
+        let net = Network::new(config.fidelity.thermal, 0.0, plates, options.adiabatic);
+        let t0 = config.initial_k;
+        let xi0 = sma::kinetics(config.fidelity.sma, t0, 1.0);
+        let phi0 = match config.fidelity.smp {
+            SmpFidelity::Viscoelastic | SmpFidelity::Elastic => smp::frozen_fraction(t0),
+        };
+        let mut plant = Plant {
+            config: *config,
+            options: ModelOptions {
+                pmma_plates: plates,
+                ..options
+            },
+            time_s: 0.0,
+            nodes_k: [t0; linalg::N],
+            n_nodes: net.n,
+            springs: [SpringState { t_k: t0, xi: xi0 }; 3],
+            smp: SmpState::relaxed(phi0, [0.0; 2]),
+            bend_rad: [0.0; 2],
+            k_b_nmm_per_rad: 0.0,
+            heater_power_w: 0.0,
+            spring_power_w: [0.0; 3],
+            electrical_energy_j: 0.0,
+            net_cache: None,
+            zoh_cache: None,
+        };
+        plant.k_b_nmm_per_rad = plant.column_k_b();
+        if config.fidelity.mechanics {
+            plant.solve_bend(0.0);
+        }
+        Ok(plant)
+    }
+
+    /// Advance by `dt_s` (> 0) with `inputs` held, in internal steps of at most `max_step_s`.
+    /// A non-positive or non-finite `dt_s` does nothing.
+    pub fn step(&mut self, inputs: &Inputs, dt_s: f64) {
+        if !dt_s.is_finite() || dt_s <= 0.0 {
+            return;
+        }
+        let n = (dt_s / self.config.max_step_s).ceil().max(1.0);
+        let h = dt_s / n;
+        for _ in 0..n as u64 {
+            self.substep(inputs, h);
+        }
+    }
+
+    /// The current observation.
+    pub fn observe(&self) -> Observation {
+        let (heater, inner, outer, air) = self.region_temps();
+        Observation {
+            time_s: self.time_s,
+            heater_k: heater,
+            smp_inner_k: inner,
+            smp_outer_k: outer,
+            duct_air_k: air,
+            ambient_k: self.config.ambient_k,
+            springs_k: self.springs.map(|s| s.t_k),
+            austenite: self.springs.map(|s| 1.0 - s.xi),
+            frozen_fraction: self.smp.phi,
+            bend_deg: self.bend_deg(),
+            bend_plane_deg: self.bend_plane_deg(),
+            k_b_nmm_per_rad: self.k_b_nmm_per_rad,
+            heater_power_w: self.heater_power_w,
+            spring_power_w: self.spring_power_w,
+        }
+    }
+
+    /// Simulated time, s.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// The configuration the plant was built from.
+    pub fn config(&self) -> &PlantConfig {
+        &self.config
+    }
+
+    /// The model options in force.
+    pub fn options(&self) -> ModelOptions {
+        self.options
+    }
+
+    /// Heat stored in the cylinder network and the springs (sensible from 0 K plus the
+    /// springs' latent heat of austenite), J.
+    pub fn stored_energy_j(&self) -> f64 {
+        let net = Network::new(
+            self.config.fidelity.thermal,
+            0.0,
+            self.options.pmma_plates,
+            self.options.adiabatic,
+        );
+        net.energy_j(&self.nodes_k)
+            + self
+                .springs
+                .iter()
+                .map(|s| sma::enthalpy_j(self.config.fidelity.sma, s.t_k, s.xi))
+                .sum::<f64>()
+    }
+
+    /// Electrical energy delivered to the heater and the springs since the start, J.
+    pub fn electrical_energy_j(&self) -> f64 {
+        self.electrical_energy_j
+    }
+
+    /// PMMA plate temperature, K, if the plates are modelled.
+    pub fn plates_k(&self) -> Option<f64> {
+        self.options
+            .pmma_plates
+            .then_some(self.nodes_k[thermal::PLATES])
+    }
+
+    /// Lengths of springs A, B, C (chords between the plates' anchor points), mm.
+    pub fn spring_lengths_mm(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| mechanics::spring_length_mm(i, self.bend_rad))
+    }
+
+    /// Stored (frozen) bending angle of the SMP, degrees.
+    pub fn stored_bend_deg(&self) -> f64 {
+        let s = self.smp.stored_rad;
+        (s[0] * s[0] + s[1] * s[1]).sqrt().to_degrees()
+    }
+
+    fn region_temps(&self) -> (f64, f64, f64, f64) {
+        let x = &self.nodes_k;
+        match self.config.fidelity.thermal {
+            ThermalFidelity::Lumped => (x[0], x[0], x[0], x[0]),
+            ThermalFidelity::Full => (
+                x[thermal::HEATER],
+                x[thermal::INNER],
+                x[thermal::OUTER],
+                x[thermal::AIR],
+            ),
+        }
+    }
+
+    fn bend_deg(&self) -> f64 {
+        let b = self.bend_rad;
+        (b[0] * b[0] + b[1] * b[1]).sqrt().to_degrees()
+    }
+
+    fn bend_plane_deg(&self) -> f64 {
+        let b = self.bend_rad;
+        if b[0].hypot(b[1]) < 1e-12 {
+            return 0.0;
+        }
+        let d = b[1].atan2(b[0]).to_degrees();
+        if d <= -180.0 { d + 360.0 } else { d }
+    }
+
+    /// Frozen fraction of the wall: the layers' fractions weighted by thickness.
+    fn wall_phi(&self) -> f64 {
+        let (_, inner, outer, _) = self.region_temps();
+        params::INNER_LAYER_SHARE * smp::frozen_fraction(inner)
+            + (1.0 - params::INNER_LAYER_SHARE) * smp::frozen_fraction(outer)
+    }
+
+    /// Relaxed SMP bending stiffness: the layers' stiffnesses weighted by thickness.
+    fn smp_stiffness(&self) -> f64 {
+        let (_, inner, outer, _) = self.region_temps();
+        params::INNER_LAYER_SHARE * smp::bending_nmm_per_rad(smp::frozen_fraction(inner))
+            + (1.0 - params::INNER_LAYER_SHARE)
+                * smp::bending_nmm_per_rad(smp::frozen_fraction(outer))
+    }
+
+    /// k_b = M/θ of the column (PI tube + relaxed SMP) for a small probe moment, N·mm/rad.
+    fn column_k_b(&self) -> f64 {
+        params::TUBE_BENDING_NMM_PER_RAD + self.smp_stiffness()
+    }
+
+    fn substep(&mut self, inputs: &Inputs, h: f64) {
+        let fid = self.config.fidelity;
+        let integrator = self.config.integrator;
+        let amb = self.config.ambient_k;
+        // Electrical inputs, held over the step (duty-averaged).
+        let heater_duty = duty(inputs.heater_duty);
+        let fan = duty(inputs.fan_duty);
+        let heater_w = if inputs.heater_open {
+            0.0
+        } else {
+            let full = (params::HEATER_SUPPLY_V / params::HEATER_RESISTANCE_OHM)
+                .min(params::HEATER_SUPPLY_LIMIT_A);
+            heater_duty * full * full * params::HEATER_RESISTANCE_OHM
+        };
+        let xi = self.springs.map(|s| s.xi);
+        let spring_w = sma::powers_w(inputs.springs_on, xi);
+        self.heater_power_w = heater_w;
+        self.spring_power_w = spring_w;
+        self.electrical_energy_j += h * (heater_w + spring_w.iter().sum::<f64>());
+
+        // Cylinder network.
+        let key = fan.to_bits();
+        let fresh = !matches!(&self.net_cache, Some((k, _, _)) if *k == key);
+        if fresh {
+            let net = Network::new(
+                fid.thermal,
+                fan,
+                self.options.pmma_plates,
+                self.options.adiabatic,
+            );
+            self.net_cache = Some((key, net.system_matrix(), net));
+        }
+        let (_, a, net) = self.net_cache.as_ref().expect("filled above");
+        let mut power = [0.0; linalg::N];
+        power[thermal::HEATER] = heater_w;
+        let u = net.forcing(&power, amb);
+        let sys = thermal::System {
+            a,
+            n: self.n_nodes,
+            u: &u,
+            key,
+        };
+        thermal::advance(integrator, &sys, &mut self.nodes_k, h, &mut self.zoh_cache);
+
+        // Springs: sensible update, then settle the phase on the enthalpy.
+        let c = sma::capacity_j_per_k();
+        let g = if self.options.adiabatic {
+            0.0
+        } else {
+            sma::ambient_w_per_k()
+        };
+        for (i, s) in self.springs.iter_mut().enumerate() {
+            let t_sens =
+                thermal::advance_scalar(integrator, g / c, (spring_w[i] + g * amb) / c, s.t_k, h);
+            let enthalpy = sma::enthalpy_j(fid.sma, t_sens, s.xi);
+            let (t, x) = sma::settle(fid.sma, enthalpy, s.xi);
+            *s = SpringState { t_k: t, xi: x };
+        }
+
+        // SMP: frozen fraction (store or release bend), stiffness.
+        let phi = self.wall_phi();
+        match fid.smp {
+            SmpFidelity::Viscoelastic => self.smp.freeze(phi, self.bend_rad),
+            SmpFidelity::Elastic => {
+                self.smp.phi = phi.clamp(0.0, 1.0);
+                self.smp.stored_rad = [0.0; 2];
+            }
+        }
+        self.time_s += h;
+        if fid.mechanics {
+            self.k_b_nmm_per_rad = self.column_k_b();
+            self.solve_bend(h);
+        }
+    }
+
+    /// Solve the moment balance at the end of a step of `h` (0: instantaneous) and relax the
+    /// Maxwell branch exactly over it.
+    fn solve_bend(&mut self, h: f64) {
+        let (k, l) = mechanics::spring_state(self.springs.map(|s| s.xi));
+        let visco = self.config.fidelity.smp == SmpFidelity::Viscoelastic;
+        let (_, inner, outer, _) = self.region_temps();
+        let t_wall = params::INNER_LAYER_SHARE * inner + (1.0 - params::INNER_LAYER_SHARE) * outer;
+        let decay = if visco {
+            (-h / smp::branch_tau_s(t_wall)).exp()
+        } else {
+            0.0
+        };
+        let bal = Balance {
+            tube_nmm_per_rad: params::TUBE_BENDING_NMM_PER_RAD,
+            smp_nmm_per_rad: self.smp_stiffness(),
+            stored_rad: self.smp.stored_rad,
+            branch_nmm_per_rad: smp::branch_nmm_per_rad() * decay,
+            branch_rad: self.smp.branch_rad,
+            spring_k_n_per_mm: k,
+            spring_free_mm: l,
+        };
+        let b = bal.solve(self.bend_rad);
+        if visco {
+            for j in 0..2 {
+                self.smp.branch_rad[j] = b[j] + (self.smp.branch_rad[j] - b[j]) * decay;
+            }
+        } else {
+            self.smp.branch_rad = b;
+        }
+        self.bend_rad = b;
+    }
+}

@@ -1,0 +1,205 @@
+//! Every constant of the plant, with its unit and its source: the one place they live.
+//!
+//! Sources: [T] the thesis (`/work/shared/seed/000_05d5a5c9fd66e5b4.txt`, section given);
+//! [S] a handbook or paper value (cited, via `PLANT-REFERENCE.md`); [F] fitted once to the
+//! thesis figures by the open-loop calibration (`tests/plant_calibration.rs` measures them,
+//! `docs/PLANT-API.md` lists fit against thesis); [D] derived here from the others.
+//! The block's dimensions are not repeated here: they come from `thermorph::block`.
+
+use thermorph::block;
+
+// ---------------------------------------------------------------- geometry [T 6.2.1]
+
+/// Column (SMP cylinder) length, mm [T 6.2.1, `thermorph::block`].
+pub const LENGTH_MM: f64 = block::CYLINDER_LENGTH_MM as f64;
+/// Inner diameter (heater film and air duct), mm [T 6.2.1].
+pub const INNER_DIAMETER_MM: f64 = block::CYLINDER_INNER_DIAMETER_MM as f64;
+/// Outer diameter, mm [T 6.2.1].
+pub const OUTER_DIAMETER_MM: f64 = block::CYLINDER_OUTER_DIAMETER_MM as f64;
+/// Radius of the spring circle, mm [T 6.2.1].
+pub const SPRING_RADIUS_MM: f64 = block::SPRING_RADIUS_MM as f64;
+/// Angle between springs, degrees [T 6.2.1].
+pub const SPRING_SPACING_DEG: f64 = block::SPRING_SPACING_DEG as f64;
+/// Thick inner lattice layer, mm [T 6.2.1].
+pub const INNER_LAYER_MM: f64 = block::LATTICE_LOWER_LAYER_MM as f64;
+/// Thin outer lattice layer, mm [T 6.2.1].
+pub const OUTER_LAYER_MM: f64 = block::LATTICE_UPPER_LAYER_MM as f64;
+/// PMMA end plate thickness, mm [T 6.2.1].
+pub const PLATE_THICKNESS_MM: f64 = block::PLATE_THICKNESS_MM as f64;
+/// PMMA end plate diameter, mm [T 6.2.1].
+pub const PLATE_DIAMETER_MM: f64 = block::PLATE_DIAMETER_MM as f64;
+
+/// Inner (heater film) surface area, m² [D]: π·d_i·L.
+pub const INNER_AREA_M2: f64 = std::f64::consts::PI * INNER_DIAMETER_MM * LENGTH_MM * 1e-6;
+/// Outer surface area, m² [D]: π·d_o·L.
+pub const OUTER_AREA_M2: f64 = std::f64::consts::PI * OUTER_DIAMETER_MM * LENGTH_MM * 1e-6;
+/// Air volume of the duct, m³ [D]: π/4·d_i²·L.
+pub const DUCT_VOLUME_M3: f64 =
+    std::f64::consts::PI / 4.0 * INNER_DIAMETER_MM * INNER_DIAMETER_MM * LENGTH_MM * 1e-9;
+
+// ---------------------------------------------------------------- electrical [T 6.3.2]
+
+/// Heater supply voltage, V [T 6.3.2: 18.0 V, 10.0 A supply].
+pub const HEATER_SUPPLY_V: f64 = 18.0;
+/// Heater supply current limit, A [T 6.3.2].
+pub const HEATER_SUPPLY_LIMIT_A: f64 = 10.0;
+/// Heater (PI film group) resistance, Ω [F]: fitted so that full duty (≈41 W) brings the
+/// heater surface from 298 K to 323 K in ≈10 s [T 6.4.2] and reheats to 358 K in ≈25 s
+/// [T 6.4.3].
+pub const HEATER_RESISTANCE_OHM: f64 = 7.89;
+/// Spring supply voltage, V [T 6.3.2: 5.0 V, 15.0 A].
+pub const SPRING_SUPPLY_V: f64 = 5.0;
+/// Spring supply current limit (shared by the three springs), A [T 6.3.2].
+pub const SPRING_SUPPLY_LIMIT_A: f64 = 15.0;
+/// NiTi resistivity, martensite, Ω·m [S Dynalloy: 76–80 µΩ·cm].
+pub const NITI_RESISTIVITY_M_OHM_M: f64 = 80e-8;
+/// NiTi resistivity, austenite, Ω·m [S Dynalloy: 82–100 µΩ·cm].
+pub const NITI_RESISTIVITY_A_OHM_M: f64 = 90e-8;
+/// Wiring and MOSFET resistance per spring, Ω [E PLANT-REFERENCE: 20–50 mΩ].
+pub const SPRING_LEAD_RESISTANCE_OHM: f64 = 0.03;
+
+// ---------------------------------------------------------------- thermal network
+
+/// PI heater film areal heat capacity (film, adhesive, foil), J/(m²·K) [S/E PLANT-REFERENCE:
+/// Kapton 1420 kg/m³, 1.09 J/g·K → 280 (150–400)].
+pub const HEATER_AREAL_CAPACITY_J_PER_M2K: f64 = 280.0;
+/// SMP wall (both lattice layers) areal heat capacity, J/(m²·K) [F; PLANT-REFERENCE suggests
+/// ≈2.3 k for a solid fraction ≈0.5 — the fit gives the forming time of 50 s, T 6.4.3].
+pub const WALL_AREAL_CAPACITY_J_PER_M2K: f64 = 2178.0;
+/// Share of the wall's capacity in the thick inner layer [D]: 4 mm / (4 + 1.8) mm.
+pub const INNER_LAYER_SHARE: f64 = INNER_LAYER_MM / (INNER_LAYER_MM + OUTER_LAYER_MM);
+/// Heater film → SMP inner layer contact conductance, W/(m²·K) [F].
+pub const H_HEATER_WALL_W_PER_M2K: f64 = 84.2;
+/// SMP inner → outer layer conductance through the lattice, W/(m²·K) [F; a solid 2.5 mm PLA
+/// wall would give k/t = 0.13/0.0025 = 52, S Zmeskal 2020].
+pub const H_WALL_W_PER_M2K: f64 = 54.6;
+/// Outer surface → ambient (natural convection + radiation), W/(m²·K) [F; PLANT-REFERENCE
+/// estimates 11–14 from Churchill–Chu plus ε≈0.93 radiation].
+pub const H_OUTSIDE_W_PER_M2K: f64 = 13.4;
+/// Heater film → duct air, fan full on, W/(m²·K) [F; PLANT-REFERENCE: Gnielinski 27–49].
+pub const H_DUCT_FAN_W_PER_M2K: f64 = 38.9;
+/// Heater film → duct air, fan off (natural convection), W/(m²·K) [S/E PLANT-REFERENCE: 2–5].
+pub const H_DUCT_STILL_W_PER_M2K: f64 = 4.0;
+/// Exponent of the duct coefficient on the fan duty (flow ∝ duty; turbulent h ∝ Re^0.8,
+/// Dittus–Boelter) [S].
+pub const DUCT_FLOW_EXPONENT: f64 = 0.8;
+/// Air flow through the duct at full fan duty, m³/s [S/E PLANT-REFERENCE: Delta AFB0912HH,
+/// 58 CFM free air, ≈14 CFM through the 35 mm duct].
+pub const DUCT_FLOW_FULL_M3_PER_S: f64 = 6.6e-3;
+/// Natural (stack) draught through the duct with the fan off, m³/s [E].
+pub const DUCT_FLOW_STILL_M3_PER_S: f64 = 4.0e-5;
+/// Air density, kg/m³ [S at 298 K].
+pub const AIR_DENSITY_KG_PER_M3: f64 = 1.19;
+/// Air specific heat, J/(kg·K) [S].
+pub const AIR_CP_J_PER_KGK: f64 = 1005.0;
+/// PMMA density, kg/m³ [S material databases].
+pub const PMMA_DENSITY_KG_PER_M3: f64 = 1185.0;
+/// PMMA specific heat, J/(kg·K) [S: 1260–1450].
+pub const PMMA_CP_J_PER_KGK: f64 = 1350.0;
+/// Plate → ambient coefficient (both faces), W/(m²·K) [S/E as the outside coefficient].
+pub const H_PLATE_W_PER_M2K: f64 = 12.0;
+/// Column ends → plates contact conductance (both ends, through the PLA end rings), W/K [E:
+/// 0.13 W/m·K over 2 × 295 mm² and ≈5 mm].
+pub const G_COLUMN_PLATES_W_PER_K: f64 = 0.015;
+
+// ---------------------------------------------------------------- SMA springs
+
+/// Martensite start, K [T 6.3.1].
+pub const SMA_MS_K: f64 = 325.0;
+/// Martensite finish, K [T 6.3.1].
+pub const SMA_MF_K: f64 = 315.0;
+/// Austenite start, K [T 6.3.1].
+pub const SMA_AS_K: f64 = 341.0;
+/// Austenite finish, K [T 6.3.1].
+pub const SMA_AF_K: f64 = 351.0;
+/// Switching temperature of the `Switch` fidelity, K [T 6.3.1: τ_T = (Ms + As)/2].
+pub const SMA_SWITCH_K: f64 = 0.5 * (SMA_MS_K + SMA_AS_K);
+/// Young's modulus, martensite, MPa [T 6.3.1].
+pub const SMA_E_M_MPA: f64 = 28_000.0;
+/// Young's modulus, austenite, MPa [T 6.3.1].
+pub const SMA_E_A_MPA: f64 = 75_000.0;
+/// Poisson's ratio [S PLANT-REFERENCE].
+pub const SMA_POISSON: f64 = 0.33;
+/// Wire diameter, mm [T 6.3.2].
+pub const WIRE_DIAMETER_MM: f64 = 2.3;
+/// Mean coil diameter, mm [F: sets k_A so that one spring bends the hot column ≈42°].
+pub const COIL_DIAMETER_MM: f64 = 38.0;
+/// Active coils [F, with the coil diameter].
+pub const COIL_COUNT: f64 = 24.0;
+/// Natural length cold (martensite), mm [T 6.3.2].
+pub const SPRING_LENGTH_COLD_MM: f64 = 200.0;
+/// Natural length hot (austenite), mm [T 6.3.2].
+pub const SPRING_LENGTH_HOT_MM: f64 = 100.0;
+/// NiTi density, kg/m³ [S Dynalloy].
+pub const NITI_DENSITY_KG_PER_M3: f64 = 6450.0;
+/// NiTi specific heat, J/(kg·K) [S Dynalloy].
+pub const NITI_CP_J_PER_KGK: f64 = 837.0;
+/// NiTi latent heat of transformation, J/kg [S Dynalloy; Resnina 2015: 24 J/g].
+pub const NITI_LATENT_J_PER_KG: f64 = 24_000.0;
+/// Spring wire → ambient (natural convection with coil self-shielding + radiation at ε≈0.3),
+/// W/(m²·K) [S/E PLANT-REFERENCE: 8–15 + 2–5].
+pub const H_SPRING_W_PER_M2K: f64 = 12.0;
+
+/// Shear modulus from E and ν, MPa [D].
+pub const fn shear_mpa(e_mpa: f64) -> f64 {
+    e_mpa / (2.0 * (1.0 + SMA_POISSON))
+}
+/// Wire cross-section, mm² [D].
+pub const WIRE_AREA_MM2: f64 = std::f64::consts::PI / 4.0 * WIRE_DIAMETER_MM * WIRE_DIAMETER_MM;
+/// Wire length of one spring, mm [D]: π·D·n.
+pub const WIRE_LENGTH_MM: f64 = std::f64::consts::PI * COIL_DIAMETER_MM * COIL_COUNT;
+/// Wire mass of one spring, kg [D].
+pub const SPRING_MASS_KG: f64 = WIRE_AREA_MM2 * WIRE_LENGTH_MM * 1e-9 * NITI_DENSITY_KG_PER_M3;
+/// Wire surface area of one spring, m² [D].
+pub const SPRING_AREA_M2: f64 = std::f64::consts::PI * WIRE_DIAMETER_MM * WIRE_LENGTH_MM * 1e-6;
+/// Spring rate k = G·d⁴/(8·D³·n), N/mm [D, S Wahl] for shear modulus `g_mpa`.
+pub const fn spring_rate_n_per_mm(g_mpa: f64) -> f64 {
+    let d2 = WIRE_DIAMETER_MM * WIRE_DIAMETER_MM;
+    let c3 = COIL_DIAMETER_MM * COIL_DIAMETER_MM * COIL_DIAMETER_MM;
+    g_mpa * d2 * d2 / (8.0 * c3 * COIL_COUNT)
+}
+/// Spring rate, austenite, N/mm [D] (≈0.0749).
+pub const SPRING_K_A_N_PER_MM: f64 = spring_rate_n_per_mm(shear_mpa(SMA_E_A_MPA));
+/// Spring rate, martensite, N/mm [D] (≈0.0280).
+pub const SPRING_K_M_N_PER_MM: f64 = spring_rate_n_per_mm(shear_mpa(SMA_E_M_MPA));
+
+// ---------------------------------------------------------------- SMP (PLA lattice)
+
+/// Glass transition (and WLF reference) temperature, K [T 6.3.1].
+pub const SMP_TG_K: f64 = 334.0;
+/// WLF C1 [T 6.3.1].
+pub const WLF_C1: f64 = 6.14;
+/// WLF C2, K [T 6.3.1].
+pub const WLF_C2_K: f64 = 293.0;
+/// Guard on the shift factor: |log10 a_T| ≤ this [PLANT-REFERENCE].
+pub const WLF_LOG10_LIMIT: f64 = 8.0;
+/// Glassy (frozen phase) modulus, MPa [T 6.3.1: 1000 MPa at 298 K].
+pub const SMP_E_GLASSY_MPA: f64 = 1000.0;
+/// Rubbery (active phase) modulus, MPa [S/E: PLA rubbery plateau 2–5 MPa; with the logistic
+/// below it reproduces E(Tg) = 400 MPa, T 6.3.1].
+pub const SMP_E_RUBBERY_MPA: f64 = 3.0;
+/// Width of the logistic frozen fraction φ_f = 1/(1 + e^{(T − T_c)/w}), K [F: with the centre,
+/// the stiffness contrast k_b(323)/k_b(358) ≈ 4.5 and the recovery time, T 6.4.3].
+pub const SMP_PHI_WIDTH_K: f64 = 3.391;
+/// Centre of the logistic frozen fraction, K [D]: placed so that Liu's series law
+/// 1/E = φ_f/E_g + (1 − φ_f)/E_r gives E(Tg) = 400 MPa (−60 %, T 6.3.1).
+pub const SMP_PHI_CENTRE_K: f64 = SMP_TG_K + 5.396_2 * SMP_PHI_WIDTH_K;
+/// Bending stiffness of the lattice per MPa of modulus (open-lattice I_eff/L), N·mm/(rad·MPa)
+/// [F: k_b(323 K) ≈ 1400 N·mm/rad, T 6.4.3; a solid tube would give ≈260, PLANT-REFERENCE].
+pub const SMP_BENDING_PER_MPA_NMM_PER_RAD: f64 = 1.158;
+/// Bending stiffness of the PI heater tube (temperature-independent), N·mm/rad [F: the hot
+/// column's k_b ≈ 1400/4.5 ≈ 311 "is primarily determined by the PI heater", T 6.4.3].
+pub const TUBE_BENDING_NMM_PER_RAD: f64 = 306.9;
+/// Maxwell branch modulus (generalised Maxwell, eq. 6.7), MPa [F: the recovery lag, T 6.4.3].
+pub const SMP_BRANCH_E_MPA: f64 = 500.0;
+/// Maxwell branch relaxation time at Tg, s [F: the recovery lag, T 6.4.3].
+pub const SMP_BRANCH_TAU_S: f64 = 10.0;
+
+// ---------------------------------------------------------------- numerics
+
+/// Default largest internal step, s (the control period).
+pub const DEFAULT_MAX_STEP_S: f64 = 0.5;
+/// Lowest accepted ambient/initial temperature, K.
+pub const MIN_CONFIG_K: f64 = 200.0;
+/// Highest accepted ambient/initial temperature, K.
+pub const MAX_CONFIG_K: f64 = 450.0;
