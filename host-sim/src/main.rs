@@ -5,6 +5,7 @@
 //! - `host-sim decode --eeprom FILE --frame FILE [...]`: decode real sensor dumps to CSV.
 //! - `host-sim mtts --image FILE [...]`: the five region temperatures of an image.
 //! - `host-sim scene NAME`: a rendered standard scene as an image file.
+//! - `host-sim plant-wp [--out FILE]`: the plant's work-precision table.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -69,6 +70,12 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Write the plant's work-precision table (integrator × step × fidelity) as Markdown.
+    PlantWp {
+        /// Output file.
+        #[arg(long, default_value = "docs/plant-work-precision.md")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -111,6 +118,7 @@ fn main() -> ExitCode {
         Command::Scene { name, seed } => {
             host_sim::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
         }
+        Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

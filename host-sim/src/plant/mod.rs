@@ -5,7 +5,7 @@
 //! Submodules: [`params`] (every constant, unit and source), [`thermal`] (network and
 //! integrators), [`sma`] (spring kinetics, enthalpy, supply, force law), [`smp`] (frozen
 //! fraction, modulus, WLF, Maxwell branch), [`mechanics`] (bending balance), [`linalg`] (small
-//! dense solves and the matrix exponential).
+//! dense solves and the matrix exponential), [`wp`] (the work-precision table).
 //!
 //! Each [`Plant::step`] call sub-steps at most [`PlantConfig::max_step_s`]; per sub-step, with
 //! the inputs held (duty-averaged power): the cylinder network and the spring nodes advance with
@@ -19,6 +19,7 @@ pub mod params;
 pub mod sma;
 pub mod smp;
 pub mod thermal;
+pub mod wp;
 
 use mechanics::Balance;
 use smp::SmpState;
