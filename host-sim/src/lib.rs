@@ -4,7 +4,10 @@
 //! - [`data`]: where the shared sensor dumps live.
 //! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files.
-//! - [`plant`]: the simulated block: thermal network, SMA springs, SMP, bending.
+//! - [`plant`]: the simulated block: thermal network, SMA springs, SMP lattice, bending.
+//! - [`plot`]: the PNG plot of a run.
+//! - [`run`]: `host-sim run`, a scene played against the plant, and its outputs.
+//! - [`scenario`]: scene files (TOML) and the bundled scenes.
 //! - [`scene`]: the camera's view of the block, with ground truth.
 //! - [`sim_time`]: the simulated clock and delay.
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
@@ -15,6 +18,9 @@ pub mod dump;
 pub mod eeprom;
 pub mod mtts_cli;
 pub mod plant;
+pub mod plot;
+pub mod run;
+pub mod scenario;
 pub mod scene;
 pub mod sensor_demo;
 pub mod sim_time;

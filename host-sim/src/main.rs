@@ -1,7 +1,10 @@
 //! `host-sim`: Thermorph's simulator on the command line.
 //!
-//! - `host-sim` (or `host-sim sensor`): the main job at this stage — the virtual MLX90640 on a
-//!   simulated I2C bus, read and decoded by the firmware's own driver, with a summary.
+//! - `host-sim` (or `host-sim run [SCENE] [--out DIR]`): the main job — a scene (default: the
+//!   bundled `cycle`) played against the simulated block, writing a CSV time series, a summary
+//!   JSON and a PNG plot, and printing the summary.
+//! - `host-sim sensor`: the virtual MLX90640 on a simulated I2C bus, read and decoded by the
+//!   firmware's own driver, with a summary.
 //! - `host-sim decode --eeprom FILE --frame FILE [...]`: decode real sensor dumps to CSV.
 //! - `host-sim mtts --image FILE [...]`: the five region temperatures of an image.
 //! - `host-sim scene NAME`: a rendered standard scene as an image file.
@@ -41,6 +44,8 @@ enum Command {
         )]
         ta_shift: f32,
     },
+    /// Play a scene against the simulated block; write timeseries.csv, summary.json, plot.png.
+    Run(host_sim::run::RunArgs),
     /// Run the virtual MLX90640 through the firmware's driver and print a summary.
     Sensor(host_sim::sensor_demo::SensorArgs),
     /// Find the five region temperatures of a 24×32 image (CSV, K, `nan` = broken pixel) and
@@ -80,7 +85,10 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command.unwrap_or(Command::Sensor(Default::default())) {
+    let result = match cli.command.unwrap_or(Command::Run(host_sim::run::RunArgs {
+        scene: "cycle".into(),
+        ..Default::default()
+    })) {
         Command::Decode {
             eeprom,
             frames,
@@ -98,6 +106,7 @@ fn main() -> ExitCode {
                 host_sim::decode::write_csv(&img, &mut out).map_err(|e| e.to_string())
             })
         }
+        Command::Run(args) => host_sim::run::cli(&args),
         Command::Sensor(args) => host_sim::sensor_demo::run(&args),
         Command::Mtts {
             image,

@@ -2,9 +2,8 @@
 //!
 //! [`Rig`] wires a [`VirtualMlx90640`] to a [`Mlx90640`] driver on the simulated bus and clock;
 //! [`round_trip`] measures decode(encode(T)) against T; [`run`] is `host-sim sensor`, the
-//! simulator's main job until the plant model arrives: it shows a stand-in scene (a warm
-//! cylinder with hotter heater stripes on a room background — the MTTS scene renderer will
-//! replace it), prints each whole frame's statistics against the truth, and the round-trip
+//! sensor chain alone: it shows a fixed scene (a warm cylinder with hotter heater stripes on a
+//! room background; `host-sim run` with the camera on drives the sensor from the plant), prints each whole frame's statistics against the truth, and the round-trip
 //! error per ADC resolution.
 
 use clap::Args;
@@ -186,7 +185,7 @@ impl Default for SensorArgs {
     }
 }
 
-/// The stand-in scene: room background, a warm cylinder across the middle columns with hotter
+/// The fixed scene: room background, a warm cylinder across the middle columns with hotter
 /// stripes where heaters show through the lattice, K.
 pub fn demo_scene() -> [f32; PIXELS] {
     let mut f = [298.0f32; PIXELS];

@@ -450,7 +450,7 @@ impl Plant {
         let g = if self.options.adiabatic {
             0.0
         } else {
-            sma::ambient_w_per_k()
+            sma::ambient_w_per_k(fan)
         };
         for (i, s) in self.springs.iter_mut().enumerate() {
             let t_sens =

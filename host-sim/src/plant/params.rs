@@ -139,6 +139,11 @@ pub const NITI_LATENT_J_PER_KG: f64 = 24_000.0;
 /// Spring wire → ambient (natural convection with coil self-shielding + radiation at ε≈0.3),
 /// W/(m²·K) [S/E PLANT-REFERENCE: 8–15 + 2–5].
 pub const H_SPRING_W_PER_M2K: f64 = 12.0;
+/// Extra spring wire → air coefficient at full fan duty (linear in duty), W/(m²·K) [E
+/// PLANT-REFERENCE: a spring's time constant is 150–240 s in still air and 20–30 s in fan air
+/// where the fan's outer annulus reaches it; 110 W/m²K more gives ≈ 26 s, so springs switched
+/// off at the start of forming are martensitic again by its end].
+pub const H_SPRING_FAN_FULL_W_PER_M2K: f64 = 110.0;
 
 /// Shear modulus from E and ν, MPa [D].
 pub const fn shear_mpa(e_mpa: f64) -> f64 {

@@ -70,9 +70,9 @@ pub fn latent_j(fidelity: SmaFidelity) -> f64 {
     }
 }
 
-/// Conductance of one spring to ambient, W/K.
-pub fn ambient_w_per_k() -> f64 {
-    p::H_SPRING_W_PER_M2K * p::SPRING_AREA_M2
+/// Conductance of one spring to ambient at fan duty `fan` (0…1), W/K.
+pub fn ambient_w_per_k(fan: f64) -> f64 {
+    (p::H_SPRING_W_PER_M2K + fan * p::H_SPRING_FAN_FULL_W_PER_M2K) * p::SPRING_AREA_M2
 }
 
 /// Enthalpy of one spring, J (from 0 K, martensite).

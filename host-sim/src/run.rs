@@ -1,0 +1,816 @@
+//! `host-sim run`: a scene played against the plant, with its time series, summary and plot.
+//!
+//! This module owns the run loop and its outputs. Each control period (the scene's `period`,
+//! ≤ 0.5 s) the runner applies the scene's due actions and active faults to the actuator
+//! inputs, advances the [`Plant`], and measures the region temperatures the controller would
+//! see:
+//! - camera off: the true temperatures straight from the plant (region 1 = heater film,
+//!   2 = SMP outer surface, 3–5 from them and the ambient as in [`camera_temps`]);
+//! - camera on: the plant's surface temperatures are rendered into the camera's view
+//!   ([`crate::scene::render`]; the column's tilt in the image is half its bending angle —
+//!   the chord of a constant-curvature arc — projected on the image plane), encoded by the
+//!   virtual MLX90640, read over the simulated I2C bus by the firmware's own driver at 8 Hz
+//!   subpages, and turned into region temperatures by the firmware's MTTS on every whole frame.
+//!
+//! A sensor fault with the camera off means no measurement at all (`nan` in the CSV). Outputs,
+//! written by [`write_outputs`] into one folder: `timeseries.csv` (one row a period),
+//! `summary.json` ([`Summary`]: run figures and the SPEC section 8 figures that an open-loop
+//! scene shows, beside the thesis's) and `plot.png` ([`crate::plot`]).
+
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+use serde::Serialize;
+use thermorph::mlx90640::{Config as SensorConfig, DecodeParams, PIXELS};
+use thermorph::mtts::{self, Mtts, REGIONS, Scratch};
+
+use crate::plant::{Inputs, Observation, Plant, PlantConfig};
+use crate::scenario::{FaultKind, Scenario};
+use crate::scene::{self, Geometry, Temps};
+use crate::sensor_demo::Rig;
+
+/// One control period of a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Row {
+    /// The inputs the plant was given (after faults).
+    pub inputs: Inputs,
+    /// Spring MOSFETs as commanded (before a stuck-MOSFET fault).
+    pub springs_cmd: [bool; 3],
+    /// The plant at the end of the period.
+    pub obs: Observation,
+    /// Region temperatures 1–5 as measured (camera on) or true (camera off), K; `None`
+    /// while the sensor has no good frame.
+    pub measured_k: Option<[f64; REGIONS]>,
+    /// True region temperatures 1–5, K.
+    pub truth_k: [f64; REGIONS],
+    /// Bit mask of the scene's faults active in this period (bit i = fault i).
+    pub faults: u32,
+}
+
+/// The camera chain: renderer → virtual MLX90640 → firmware driver → MTTS.
+struct Camera {
+    rig: Rig,
+    mtts: Mtts,
+    scratch: Box<Scratch>,
+    params: DecodeParams,
+    subpages: u64,
+    frames: u64,
+    errors: u64,
+    last: Option<[f64; REGIONS]>,
+    field: [f32; PIXELS],
+}
+
+impl Camera {
+    fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
+        let rig = Rig::realistic(seed, SensorConfig::default())?;
+        rig.set_noise(noise_k);
+        Ok(Camera {
+            rig,
+            mtts: Mtts::new(mtts::Config::default()).map_err(|e| e.to_string())?,
+            scratch: Box::new(Scratch::new()),
+            params: DecodeParams::default(),
+            subpages: 0,
+            frames: 0,
+            errors: 0,
+            last: None,
+            field: [0.0; PIXELS],
+        })
+    }
+
+    /// Show the sensor the block as it is now, read subpages until the sensor's clock reaches
+    /// `t_s`, and return the latest region temperatures.
+    fn update(
+        &mut self,
+        obs: &Observation,
+        fault: Option<crate::virtual_mlx::Fault>,
+        t_s: f64,
+    ) -> Option<[f64; REGIONS]> {
+        let temps = camera_temps(obs);
+        let plane = obs.bend_plane_deg.to_radians();
+        let geometry = Geometry {
+            tilt_deg: 0.5 * obs.bend_deg * plane.cos(),
+            springs: true,
+            ..Geometry::default()
+        };
+        let r = scene::render(
+            &geometry,
+            &temps,
+            &scene::Options {
+                subgrid: 4,
+                noise_k: 0.0,
+                seed: 0,
+            },
+        );
+        self.field = r.image_k;
+        self.rig.set_field(&self.field);
+        self.rig.bus.0.borrow_mut().set_fault(fault);
+        let t_end_us = (t_s * 1e6) as u64;
+        while self.rig.clock.now_us() < t_end_us {
+            match self.rig.step(&self.params) {
+                Ok(subpage) => {
+                    self.subpages += 1;
+                    if subpage == 1 && self.subpages >= 2 {
+                        self.frames += 1;
+                        self.last = match self.mtts.process(&self.rig.image.to_k, &mut self.scratch)
+                        {
+                            Ok(out) => {
+                                Some(core::array::from_fn(|i| out.regions[i].temp.k() as f64))
+                            }
+                            Err(_) => {
+                                self.errors += 1;
+                                None
+                            }
+                        };
+                    }
+                }
+                Err(_) => {
+                    // The board's sensor task reports the error and the controller sees no
+                    // measurement until a good frame comes; a refused transfer takes no time
+                    // here, so wait for the next period.
+                    self.errors += 1;
+                    self.last = None;
+                    self.rig
+                        .clock
+                        .advance_us(t_end_us - self.rig.clock.now_us());
+                }
+            }
+        }
+        self.last
+    }
+}
+
+/// The five region temperatures the camera sees, from the plant: the heater film through
+/// the lattice gaps, the SMP outer surface, the edges (seen at grazing angles: 70 % of the
+/// way from the background to the surface), the radiation zone (25 %), the background (the
+/// ambient), and the springs (their mean).
+pub fn camera_temps(obs: &Observation) -> Temps {
+    let bg = obs.ambient_k;
+    let t2 = obs.smp_outer_k;
+    Temps {
+        heater_k: obs.heater_k,
+        surface_k: t2,
+        edge_k: bg + 0.7 * (t2 - bg),
+        radiation_k: bg + 0.25 * (t2 - bg),
+        background_k: bg,
+        spring_k: obs.springs_k.iter().sum::<f64>() / 3.0,
+    }
+}
+
+/// Everything a run produced.
+#[derive(Clone, Debug)]
+pub struct RunResult {
+    /// One row per control period.
+    pub rows: Vec<Row>,
+    /// The summary.
+    pub summary: Summary,
+}
+
+/// One figure of SPEC section 8, as simulated, beside the thesis's value.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Figure {
+    /// What it is.
+    pub name: String,
+    /// Unit of `simulated` and `thesis`.
+    pub unit: String,
+    /// Measured in this run (`None`: the scene does not show it).
+    pub simulated: Option<f64>,
+    /// The thesis's value.
+    pub thesis: f64,
+    /// How it is measured.
+    pub how: String,
+}
+
+/// MTTS accuracy over a camera-on run.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct CameraStats {
+    /// Whole frames turned into regions.
+    pub frames: u64,
+    /// Sensor or MTTS errors.
+    pub errors: u64,
+    /// Mean |T1 measured − true| over the periods with a measurement, K.
+    pub mean_abs_t1_err_k: f64,
+    /// Largest |T1 measured − true|, K.
+    pub max_abs_t1_err_k: f64,
+    /// Mean |T2 measured − true|, K.
+    pub mean_abs_t2_err_k: f64,
+    /// Largest |T2 measured − true|, K.
+    pub max_abs_t2_err_k: f64,
+}
+
+/// A run's summary (written as `summary.json`).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Summary {
+    /// Scene name.
+    pub scene: String,
+    /// Scene description.
+    pub description: String,
+    /// Simulated time, s.
+    pub duration_s: f64,
+    /// Control period, s.
+    pub period_s: f64,
+    /// Control periods simulated.
+    pub steps: usize,
+    /// Plant fidelity, as `thermal/sma/smp/mechanics`.
+    pub fidelity: String,
+    /// Whether the camera chain ran.
+    pub camera: bool,
+    /// Wall time of the simulation loop, s.
+    pub wall_s: f64,
+    /// Simulated seconds per wall second.
+    pub real_time_factor: f64,
+    /// Highest heater film temperature, K.
+    pub max_heater_k: f64,
+    /// Highest SMP outer-surface temperature, K.
+    pub max_smp_outer_k: f64,
+    /// Largest bending angle, degrees.
+    pub max_bend_deg: f64,
+    /// Bending angle at the end, degrees.
+    pub final_bend_deg: f64,
+    /// Lowest and highest bending stiffness, N·mm/rad.
+    pub k_b_range_nmm_per_rad: [f64; 2],
+    /// Periods without a measurement.
+    pub periods_without_measurement: usize,
+    /// MTTS accuracy (camera on only).
+    pub camera_stats: Option<CameraStats>,
+    /// The SPEC section 8 figures.
+    pub figures: Vec<Figure>,
+}
+
+/// Play `scenario`; `progress` is called after each period with the fraction done.
+pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResult, String> {
+    let mut plant = Plant::new(&PlantConfig {
+        ambient_k: scenario.ambient_k,
+        initial_k: scenario.initial_k,
+        fidelity: scenario.fidelity,
+        integrator: scenario.integrator,
+        max_step_s: scenario.max_step_s,
+    })?;
+    let mut camera = if scenario.camera.enabled {
+        Some(Camera::new(scenario.camera.seed, scenario.camera.noise_k)?)
+    } else {
+        None
+    };
+    let steps = (scenario.duration_s / scenario.period_s).round().max(1.0) as usize;
+    let mut rows = Vec::with_capacity(steps);
+    let mut cmd = Inputs::default();
+    let mut next_action = 0;
+    let started = Instant::now();
+    for k in 0..steps {
+        let t0_s = k as f64 * scenario.period_s;
+        let t1_s = (k + 1) as f64 * scenario.period_s;
+        while let Some(a) = scenario
+            .actions
+            .get(next_action)
+            .filter(|a| a.at_s <= t0_s + 1e-9)
+        {
+            if let Some(d) = a.heater_duty {
+                cmd.heater_duty = d;
+            }
+            if let Some(d) = a.fan_duty {
+                cmd.fan_duty = d;
+            }
+            if let Some(s) = a.springs_on {
+                cmd.springs_on = s;
+            }
+            next_action += 1;
+        }
+        let mut inputs = cmd;
+        let mut faults = 0u32;
+        let mut sensor_fault = None;
+        for (i, f) in scenario.faults.iter().enumerate() {
+            if !f.active(t0_s) {
+                continue;
+            }
+            faults |= 1 << i.min(31);
+            match f.kind {
+                FaultKind::HeaterOpen => inputs.heater_open = true,
+                FaultKind::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
+                FaultKind::Sensor(s) => sensor_fault = Some(s),
+            }
+        }
+        plant.step(&inputs, t1_s - t0_s);
+        let obs = plant.observe();
+        let truth_k = camera_temps(&obs).regions();
+        let measured_k = match camera.as_mut() {
+            Some(c) => c.update(&obs, sensor_fault, t1_s),
+            None if sensor_fault.is_some() => None,
+            None => Some(truth_k),
+        };
+        rows.push(Row {
+            inputs,
+            springs_cmd: cmd.springs_on,
+            obs,
+            measured_k,
+            truth_k,
+            faults,
+        });
+        progress((k + 1) as f64 / steps as f64);
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+    let summary = summarise(scenario, &rows, wall_s, camera.as_ref());
+    Ok(RunResult { rows, summary })
+}
+
+fn summarise(scenario: &Scenario, rows: &[Row], wall_s: f64, camera: Option<&Camera>) -> Summary {
+    let f = scenario.fidelity;
+    let fold = |get: &dyn Fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| {
+        rows.iter().map(get).fold(init, op)
+    };
+    let camera_stats = camera.map(|c| {
+        let errs: Vec<(f64, f64)> = rows
+            .iter()
+            .filter_map(|r| {
+                r.measured_k
+                    .map(|m| ((m[0] - r.truth_k[0]).abs(), (m[1] - r.truth_k[1]).abs()))
+            })
+            .collect();
+        let n = errs.len().max(1) as f64;
+        CameraStats {
+            frames: c.frames,
+            errors: c.errors,
+            mean_abs_t1_err_k: errs.iter().map(|e| e.0).sum::<f64>() / n,
+            max_abs_t1_err_k: errs.iter().map(|e| e.0).fold(0.0, f64::max),
+            mean_abs_t2_err_k: errs.iter().map(|e| e.1).sum::<f64>() / n,
+            max_abs_t2_err_k: errs.iter().map(|e| e.1).fold(0.0, f64::max),
+        }
+    });
+    let duration_s = rows.last().map_or(0.0, |r| r.obs.time_s);
+    Summary {
+        scene: scenario.name.clone(),
+        description: scenario.description.clone(),
+        duration_s,
+        period_s: scenario.period_s,
+        steps: rows.len(),
+        fidelity: format!(
+            "{:?}/{:?}/{:?}/{}",
+            f.thermal,
+            f.sma,
+            f.smp,
+            if f.mechanics {
+                "mechanics"
+            } else {
+                "no-mechanics"
+            }
+        )
+        .to_lowercase(),
+        camera: scenario.camera.enabled,
+        wall_s,
+        real_time_factor: if wall_s > 0.0 {
+            duration_s / wall_s
+        } else {
+            f64::INFINITY
+        },
+        max_heater_k: fold(&|r| r.obs.heater_k, f64::MIN, f64::max),
+        max_smp_outer_k: fold(&|r| r.obs.smp_outer_k, f64::MIN, f64::max),
+        max_bend_deg: fold(&|r| r.obs.bend_deg, 0.0, f64::max),
+        final_bend_deg: rows.last().map_or(0.0, |r| r.obs.bend_deg),
+        k_b_range_nmm_per_rad: [
+            fold(&|r| r.obs.k_b_nmm_per_rad, f64::MAX, f64::min),
+            fold(&|r| r.obs.k_b_nmm_per_rad, f64::MIN, f64::max),
+        ],
+        periods_without_measurement: rows.iter().filter(|r| r.measured_k.is_none()).count(),
+        camera_stats,
+        figures: figures(rows),
+    }
+}
+
+/// First time in `rows[from..]` where `pred` holds, s.
+fn first_time(rows: &[Row], from: usize, pred: impl Fn(&Row) -> bool) -> Option<(usize, f64)> {
+    rows.iter()
+        .enumerate()
+        .skip(from)
+        .find(|(_, r)| pred(r))
+        .map(|(i, r)| (i, r.obs.time_s))
+}
+
+/// The SPEC section 8 figures that an open-loop run shows. Phases are found from the inputs:
+/// *forming* starts at the first period with the heater off, the fan on and the column bent
+/// by more than 5°; *recovery* at the first later period with the heater on and every spring
+/// off. Start of period k is `time_s − period`.
+pub fn figures(rows: &[Row]) -> Vec<Figure> {
+    let period_s = match rows {
+        [a, b, ..] => b.obs.time_s - a.obs.time_s,
+        [a] => a.obs.time_s,
+        [] => 0.0,
+    };
+    let start = |i: usize| rows[i].obs.time_s - period_s;
+    let heat_323 = (rows.first().is_some_and(|r| r.obs.heater_k < 323.0))
+        .then(|| first_time(rows, 0, |r| r.obs.heater_k >= 323.0).map(|(_, t)| t))
+        .flatten();
+    let loaded = |n: usize| {
+        let v = rows
+            .iter()
+            .filter(|r| r.inputs.springs_on.iter().filter(|s| **s).count() == n)
+            .map(|r| r.obs.bend_deg)
+            .fold(f64::NAN, f64::max);
+        (!v.is_nan()).then_some(v)
+    };
+    let forming = first_time(rows, 0, |r| {
+        r.inputs.heater_duty == 0.0 && r.inputs.fan_duty > 0.0 && r.obs.bend_deg > 5.0
+    });
+    let formed = forming.and_then(|(i, _)| {
+        first_time(rows, i, |r| r.obs.smp_outer_k <= 323.0).map(|(j, t)| (j, t - start(i)))
+    });
+    let k_b_hot = forming.map(|(i, _)| rows[i.saturating_sub(1)].obs.k_b_nmm_per_rad);
+    let k_b_formed = formed.map(|(j, _)| rows[j].obs.k_b_nmm_per_rad);
+    let recovery_start = forming.and_then(|(i, _)| {
+        first_time(rows, i, |r| {
+            r.inputs.heater_duty > 0.0 && !r.inputs.springs_on.iter().any(|s| *s)
+        })
+    });
+    let reheat_358 = recovery_start.and_then(|(i, _)| {
+        first_time(rows, i, |r| r.obs.heater_k >= 358.0).map(|(_, t)| t - start(i))
+    });
+    let recovered = recovery_start.and_then(|(i, _)| {
+        first_time(rows, i, |r| r.obs.bend_deg <= 2.0).map(|(_, t)| t - start(i))
+    });
+    let fig = |name: &str, unit: &str, simulated: Option<f64>, thesis: f64, how: &str| Figure {
+        name: name.into(),
+        unit: unit.into(),
+        simulated,
+        thesis,
+        how: how.into(),
+    };
+    vec![
+        fig(
+            "standby heat-up",
+            "s",
+            heat_323,
+            10.0,
+            "heater film from the start to 323 K",
+        ),
+        fig(
+            "full loading, one spring",
+            "deg",
+            loaded(1),
+            42.0,
+            "largest bend with one spring on",
+        ),
+        fig(
+            "full loading, two springs",
+            "deg",
+            loaded(2),
+            65.0,
+            "largest bend with two springs on",
+        ),
+        fig(
+            "forming",
+            "s",
+            formed.map(|f| f.1),
+            50.0,
+            "from heater off + fan on (bent) to the SMP outer surface at 323 K",
+        ),
+        fig(
+            "formed stiffness",
+            "N·mm/rad",
+            k_b_formed,
+            1400.0,
+            "k_b when forming reaches 323 K",
+        ),
+        fig(
+            "stiffness ratio formed/heated",
+            "",
+            k_b_formed.zip(k_b_hot).map(|(a, b)| a / b),
+            4.5,
+            "k_b at 323 K after forming over k_b just before forming",
+        ),
+        fig(
+            "reheat to 358 K",
+            "s",
+            reheat_358,
+            25.0,
+            "from recovery start (heater on, springs off) to the heater film at 358 K",
+        ),
+        fig(
+            "recovery",
+            "s",
+            recovered,
+            40.0,
+            "from recovery start to within 2° of straight",
+        ),
+    ]
+}
+
+/// Write `timeseries.csv`, `summary.json` and `plot.png` into `dir` (created if missing).
+pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
+    let csv = dir.join("timeseries.csv");
+    let mut buf = Vec::with_capacity(result.rows.len() * 300);
+    write_csv(&result.rows, &mut buf).map_err(|e| e.to_string())?;
+    std::fs::write(&csv, buf).map_err(|e| format!("{}: {e}", csv.display()))?;
+    let json = dir.join("summary.json");
+    let text = serde_json::to_string_pretty(&result.summary).map_err(|e| e.to_string())?;
+    std::fs::write(&json, text + "\n").map_err(|e| format!("{}: {e}", json.display()))?;
+    let png = dir.join("plot.png");
+    crate::plot::write_png(&result.rows, &result.summary.scene, &png)?;
+    Ok(())
+}
+
+/// The CSV header.
+pub const CSV_HEADER: &str = "time_s,heater_duty_pct,fan_duty_pct,spring_a,spring_b,spring_c,\
+heater_k,smp_inner_k,smp_outer_k,duct_air_k,spring_a_k,spring_b_k,spring_c_k,\
+austenite_a,austenite_b,austenite_c,frozen_fraction,bend_deg,bend_plane_deg,k_b_nmm_per_rad,\
+heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults";
+
+/// Write the time series as CSV (`nan` where there is no measurement).
+pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
+    writeln!(out, "{CSV_HEADER}")?;
+    for r in rows {
+        let o = &r.obs;
+        let s = |b: bool| u8::from(b);
+        write!(
+            out,
+            "{:.3},{:.1},{:.1},{},{},{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{:.4},{:.3},{:.2},{:.1},{:.3},{:.3}",
+            o.time_s,
+            100.0 * r.inputs.heater_duty,
+            100.0 * r.inputs.fan_duty,
+            s(r.inputs.springs_on[0]),
+            s(r.inputs.springs_on[1]),
+            s(r.inputs.springs_on[2]),
+            o.heater_k,
+            o.smp_inner_k,
+            o.smp_outer_k,
+            o.duct_air_k,
+            o.springs_k[0],
+            o.springs_k[1],
+            o.springs_k[2],
+            o.austenite[0],
+            o.austenite[1],
+            o.austenite[2],
+            o.frozen_fraction,
+            o.bend_deg,
+            o.bend_plane_deg,
+            o.k_b_nmm_per_rad,
+            o.heater_power_w,
+            o.spring_power_w.iter().sum::<f64>(),
+        )?;
+        for i in 0..REGIONS {
+            match r.measured_k {
+                Some(m) => write!(out, ",{:.3}", m[i])?,
+                None => write!(out, ",nan")?,
+            }
+        }
+        writeln!(out, ",{}", r.faults)?;
+    }
+    Ok(())
+}
+
+/// Print the summary for a person: the run, then the figures beside the thesis's.
+pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "scene {}: {} ({} periods of {} s, fidelity {}, camera {})",
+        s.scene,
+        s.description,
+        s.steps,
+        s.period_s,
+        s.fidelity,
+        if s.camera { "on" } else { "off" }
+    )?;
+    writeln!(
+        out,
+        "simulated {:.1} s in {:.3} s wall ({:.0}× real time)",
+        s.duration_s, s.wall_s, s.real_time_factor
+    )?;
+    writeln!(
+        out,
+        "max heater {:.1} K, max SMP surface {:.1} K, max bend {:.1}°, final bend {:.1}°, k_b {:.0}–{:.0} N·mm/rad",
+        s.max_heater_k,
+        s.max_smp_outer_k,
+        s.max_bend_deg,
+        s.final_bend_deg,
+        s.k_b_range_nmm_per_rad[0],
+        s.k_b_range_nmm_per_rad[1]
+    )?;
+    if let Some(c) = &s.camera_stats {
+        writeln!(
+            out,
+            "camera: {} frames, {} errors; |T1 − truth| mean {:.2} K max {:.2} K, |T2 − truth| mean {:.2} K max {:.2} K",
+            c.frames,
+            c.errors,
+            c.mean_abs_t1_err_k,
+            c.max_abs_t1_err_k,
+            c.mean_abs_t2_err_k,
+            c.max_abs_t2_err_k
+        )?;
+    }
+    if s.periods_without_measurement > 0 {
+        writeln!(
+            out,
+            "periods without a measurement: {}",
+            s.periods_without_measurement
+        )?;
+    }
+    writeln!(
+        out,
+        "{:<32} {:>10} {:>10}  unit",
+        "figure", "simulated", "thesis"
+    )?;
+    for f in &s.figures {
+        let sim = f.simulated.map_or("—".to_string(), |v| format!("{v:.1}"));
+        writeln!(
+            out,
+            "{:<32} {:>10} {:>10}  {}",
+            f.name, sim, f.thesis, f.unit
+        )?;
+    }
+    Ok(())
+}
+
+/// Arguments of `host-sim run`.
+#[derive(clap::Args, Debug, Default, Clone)]
+pub struct RunArgs {
+    /// Scene: a bundled name (cycle, cycle-camera, faults) or a TOML file.
+    #[arg(default_value = "cycle")]
+    pub scene: String,
+    /// Output folder (default: `runs/<scene name>`).
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
+    /// No progress bar and no summary on standard output.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// A progress bar on standard error, drawn only on a terminal and only once a run has taken
+/// more than a second.
+pub struct Progress {
+    started: Instant,
+    enabled: bool,
+    drawn: bool,
+    last_pct: i64,
+}
+
+impl Progress {
+    /// A bar, enabled if `enabled` and standard error is a terminal.
+    pub fn new(enabled: bool) -> Self {
+        use std::io::IsTerminal;
+        Progress {
+            started: Instant::now(),
+            enabled: enabled && std::io::stderr().is_terminal(),
+            drawn: false,
+            last_pct: -1,
+        }
+    }
+
+    /// The bar's text at `fraction` done after `elapsed_s` of wall time.
+    pub fn line(fraction: f64, elapsed_s: f64) -> String {
+        let f = fraction.clamp(0.0, 1.0);
+        let filled = (f * 30.0).round() as usize;
+        let eta_s = if f > 0.0 {
+            elapsed_s * (1.0 - f) / f
+        } else {
+            0.0
+        };
+        format!(
+            "[{}{}] {:3.0}%  {:.1} s, about {:.0} s left",
+            "#".repeat(filled),
+            "-".repeat(30 - filled),
+            100.0 * f,
+            elapsed_s,
+            eta_s
+        )
+    }
+
+    /// Report `fraction` done.
+    pub fn update(&mut self, fraction: f64) {
+        if !self.enabled {
+            return;
+        }
+        let elapsed_s = self.started.elapsed().as_secs_f64();
+        let pct = (fraction * 100.0) as i64;
+        if elapsed_s < 1.0 || pct == self.last_pct {
+            return;
+        }
+        self.last_pct = pct;
+        self.drawn = true;
+        eprint!("\r{}", Self::line(fraction, elapsed_s));
+    }
+
+    /// Finish the bar's line if one was drawn.
+    pub fn finish(&mut self) {
+        if self.drawn {
+            eprintln!();
+            self.drawn = false;
+        }
+    }
+}
+
+/// `host-sim run`: load the scene, run it with a progress bar, write the outputs, print the
+/// summary.
+pub fn cli(args: &RunArgs) -> Result<(), String> {
+    let scenario = crate::scenario::load(&args.scene)?;
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("runs").join(&scenario.name));
+    let mut bar = Progress::new(!args.quiet);
+    let result = run(&scenario, &mut |f| bar.update(f));
+    bar.finish();
+    let result = result?;
+    write_outputs(&result, &dir)?;
+    if !args.quiet {
+        let stdout = std::io::stdout();
+        let mut out = stdout.lock();
+        print_summary(&result.summary, &mut out).map_err(|e| e.to_string())?;
+        writeln!(
+            out,
+            "wrote {0}/timeseries.csv, {0}/summary.json, {0}/plot.png",
+            dir.display()
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A synthetic run: heat 0–20 s, springs AB 10–40 s (bend rises 3°/s to 60°), form
+    /// 40–70 s (the surface falls 1 K/s from 360 K), recover from 70 s (bend falls 2°/s).
+    fn rows() -> Vec<Row> {
+        (1..=100)
+            .map(|k| {
+                let t = k as f64;
+                let mut inputs = Inputs::default();
+                let (heater_k, outer_k) = if t <= 40.0 {
+                    (298.0 + 2.5 * t.min(30.0), 298.0 + 2.0 * t.min(31.0))
+                } else {
+                    (350.0 - (t - 40.0).min(30.0), 360.0 - (t - 40.0).min(30.0))
+                };
+                inputs.heater_duty = if t <= 40.0 || t > 70.0 { 1.0 } else { 0.0 };
+                inputs.fan_duty = if t > 40.0 && t <= 70.0 { 1.0 } else { 0.0 };
+                inputs.springs_on = [t > 10.0 && t <= 70.0, t > 10.0 && t <= 70.0, false];
+                let bend_deg = if t <= 70.0 {
+                    (3.0 * (t - 10.0)).clamp(0.0, 60.0)
+                } else {
+                    (60.0 - 2.0 * (t - 70.0)).max(0.0)
+                };
+                let obs = Observation {
+                    time_s: t,
+                    heater_k,
+                    smp_inner_k: outer_k,
+                    smp_outer_k: outer_k,
+                    duct_air_k: outer_k,
+                    ambient_k: 298.0,
+                    springs_k: [300.0; 3],
+                    austenite: [0.0; 3],
+                    frozen_fraction: 0.0,
+                    bend_deg,
+                    bend_plane_deg: 0.0,
+                    k_b_nmm_per_rad: if t <= 40.0 {
+                        300.0
+                    } else {
+                        300.0 + 40.0 * (t - 40.0)
+                    },
+                    heater_power_w: 0.0,
+                    spring_power_w: [0.0; 3],
+                };
+                let truth_k = camera_temps(&obs).regions();
+                Row {
+                    inputs,
+                    springs_cmd: inputs.springs_on,
+                    obs,
+                    measured_k: Some(truth_k),
+                    truth_k,
+                    faults: 0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn figures_find_the_phases() {
+        let f = figures(&rows());
+        let get = |name: &str| f.iter().find(|x| x.name == name).unwrap().simulated;
+        // 298 + 2.5 t ≥ 323 first at t = 10 s.
+        assert_eq!(get("standby heat-up"), Some(10.0));
+        assert_eq!(get("full loading, two springs"), Some(60.0));
+        assert_eq!(get("full loading, one spring"), None);
+        // Forming starts with period 41 (start 40 s), but the surface stops falling at 330 K.
+        assert_eq!(get("forming"), None);
+        assert_eq!(get("formed stiffness"), None);
+        // Recovery starts with period 71 (start 70 s); 60 − 2 (t − 70) ≤ 2 first at t = 99 s.
+        assert_eq!(get("recovery"), Some(29.0));
+    }
+
+    #[test]
+    fn figures_of_a_formed_block() {
+        let mut rows = rows();
+        for r in rows
+            .iter_mut()
+            .filter(|r| r.obs.time_s > 40.0 && r.obs.time_s <= 70.0)
+        {
+            r.obs.smp_outer_k = 360.0 - 1.5 * (r.obs.time_s - 40.0);
+        }
+        let f = figures(&rows);
+        let get = |name: &str| f.iter().find(|x| x.name == name).unwrap().simulated;
+        // 360 − 1.5 (t − 40) ≤ 323 first at t = 65 s: 25 s after forming started at 40 s.
+        assert_eq!(get("forming"), Some(25.0));
+        assert_eq!(get("formed stiffness"), Some(300.0 + 40.0 * 25.0));
+        assert_eq!(get("stiffness ratio formed/heated"), Some(1300.0 / 300.0));
+        // 60 − 2 (t − 70) ≤ 2 first at t = 99 s: 29 s after recovery started at 70 s.
+        assert_eq!(get("recovery"), Some(29.0));
+    }
+}

@@ -1,0 +1,1015 @@
+//! Scene files: what a simulator run does, read from TOML and checked before anything runs.
+//!
+//! This module owns the scene-file format and its bundled scenes (`host-sim/scenes/*.toml`,
+//! built into the binary). (The camera renderer of one image is [`crate::scene`]; a scene
+//! *file* here is a whole run.) A file gives:
+//!
+//! ```toml
+//! name = "cycle"                 # optional; the file's stem otherwise
+//! description = "…"              # optional
+//! duration = "240 s"             # required: "90 s", "250 ms", "1.5 min", "1:30", "0:01:30"
+//! ambient = "298.15 K"           # required: "298.15 K" or "25 °C" (or "25 C")
+//! initial = "298.15 K"           # optional (default: the ambient), every node starts here
+//! period = "0.5 s"               # optional (default 0.5 s): control and sample period
+//!
+//! [fidelity]                     # optional; every key optional (defaults: the full model)
+//! thermal = "full"               # full | lumped
+//! sma = "hysteretic"             # hysteretic | switch
+//! smp = "viscoelastic"           # viscoelastic | elastic
+//! mechanics = true
+//! camera = false                 # true: rendered → virtual MLX90640 → driver → MTTS
+//! integrator = "zoh"             # zoh | backward-euler | tr-bdf2
+//! max_step = "0.5 s"             # largest internal plant step
+//!
+//! [camera]                       # optional
+//! noise = "0.1 K"                # sensor noise rms (NETD)
+//! seed = 1                       # noise and sensor-calibration seed
+//!
+//! [[action]]                     # any number, in any order; each sets only what it names
+//! at = "0 s"
+//! heater = "100 %"               # heater PWM duty, 0–100 %
+//! fan = "0 %"                    # fan PWM duty, 0–100 %
+//! springs = "AB"                 # the springs switched on: any of A, B, C, or "none"
+//!
+//! [[fault]]                      # injected faults, active from `at` until `until` (or the end)
+//! at = "60 s"
+//! until = "80 s"                 # optional
+//! kind = "heater-open"           # heater-open | stuck-spring | sensor
+//! spring = "B"                   # stuck-spring: which MOSFET
+//! stuck = "on"                   # stuck-spring: on | off
+//! sensor = "nack"                # sensor: nack | stuck | corrupt | frozen
+//! ```
+//!
+//! Quantities carry their unit in the string, so `ambient = 298` or `duration = "90"` is an
+//! error, as is an unknown key, a value out of range, a malformed time or an action after the
+//! end. Every error names the file, the line and the key.
+
+use std::ops::Range;
+use std::path::Path;
+
+use crate::plant::{Fidelity, Integrator, SmaFidelity, SmpFidelity, ThermalFidelity};
+use crate::virtual_mlx::Fault as SensorFault;
+
+/// The bundled scenes: (name, TOML text). The first is the default of `host-sim run`.
+pub const BUNDLED: [(&str, &str); 3] = [
+    ("cycle", include_str!("../scenes/cycle.toml")),
+    ("cycle-camera", include_str!("../scenes/cycle-camera.toml")),
+    ("faults", include_str!("../scenes/faults.toml")),
+];
+
+/// Highest control period a scene may ask for, s (the firmware's control period).
+pub const MAX_PERIOD_S: f64 = 0.5;
+/// Longest scene, s (a simulated week).
+pub const MAX_DURATION_S: f64 = 7.0 * 86_400.0;
+/// Ambient range a scene may ask for, K.
+pub const AMBIENT_RANGE_K: (f64, f64) = (233.15, 353.15);
+/// Initial-temperature range, K.
+pub const INITIAL_RANGE_K: (f64, f64) = (233.15, 423.15);
+
+/// Camera settings of a scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSettings {
+    /// Render the camera's view and read it through the virtual sensor and MTTS.
+    pub enabled: bool,
+    /// Sensor noise, K rms.
+    pub noise_k: f64,
+    /// Seed of the sensor's noise and calibration.
+    pub seed: u64,
+}
+
+/// One timed change of the actuators; `None` leaves that actuator as it was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Action {
+    /// When, s from the start.
+    pub at_s: f64,
+    /// Heater duty, 0…1.
+    pub heater_duty: Option<f64>,
+    /// Fan duty, 0…1.
+    pub fan_duty: Option<f64>,
+    /// Spring MOSFETs A, B, C on.
+    pub springs_on: Option<[bool; 3]>,
+}
+
+/// What an injected fault does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FaultKind {
+    /// The heater is open-circuit: no power whatever the duty.
+    HeaterOpen,
+    /// A spring's MOSFET is stuck on or off.
+    StuckSpring {
+        /// Spring index, 0 = A.
+        spring: usize,
+        /// Stuck on (true) or off.
+        on: bool,
+    },
+    /// The sensor misbehaves (with the camera off: no measurement at all).
+    Sensor(SensorFault),
+}
+
+/// An injected fault and when it is active.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaultSpec {
+    /// Start, s.
+    pub at_s: f64,
+    /// End, s (`None`: to the end of the run).
+    pub until_s: Option<f64>,
+    /// What it does.
+    pub kind: FaultKind,
+}
+
+impl FaultSpec {
+    /// Return whether the fault is active at `t_s`.
+    pub fn active(&self, t_s: f64) -> bool {
+        t_s >= self.at_s && self.until_s.is_none_or(|u| t_s < u)
+    }
+}
+
+/// A checked scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scenario {
+    /// Name (also the default output folder's name).
+    pub name: String,
+    /// One-line description.
+    pub description: String,
+    /// Length of the run, s.
+    pub duration_s: f64,
+    /// Ambient temperature, K.
+    pub ambient_k: f64,
+    /// Initial temperature of every node, K.
+    pub initial_k: f64,
+    /// Control and sample period, s.
+    pub period_s: f64,
+    /// Plant fidelity.
+    pub fidelity: Fidelity,
+    /// Plant integrator.
+    pub integrator: Integrator,
+    /// Largest internal plant step, s.
+    pub max_step_s: f64,
+    /// Camera settings.
+    pub camera: CameraSettings,
+    /// Actions sorted by time (ties keep file order).
+    pub actions: Vec<Action>,
+    /// Injected faults.
+    pub faults: Vec<FaultSpec>,
+}
+
+/// Load a scene: a bundled name (`cycle`, …) or a path to a TOML file.
+pub fn load(name_or_path: &str) -> Result<Scenario, String> {
+    if let Some((name, text)) = BUNDLED.iter().find(|(n, _)| *n == name_or_path) {
+        return parse(text, &format!("<bundled {name}>"), name);
+    }
+    let path = Path::new(name_or_path);
+    if !path.exists() && !name_or_path.contains(['/', '.']) {
+        let names: Vec<&str> = BUNDLED.iter().map(|(n, _)| *n).collect();
+        return Err(format!(
+            "no scene `{name_or_path}`: not a file, and the bundled scenes are {}",
+            names.join(", ")
+        ));
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene")
+        .to_string();
+    parse(&text, &path.display().to_string(), &stem)
+}
+
+/// Where a value sits, for error messages.
+struct Ctx<'a> {
+    file: &'a str,
+    text: &'a str,
+}
+
+impl Ctx<'_> {
+    fn line(&self, span: Option<Range<usize>>) -> usize {
+        let at = span.map_or(0, |s| s.start.min(self.text.len()));
+        self.text[..at].bytes().filter(|b| *b == b'\n').count() + 1
+    }
+
+    fn err(&self, span: Option<Range<usize>>, key: &str, msg: impl std::fmt::Display) -> String {
+        format!("{}:{}: `{key}`: {msg}", self.file, self.line(span))
+    }
+}
+
+/// Parse and check a scene's TOML text; `file` names it in errors, `default_name` is used
+/// when the file has no `name`.
+pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, String> {
+    let cx = Ctx { file, text };
+    let doc = toml_edit::Document::parse(text).map_err(|e| {
+        let line = cx.line(e.span());
+        format!(
+            "{file}:{line}: not valid TOML: {}",
+            e.message().trim_end().replace('\n', " ")
+        )
+    })?;
+    let root = doc.as_table();
+    check_keys(
+        &cx,
+        root,
+        "",
+        &[
+            "name",
+            "description",
+            "duration",
+            "ambient",
+            "initial",
+            "period",
+            "fidelity",
+            "camera",
+            "action",
+            "fault",
+        ],
+    )?;
+    let name = match root.get_key_value("name") {
+        Some((k, v)) => {
+            let s = string(&cx, k, v, "name")?;
+            if s.is_empty()
+                || !s
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            {
+                return Err(cx.err(
+                    v.span(),
+                    "name",
+                    format!(
+                        "`{s}`: use letters, digits, `-`, `_` or `.` (it names the output folder)"
+                    ),
+                ));
+            }
+            s.to_string()
+        }
+        None => default_name.to_string(),
+    };
+    let description = match root.get_key_value("description") {
+        Some((k, v)) => string(&cx, k, v, "description")?.to_string(),
+        None => String::new(),
+    };
+    let duration_s = match root.get_key_value("duration") {
+        Some((k, v)) => time(&cx, k, v, "duration", (1e-3, MAX_DURATION_S))?,
+        None => {
+            return Err(format!(
+                "{file}:1: `duration`: missing (e.g. `duration = \"110 s\"`)"
+            ));
+        }
+    };
+    let ambient_k = match root.get_key_value("ambient") {
+        Some((k, v)) => temperature(&cx, k, v, "ambient", AMBIENT_RANGE_K)?,
+        None => {
+            return Err(format!(
+                "{file}:1: `ambient`: missing (e.g. `ambient = \"298.15 K\"`)"
+            ));
+        }
+    };
+    let initial_k = match root.get_key_value("initial") {
+        Some((k, v)) => temperature(&cx, k, v, "initial", INITIAL_RANGE_K)?,
+        None => ambient_k,
+    };
+    let period_s = match root.get_key_value("period") {
+        Some((k, v)) => time(&cx, k, v, "period", (1e-3, MAX_PERIOD_S))?,
+        None => MAX_PERIOD_S,
+    };
+
+    let mut fidelity = Fidelity::default();
+    let mut integrator = Integrator::default();
+    let mut max_step_s = crate::plant::PlantConfig::default().max_step_s;
+    let mut camera = CameraSettings {
+        enabled: false,
+        noise_k: crate::virtual_mlx::DEFAULT_NOISE_K,
+        seed: 1,
+    };
+    if let Some((k, item)) = root.get_key_value("fidelity") {
+        let t = table(&cx, k, item, "fidelity")?;
+        check_keys(
+            &cx,
+            t,
+            "fidelity.",
+            &[
+                "thermal",
+                "sma",
+                "smp",
+                "mechanics",
+                "camera",
+                "integrator",
+                "max_step",
+            ],
+        )?;
+        for (key, val) in t.iter() {
+            let k = t.key(key).expect("key of an iterated entry");
+            let full = format!("fidelity.{key}");
+            match key {
+                "thermal" => {
+                    fidelity.thermal = choice(
+                        &cx,
+                        k,
+                        val,
+                        &full,
+                        &[
+                            ("full", ThermalFidelity::Full),
+                            ("lumped", ThermalFidelity::Lumped),
+                        ],
+                    )?
+                }
+                "sma" => {
+                    fidelity.sma = choice(
+                        &cx,
+                        k,
+                        val,
+                        &full,
+                        &[
+                            ("hysteretic", SmaFidelity::Hysteretic),
+                            ("switch", SmaFidelity::Switch),
+                        ],
+                    )?
+                }
+                "smp" => {
+                    fidelity.smp = choice(
+                        &cx,
+                        k,
+                        val,
+                        &full,
+                        &[
+                            ("viscoelastic", SmpFidelity::Viscoelastic),
+                            ("elastic", SmpFidelity::Elastic),
+                        ],
+                    )?
+                }
+                "mechanics" => fidelity.mechanics = boolean(&cx, k, val, &full)?,
+                "camera" => camera.enabled = boolean(&cx, k, val, &full)?,
+                "integrator" => {
+                    integrator = choice(
+                        &cx,
+                        k,
+                        val,
+                        &full,
+                        &[
+                            ("zoh", Integrator::ExponentialZoh),
+                            ("backward-euler", Integrator::BackwardEuler),
+                            ("tr-bdf2", Integrator::TrBdf2),
+                        ],
+                    )?
+                }
+                "max_step" => max_step_s = time(&cx, k, val, &full, (1e-4, MAX_PERIOD_S))?,
+                _ => unreachable!("keys were checked"),
+            }
+        }
+    }
+    if let Some((k, item)) = root.get_key_value("camera") {
+        let t = table(&cx, k, item, "camera")?;
+        check_keys(&cx, t, "camera.", &["noise", "seed"])?;
+        if let Some((k, v)) = t.get_key_value("noise") {
+            camera.noise_k = temperature_step(&cx, k, v, "camera.noise", (0.0, 5.0))?;
+        }
+        if let Some((k, v)) = t.get_key_value("seed") {
+            let n = integer(&cx, k, v, "camera.seed")?;
+            camera.seed =
+                u64::try_from(n).map_err(|_| cx.err(v.span(), "camera.seed", "must be ≥ 0"))?;
+        }
+    }
+
+    let mut actions = Vec::new();
+    if let Some((k, item)) = root.get_key_value("action") {
+        for (i, t) in tables(&cx, k, item, "action")?.into_iter().enumerate() {
+            let p = format!("action[{}].", i + 1);
+            check_keys(&cx, t, &p, &["at", "heater", "fan", "springs"])?;
+            let at_s = match t.get_key_value("at") {
+                Some((k, v)) => time(&cx, k, v, &format!("{p}at"), (0.0, duration_s))?,
+                None => return Err(cx.err(t.span(), &format!("{p}at"), "missing")),
+            };
+            let mut a = Action {
+                at_s,
+                heater_duty: None,
+                fan_duty: None,
+                springs_on: None,
+            };
+            if let Some((k, v)) = t.get_key_value("heater") {
+                a.heater_duty = Some(percent(&cx, k, v, &format!("{p}heater"))?);
+            }
+            if let Some((k, v)) = t.get_key_value("fan") {
+                a.fan_duty = Some(percent(&cx, k, v, &format!("{p}fan"))?);
+            }
+            if let Some((k, v)) = t.get_key_value("springs") {
+                a.springs_on = Some(springs(&cx, k, v, &format!("{p}springs"))?);
+            }
+            if a.heater_duty.is_none() && a.fan_duty.is_none() && a.springs_on.is_none() {
+                return Err(cx.err(
+                    t.span(),
+                    &format!("{p}at"),
+                    "the action sets nothing (give heater, fan or springs)",
+                ));
+            }
+            actions.push(a);
+        }
+    }
+    actions.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+
+    let mut faults = Vec::new();
+    if let Some((k, item)) = root.get_key_value("fault") {
+        for (i, t) in tables(&cx, k, item, "fault")?.into_iter().enumerate() {
+            let p = format!("fault[{}].", i + 1);
+            check_keys(
+                &cx,
+                t,
+                &p,
+                &["at", "until", "kind", "spring", "stuck", "sensor"],
+            )?;
+            let at_s = match t.get_key_value("at") {
+                Some((k, v)) => time(&cx, k, v, &format!("{p}at"), (0.0, duration_s))?,
+                None => return Err(cx.err(t.span(), &format!("{p}at"), "missing")),
+            };
+            let until_s = match t.get_key_value("until") {
+                Some((k, v)) => Some(time(&cx, k, v, &format!("{p}until"), (at_s, f64::MAX))?),
+                None => None,
+            };
+            let Some((kk, kv)) = t.get_key_value("kind") else {
+                return Err(cx.err(t.span(), &format!("{p}kind"), "missing"));
+            };
+            let kind_name = choice(
+                &cx,
+                kk,
+                kv,
+                &format!("{p}kind"),
+                &[("heater-open", 0), ("stuck-spring", 1), ("sensor", 2)],
+            )?;
+            let allowed: &[&str] = match kind_name {
+                0 => &[],
+                1 => &["spring", "stuck"],
+                _ => &["sensor"],
+            };
+            for key in ["spring", "stuck", "sensor"] {
+                if let Some((k, _)) = t.get_key_value(key)
+                    && !allowed.contains(&key)
+                {
+                    return Err(cx.err(
+                        k.span(),
+                        &format!("{p}{key}"),
+                        format!("not used by a `{}` fault", kv.as_str().unwrap_or("")),
+                    ));
+                }
+            }
+            let need = |key: &str| {
+                t.get_key_value(key).ok_or_else(|| {
+                    cx.err(
+                        t.span(),
+                        &format!("{p}{key}"),
+                        format!("missing (a `{}` fault needs it)", kv.as_str().unwrap_or("")),
+                    )
+                })
+            };
+            let kind = match kind_name {
+                0 => FaultKind::HeaterOpen,
+                1 => {
+                    let (k, v) = need("spring")?;
+                    let set = springs(&cx, k, v, &format!("{p}spring"))?;
+                    if set.iter().filter(|s| **s).count() != 1 {
+                        return Err(cx.err(
+                            v.span(),
+                            &format!("{p}spring"),
+                            "name one spring: A, B or C",
+                        ));
+                    }
+                    let spring = set.iter().position(|s| *s).unwrap_or(0);
+                    let (k, v) = need("stuck")?;
+                    let on = choice(
+                        &cx,
+                        k,
+                        v,
+                        &format!("{p}stuck"),
+                        &[("on", true), ("off", false)],
+                    )?;
+                    FaultKind::StuckSpring { spring, on }
+                }
+                _ => {
+                    let (k, v) = need("sensor")?;
+                    FaultKind::Sensor(choice(
+                        &cx,
+                        k,
+                        v,
+                        &format!("{p}sensor"),
+                        &[
+                            ("nack", SensorFault::Nack),
+                            ("stuck", SensorFault::Stuck),
+                            ("corrupt", SensorFault::Corrupt),
+                            ("frozen", SensorFault::Frozen),
+                        ],
+                    )?)
+                }
+            };
+            faults.push(FaultSpec {
+                at_s,
+                until_s,
+                kind,
+            });
+        }
+    }
+
+    Ok(Scenario {
+        name,
+        description,
+        duration_s,
+        ambient_k,
+        initial_k,
+        period_s,
+        fidelity,
+        integrator,
+        max_step_s,
+        camera,
+        actions,
+        faults,
+    })
+}
+
+fn check_keys(cx: &Ctx, t: &toml_edit::Table, prefix: &str, known: &[&str]) -> Result<(), String> {
+    for (key, _) in t.iter() {
+        if !known.contains(&key) {
+            let span = t.key(key).and_then(|k| k.span());
+            return Err(cx.err(
+                span,
+                &format!("{prefix}{key}"),
+                format!("unknown key (known here: {})", known.join(", ")),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn span_of(k: &toml_edit::Key, v: &toml_edit::Item) -> Option<Range<usize>> {
+    v.span().or_else(|| k.span())
+}
+
+fn table<'a>(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &'a toml_edit::Item,
+    key: &str,
+) -> Result<&'a toml_edit::Table, String> {
+    v.as_table()
+        .ok_or_else(|| cx.err(span_of(k, v), key, format!("must be a table (`[{key}]`)")))
+}
+
+fn tables<'a>(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &'a toml_edit::Item,
+    key: &str,
+) -> Result<Vec<&'a toml_edit::Table>, String> {
+    v.as_array_of_tables()
+        .map(|a| a.iter().collect())
+        .ok_or_else(|| {
+            cx.err(
+                span_of(k, v),
+                key,
+                format!("must be an array of tables (`[[{key}]]`)"),
+            )
+        })
+}
+
+fn string<'a>(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &'a toml_edit::Item,
+    key: &str,
+) -> Result<&'a str, String> {
+    v.as_str()
+        .ok_or_else(|| cx.err(span_of(k, v), key, "must be a string"))
+}
+
+fn boolean(cx: &Ctx, k: &toml_edit::Key, v: &toml_edit::Item, key: &str) -> Result<bool, String> {
+    v.as_bool()
+        .ok_or_else(|| cx.err(span_of(k, v), key, "must be true or false"))
+}
+
+fn integer(cx: &Ctx, k: &toml_edit::Key, v: &toml_edit::Item, key: &str) -> Result<i64, String> {
+    v.as_integer()
+        .ok_or_else(|| cx.err(span_of(k, v), key, "must be an integer"))
+}
+
+fn choice<T: Copy>(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+    options: &[(&str, T)],
+) -> Result<T, String> {
+    let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
+    let s = v.as_str().ok_or_else(|| {
+        cx.err(
+            span_of(k, v),
+            key,
+            format!("must be a string, one of {}", names.join(", ")),
+        )
+    })?;
+    options
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| {
+            cx.err(
+                span_of(k, v),
+                key,
+                format!("`{s}` is not one of {}", names.join(", ")),
+            )
+        })
+}
+
+/// Split `"<number> <unit>"` (space optional) into its number and unit.
+fn split_quantity(s: &str) -> Option<(f64, &str)> {
+    let s = s.trim();
+    let end = s
+        .char_indices()
+        .find(|(_, c)| !(c.is_ascii_digit() || "+-.eE".contains(*c)))
+        .map_or(s.len(), |(i, _)| i);
+    // An exponent's `e` must be followed by a digit or sign; otherwise it starts the unit.
+    let (mut num, mut unit) = s.split_at(end);
+    while num.ends_with(['e', 'E']) {
+        num = &s[..num.len() - 1];
+        unit = &s[num.len()..];
+    }
+    let v: f64 = num.parse().ok()?;
+    v.is_finite().then_some((v, unit.trim()))
+}
+
+fn quantity_str<'a>(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &'a toml_edit::Item,
+    key: &str,
+    example: &str,
+) -> Result<&'a str, String> {
+    if v.is_integer() || v.is_float() {
+        return Err(cx.err(
+            span_of(k, v),
+            key,
+            format!("a bare number has no unit; write it as a string with one, e.g. `{key} = \"{example}\"`"),
+        ));
+    }
+    v.as_str().ok_or_else(|| {
+        cx.err(
+            span_of(k, v),
+            key,
+            format!("must be a string with a unit, e.g. \"{example}\""),
+        )
+    })
+}
+
+fn in_range(
+    cx: &Ctx,
+    span: Option<Range<usize>>,
+    key: &str,
+    v: f64,
+    range: (f64, f64),
+    unit: &str,
+) -> Result<f64, String> {
+    if v < range.0 || v > range.1 {
+        let hi = if range.1 == f64::MAX {
+            "…".to_string()
+        } else {
+            format!("{}", range.1)
+        };
+        return Err(cx.err(
+            span,
+            key,
+            format!("{v} {unit} is out of range [{}, {hi}] {unit}", range.0),
+        ));
+    }
+    Ok(v)
+}
+
+/// Parse a time: `"90 s"`, `"250 ms"`, `"1.5 min"`, `"2 h"`, `"1:30"` or `"0:01:30.5"`.
+pub fn parse_time_s(s: &str) -> Option<f64> {
+    let s = s.trim();
+    if s.contains(':') {
+        let parts: Vec<&str> = s.split(':').collect();
+        if parts.len() > 3 {
+            return None;
+        }
+        let mut total = 0.0;
+        for (i, p) in parts.iter().enumerate() {
+            let last = i + 1 == parts.len();
+            let ok = !p.is_empty()
+                && p.chars().all(|c| c.is_ascii_digit() || (last && c == '.'))
+                && (i == 0 || p.split('.').next().is_some_and(|w| w.len() == 2));
+            if !ok {
+                return None;
+            }
+            let v: f64 = p.parse().ok()?;
+            if i > 0 && v >= 60.0 {
+                return None;
+            }
+            total = total * 60.0 + v;
+        }
+        return Some(total);
+    }
+    let (v, unit) = split_quantity(s)?;
+    let scale = match unit {
+        "s" => 1.0,
+        "ms" => 1e-3,
+        "min" => 60.0,
+        "h" => 3600.0,
+        _ => return None,
+    };
+    (v >= 0.0).then_some(v * scale)
+}
+
+fn time(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+    range: (f64, f64),
+) -> Result<f64, String> {
+    let s = quantity_str(cx, k, v, key, "90 s")?;
+    let t = parse_time_s(s).ok_or_else(|| {
+        cx.err(
+            span_of(k, v),
+            key,
+            format!(
+                "malformed time `{s}` (write e.g. \"90 s\", \"250 ms\", \"1.5 min\" or \"1:30\")"
+            ),
+        )
+    })?;
+    in_range(cx, span_of(k, v), key, t, range, "s")
+}
+
+/// Parse a temperature: `"298.15 K"`, `"25 °C"` or `"25 C"`; return kelvin.
+pub fn parse_temperature_k(s: &str) -> Option<f64> {
+    let (v, unit) = split_quantity(s)?;
+    match unit {
+        "K" => Some(v),
+        "°C" | "C" | "degC" => Some(v + 273.15),
+        _ => None,
+    }
+}
+
+fn temperature(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+    range_k: (f64, f64),
+) -> Result<f64, String> {
+    let s = quantity_str(cx, k, v, key, "298.15 K")?;
+    let t = parse_temperature_k(s).ok_or_else(|| {
+        cx.err(
+            span_of(k, v),
+            key,
+            format!(
+                "`{s}` is not a temperature with a unit (write e.g. \"298.15 K\" or \"25 °C\")"
+            ),
+        )
+    })?;
+    in_range(cx, span_of(k, v), key, t, range_k, "K")
+}
+
+/// A temperature difference: kelvin only (a Celsius step is the same size; `°C` is accepted).
+fn temperature_step(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+    range_k: (f64, f64),
+) -> Result<f64, String> {
+    let s = quantity_str(cx, k, v, key, "0.1 K")?;
+    let t = split_quantity(s)
+        .filter(|(_, u)| matches!(*u, "K" | "°C" | "C"))
+        .map(|(x, _)| x)
+        .ok_or_else(|| {
+            cx.err(
+                span_of(k, v),
+                key,
+                format!("`{s}` is not a temperature difference with a unit (e.g. \"0.1 K\")"),
+            )
+        })?;
+    in_range(cx, span_of(k, v), key, t, range_k, "K")
+}
+
+fn percent(cx: &Ctx, k: &toml_edit::Key, v: &toml_edit::Item, key: &str) -> Result<f64, String> {
+    let s = quantity_str(cx, k, v, key, "50 %")?;
+    let p = split_quantity(s)
+        .filter(|(_, u)| *u == "%")
+        .map(|(x, _)| x)
+        .ok_or_else(|| {
+            cx.err(
+                span_of(k, v),
+                key,
+                format!("`{s}` is not a duty in percent (write e.g. \"50 %\")"),
+            )
+        })?;
+    Ok(in_range(cx, span_of(k, v), key, p, (0.0, 100.0), "%")? / 100.0)
+}
+
+fn springs(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+) -> Result<[bool; 3], String> {
+    let s = v.as_str().ok_or_else(|| {
+        cx.err(
+            span_of(k, v),
+            key,
+            "must be a string of spring letters (\"AB\") or \"none\"",
+        )
+    })?;
+    let mut on = [false; 3];
+    if s.trim() == "none" {
+        return Ok(on);
+    }
+    for c in s.chars().filter(|c| !matches!(c, ' ' | ',' | '+')) {
+        let i = match c.to_ascii_uppercase() {
+            'A' => 0,
+            'B' => 1,
+            'C' => 2,
+            _ => {
+                return Err(cx.err(
+                    span_of(k, v),
+                    key,
+                    format!("`{s}`: `{c}` is not a spring (A, B, C, or \"none\")"),
+                ));
+            }
+        };
+        if on[i] {
+            return Err(cx.err(span_of(k, v), key, format!("`{s}` names spring {c} twice")));
+        }
+        on[i] = true;
+    }
+    if s.trim().is_empty() {
+        return Err(cx.err(span_of(k, v), key, "empty (write \"none\" for all off)"));
+    }
+    Ok(on)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = "duration = \"10 s\"\nambient = \"25 °C\"\n";
+
+    fn err(text: &str) -> String {
+        parse(text, "t.toml", "t").unwrap_err()
+    }
+
+    #[test]
+    fn bundled_scenes_parse() {
+        for (name, text) in BUNDLED {
+            let s = parse(text, name, name).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(s.name, name);
+            assert!(!s.actions.is_empty());
+        }
+        assert!(load("cycle").is_ok());
+        assert!(
+            load("no-such-scene")
+                .unwrap_err()
+                .contains("bundled scenes are cycle")
+        );
+    }
+
+    #[test]
+    fn minimal_scene_defaults() {
+        let s = parse(MINIMAL, "t.toml", "t").unwrap();
+        assert_eq!(s.name, "t");
+        assert!((s.ambient_k - 298.15).abs() < 1e-12);
+        assert_eq!(s.initial_k, s.ambient_k);
+        assert_eq!(s.period_s, 0.5);
+        assert_eq!(s.fidelity, Fidelity::default());
+        assert!(!s.camera.enabled);
+    }
+
+    #[test]
+    fn times_and_temperatures() {
+        assert_eq!(parse_time_s("90 s"), Some(90.0));
+        assert_eq!(parse_time_s("250ms"), Some(0.25));
+        assert_eq!(parse_time_s("1.5 min"), Some(90.0));
+        assert_eq!(parse_time_s("1:30"), Some(90.0));
+        assert_eq!(parse_time_s("1:02:03.5"), Some(3723.5));
+        for bad in [
+            "90",
+            "1:3",
+            "1:60",
+            "-1 s",
+            "1:30:00:00",
+            "s",
+            "1e s",
+            "nan s",
+            "1:3x",
+        ] {
+            assert_eq!(parse_time_s(bad), None, "{bad}");
+        }
+        assert_eq!(parse_temperature_k("300 K"), Some(300.0));
+        assert_eq!(parse_temperature_k("1e2 K"), Some(100.0));
+        assert!((parse_temperature_k("25 °C").unwrap() - 298.15).abs() < 1e-12);
+        assert_eq!(parse_temperature_k("300"), None);
+        assert_eq!(parse_temperature_k("300 F"), None);
+    }
+
+    #[test]
+    fn errors_name_file_line_and_key() {
+        let e = err(&format!("{MINIMAL}colour = \"red\"\n"));
+        assert!(e.starts_with("t.toml:3: `colour`: unknown key"), "{e}");
+        let e = err("duration = \"10 s\"\nambient = 298\n");
+        assert!(
+            e.starts_with("t.toml:2: `ambient`: a bare number has no unit"),
+            "{e}"
+        );
+        let e = err("duration = \"10 s\"\nambient = \"298 F\"\n");
+        assert!(
+            e.contains("t.toml:2: `ambient`") && e.contains("not a temperature"),
+            "{e}"
+        );
+        let e = err("duration = \"10 s\"\nambient = \"500 K\"\n");
+        assert!(
+            e.contains("t.toml:2: `ambient`: 500 K is out of range"),
+            "{e}"
+        );
+        let e = err("duration = \"1:7x\"\nambient = \"298 K\"\n");
+        assert!(
+            e.contains("t.toml:1: `duration`: malformed time `1:7x`"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}\n[[action]]\nat = \"5 s\"\nheater = \"150 %\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:6: `action[1].heater`: 150 % is out of range"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}[[action]]\nat = \"20 s\"\nfan = \"5 %\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:4: `action[1].at`: 20 s is out of range [0, 10]"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}[[action]]\nat = \"2 s\"\nsprings = \"AD\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:5: `action[1].springs`") && e.contains("`D`"),
+            "{e}"
+        );
+        let e = err(&format!("{MINIMAL}[[action]]\nat = \"2 s\"\n"));
+        assert!(e.contains("`action[1].at`: the action sets nothing"), "{e}");
+        let e = err(&format!("{MINIMAL}[fidelity]\nthermal = \"medium\"\n"));
+        assert!(
+            e.contains("t.toml:4: `fidelity.thermal`: `medium` is not one of full, lumped"),
+            "{e}"
+        );
+        let e = err(&format!("{MINIMAL}[fidelity]\ncolour = 1\n"));
+        assert!(
+            e.contains("t.toml:4: `fidelity.colour`: unknown key"),
+            "{e}"
+        );
+        let e = err(&format!("{MINIMAL}period = \"2 s\"\n"));
+        assert!(e.contains("`period`: 2 s is out of range"), "{e}");
+        let e = err(&format!(
+            "{MINIMAL}[[fault]]\nat = \"1 s\"\nkind = \"stuck-spring\"\nspring = \"A\"\n"
+        ));
+        assert!(e.contains("`fault[1].stuck`: missing"), "{e}");
+        let e = err(&format!(
+            "{MINIMAL}[[fault]]\nat = \"1 s\"\nkind = \"heater-open\"\nsensor = \"nack\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:6: `fault[1].sensor`: not used by a `heater-open` fault"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}[[fault]]\nat = \"5 s\"\nuntil = \"2 s\"\nkind = \"heater-open\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:5: `fault[1].until`: 2 s is out of range"),
+            "{e}"
+        );
+        let e = err("duration = \"10 s\"\nambient = \"298 K\n");
+        assert!(e.starts_with("t.toml:2: not valid TOML"), "{e}");
+        let e = err("ambient = \"298 K\"\n");
+        assert!(e.contains("`duration`: missing"), "{e}");
+    }
+
+    #[test]
+    fn actions_sort_and_faults_parse() {
+        let s = parse(
+            &format!(
+                "{MINIMAL}[[action]]\nat = \"5 s\"\nsprings = \"A, C\"\n[[action]]\nat = \"1 s\"\nheater = \"40 %\"\n\
+                 [[fault]]\nat = \"2 s\"\nuntil = \"3 s\"\nkind = \"stuck-spring\"\nspring = \"b\"\nstuck = \"on\"\n\
+                 [[fault]]\nat = \"4 s\"\nkind = \"sensor\"\nsensor = \"frozen\"\n"
+            ),
+            "t.toml",
+            "t",
+        )
+        .unwrap();
+        assert_eq!(s.actions[0].at_s, 1.0);
+        assert_eq!(s.actions[0].heater_duty, Some(0.4));
+        assert_eq!(s.actions[1].springs_on, Some([true, false, true]));
+        assert_eq!(
+            s.faults[0].kind,
+            FaultKind::StuckSpring {
+                spring: 1,
+                on: true
+            }
+        );
+        assert!(s.faults[0].active(2.5) && !s.faults[0].active(3.0) && !s.faults[0].active(1.9));
+        assert_eq!(s.faults[1].kind, FaultKind::Sensor(SensorFault::Frozen));
+        assert!(s.faults[1].active(1e9));
+    }
+}

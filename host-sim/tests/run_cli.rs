@@ -1,0 +1,201 @@
+//! `host-sim run` as a user runs it, and the runner's coupling of scene, plant, faults and
+//! camera.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+use host_sim::run::{CSV_HEADER, Progress, run};
+use host_sim::scenario::parse;
+
+fn host_sim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+        .expect("run host-sim")
+}
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("thermorph-run-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+#[test]
+fn default_scene_writes_csv_json_and_png() {
+    let dir = tmp_dir("default");
+    let out = host_sim(&["run", "--out", dir.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.starts_with("scene cycle:"), "{stdout}");
+    assert!(stdout.contains("full loading, two springs"), "{stdout}");
+    assert!(stdout.contains("wrote "), "{stdout}");
+
+    let csv = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some(CSV_HEADER));
+    let scene = host_sim::scenario::load("cycle").unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect())
+        .collect();
+    assert_eq!(
+        rows.len(),
+        (scene.duration_s / scene.period_s).round() as usize
+    );
+    let cols = CSV_HEADER.split(',').count();
+    assert!(
+        rows.iter()
+            .all(|r| r.len() == cols && r.iter().all(|v| v.is_finite()))
+    );
+    assert!((rows.last().unwrap()[0] - scene.duration_s).abs() < 1e-6);
+
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["scene"], "cycle");
+    assert_eq!(json["steps"].as_u64().unwrap() as usize, rows.len());
+    let figures = json["figures"].as_array().unwrap();
+    assert!(
+        figures
+            .iter()
+            .any(|f| f["name"] == "forming" && f["thesis"] == 50.0)
+    );
+
+    let png = std::fs::read(dir.join("plot.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    assert!(png.len() > 5_000);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_bad_scene_is_one_clear_error_and_writes_nothing() {
+    let dir = tmp_dir("bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("bad.toml");
+    std::fs::write(
+        &scene,
+        "duration = \"60 s\"\nambient = \"298 K\"\n[[action]]\nat = \"1 min 5\"\nheater = \"50 %\"\n",
+    )
+    .unwrap();
+    let out_dir = dir.join("out");
+    let out = host_sim(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("bad.toml:4: `action[1].at`: malformed time `1 min 5`"),
+        "{err}"
+    );
+    assert!(!out_dir.exists());
+
+    let out = host_sim(&["run", "no-such-scene"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("bundled scenes are cycle"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn runs_are_deterministic_and_actions_reach_the_plant() {
+    let scene = parse(
+        "duration = \"20 s\"\nambient = \"298.15 K\"\n\
+         [[action]]\nat = \"0 s\"\nheater = \"100 %\"\n\
+         [[action]]\nat = \"10 s\"\nheater = \"0 %\"\nfan = \"60 %\"\nsprings = \"A\"\n",
+        "t",
+        "t",
+    )
+    .unwrap();
+    let a = run(&scene, &mut |_| ()).unwrap();
+    let b = run(&scene, &mut |_| ()).unwrap();
+    assert_eq!(a.rows, b.rows);
+    let at = |t: f64| {
+        a.rows
+            .iter()
+            .find(|r| (r.obs.time_s - t).abs() < 1e-9)
+            .unwrap()
+    };
+    assert_eq!(at(10.0).inputs.heater_duty, 1.0);
+    assert_eq!(at(10.5).inputs.heater_duty, 0.0);
+    assert_eq!(at(10.5).inputs.fan_duty, 0.6);
+    assert_eq!(at(10.5).inputs.springs_on, [true, false, false]);
+    // The heater heats while it is on and the film cools once it is off.
+    assert!(at(10.0).obs.heater_k > at(0.5).obs.heater_k + 5.0);
+    assert!(at(20.0).obs.heater_k < at(10.0).obs.heater_k);
+}
+
+#[test]
+fn faults_cut_the_heater_stick_a_spring_and_blind_the_sensor() {
+    let scene = host_sim::scenario::load("faults").unwrap();
+    let r = run(&scene, &mut |_| ()).unwrap();
+    let at = |t: f64| {
+        r.rows
+            .iter()
+            .find(|x| (x.obs.time_s - t).abs() < 1e-9)
+            .unwrap()
+    };
+    // Heater open 20–40 s while commanded full on: no power, cooling.
+    assert!(at(10.0).obs.heater_power_w > 1.0);
+    assert_eq!(at(25.0).inputs.heater_duty, 1.0);
+    assert!(at(25.0).inputs.heater_open);
+    assert_eq!(at(25.0).obs.heater_power_w, 0.0);
+    assert!(at(39.5).obs.heater_k < at(20.5).obs.heater_k);
+    assert!(at(45.0).obs.heater_power_w > 1.0);
+    // Spring C stuck on from 30 s though never commanded.
+    assert!(!at(29.5).inputs.springs_on[2]);
+    assert!(at(31.0).inputs.springs_on[2] && !at(31.0).springs_cmd[2]);
+    assert!(at(100.0).obs.spring_power_w[2] > 1.0);
+    // Sensor NACKs 70–80 s: no measurement there, good frames before and after.
+    assert!(at(69.0).measured_k.is_some());
+    assert!(at(72.0).measured_k.is_none() && at(79.5).measured_k.is_none());
+    assert!(at(82.0).measured_k.is_some());
+    let stats = r.summary.camera_stats.unwrap();
+    assert!(stats.errors > 0 && stats.frames > 300);
+}
+
+#[test]
+fn camera_on_measures_what_the_plant_shows() {
+    let mut scene = host_sim::scenario::load("cycle").unwrap();
+    scene.duration_s = 60.0;
+    scene.camera.enabled = true;
+    let on = run(&scene, &mut |_| ()).unwrap();
+    scene.camera.enabled = false;
+    let off = run(&scene, &mut |_| ()).unwrap();
+    // The camera does not disturb the plant.
+    for (a, b) in on.rows.iter().zip(&off.rows) {
+        assert_eq!(a.obs, b.obs);
+        assert_eq!(b.measured_k, Some(b.truth_k));
+    }
+    // Through render → virtual MLX90640 → driver → MTTS, T1 and T2 follow the truth (T2 is
+    // the harder one while the surface is within a few kelvin of the background).
+    let stats = on.summary.camera_stats.unwrap();
+    assert_eq!(stats.errors, 0);
+    assert!((4 * 60 - 1..=4 * 60).contains(&stats.frames), "{stats:?}");
+    assert!(stats.mean_abs_t1_err_k < 0.6, "{stats:?}");
+    assert!(stats.mean_abs_t2_err_k < 2.0, "{stats:?}");
+    assert!(
+        stats.max_abs_t1_err_k < 3.0 && stats.max_abs_t2_err_k < 6.0,
+        "{stats:?}"
+    );
+    // The measured T1 rises with the heater film.
+    let m = |t: f64| {
+        on.rows
+            .iter()
+            .find(|r| (r.obs.time_s - t).abs() < 1e-9)
+            .unwrap()
+    };
+    assert!(m(30.0).measured_k.unwrap()[0] > m(2.0).measured_k.unwrap()[0] + 20.0);
+}
+
+#[test]
+fn progress_line_shows_fraction_and_time_left() {
+    let l = Progress::line(0.25, 2.0);
+    assert!(l.starts_with("[########------"), "{l}");
+    assert!(l.contains(" 25%") && l.contains("about 6 s left"), "{l}");
+    assert!(Progress::line(1.0, 3.0).contains("100%"));
+}
