@@ -4,8 +4,10 @@
 //! - [`data`]: where the shared sensor dumps live.
 //! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files.
+//! - [`mtts_wp`]: the MTTS work-precision table (`host-sim mtts-wp`).
 //! - [`scene`]: the camera's view of the block, with ground truth.
 //! - [`sim_time`]: the simulated clock and delay.
+//! - [`to_roots`]: root variants of the To calculation and its f64 reference.
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
 
 pub mod data;
@@ -13,7 +15,9 @@ pub mod decode;
 pub mod dump;
 pub mod eeprom;
 pub mod mtts_cli;
+pub mod mtts_wp;
 pub mod scene;
 pub mod sensor_demo;
 pub mod sim_time;
+pub mod to_roots;
 pub mod virtual_mlx;

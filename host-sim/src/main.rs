@@ -5,6 +5,7 @@
 //! - `host-sim decode --eeprom FILE --frame FILE [...]`: decode real sensor dumps to CSV.
 //! - `host-sim mtts --image FILE [...]`: the five region temperatures of an image.
 //! - `host-sim scene NAME`: a rendered standard scene as an image file.
+//! - `host-sim mtts-wp [--m4 FILE] [--out FILE] [--seeds N]`: the MTTS work-precision table.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -69,6 +70,8 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Measure the MTTS work-precision table (speed against error) and print it as markdown.
+    MttsWp(host_sim::mtts_wp::WpArgs),
 }
 
 fn main() -> ExitCode {
@@ -111,6 +114,7 @@ fn main() -> ExitCode {
         Command::Scene { name, seed } => {
             host_sim::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
         }
+        Command::MttsWp(args) => host_sim::mtts_wp::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
