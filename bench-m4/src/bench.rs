@@ -205,6 +205,33 @@ fn main() -> ! {
         }
     }
 
+    // Work-precision figures: the to_768 stage (both subpages, a fresh image) with each roots
+    // variant (`host-sim mtts-wp --m4` reads these). libm's sqrtf is correctly rounded, as
+    // VSQRT is: the two images must agree to the bit, or the hardware path is broken.
+    for (name, update) in crate::roots::VARIANTS {
+        let mut img = Image::new();
+        let (ok, t) = measure(|| {
+            update(&mut img, &frames[0], cal, &params).is_ok()
+                && update(&mut img, &frames[1], cal, &params).is_ok()
+        });
+        if !ok {
+            fail("wp_roots frame refused");
+        }
+        let same_bits = img
+            .to_k
+            .iter()
+            .zip(image.to_k.iter())
+            .all(|(a, b)| a.to_bits() == b.to_bits());
+        if (name == "vsqrt" || name == "libm_sqrtf") && !same_bits {
+            fail("wp_roots: the image differs from the default path's");
+        }
+        hprintln!(
+            "wp_roots variant={} to768_insns={}",
+            name,
+            t.saturating_sub(overhead)
+        );
+    }
+
     // Square and fourth roots: cost per call.
     let xs: [f32; 8] = [8.1e9, 1.2e10, 2.0e10, 4.4e9, 9.9e10, 6.5e9, 3.3e10, 7.7e9];
     let n = 64;

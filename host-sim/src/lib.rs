@@ -8,8 +8,10 @@
 //! - [`plot`]: the PNG plot of a run.
 //! - [`run`]: `host-sim run`, a scene played against the plant, and its outputs.
 //! - [`scenario`]: scene files (TOML) and the bundled scenes.
+//! - [`mtts_wp`]: the MTTS work-precision table (`host-sim mtts-wp`).
 //! - [`scene`]: the camera's view of the block, with ground truth.
 //! - [`sim_time`]: the simulated clock and delay.
+//! - [`to_roots`]: root variants of the To calculation and its f64 reference.
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
 
 pub mod data;
@@ -21,7 +23,9 @@ pub mod plant;
 pub mod plot;
 pub mod run;
 pub mod scenario;
+pub mod mtts_wp;
 pub mod scene;
 pub mod sensor_demo;
 pub mod sim_time;
+pub mod to_roots;
 pub mod virtual_mlx;

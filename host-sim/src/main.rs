@@ -9,6 +9,7 @@
 //! - `host-sim mtts --image FILE [...]`: the five region temperatures of an image.
 //! - `host-sim scene NAME`: a rendered standard scene as an image file.
 //! - `host-sim plant-wp [--out FILE]`: the plant's work-precision table.
+//! - `host-sim mtts-wp [--m4 FILE] [--out FILE] [--seeds N]`: the MTTS work-precision table.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -81,6 +82,8 @@ enum Command {
         #[arg(long, default_value = "docs/plant-work-precision.md")]
         out: PathBuf,
     },
+    /// Measure the MTTS work-precision table (speed against error) and print it as markdown.
+    MttsWp(host_sim::mtts_wp::WpArgs),
 }
 
 fn main() -> ExitCode {
@@ -128,6 +131,7 @@ fn main() -> ExitCode {
             host_sim::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
         }
         Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
+        Command::MttsWp(args) => host_sim::mtts_wp::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -7,12 +7,47 @@
 //! alphas already reduced by TGC × the mean of the two CP alphas (see the calibration), and the
 //! extended-range correction (ksTo, ct, alphaCorrR) is always applied. The result of the fourth
 //! root is the object temperature in Kelvin; the library subtracts 273.15 from that same value.
+//!
+//! The roots the To formula takes are a type parameter ([`Roots`], [`calculate_to_with`],
+//! [`Image::update_with`]): the firmware uses [`HardwareRoots`] (the FPU's `VSQRT.F32`); the
+//! simulator and the QEMU bench plug in library alternatives to measure what each costs in
+//! instructions and in To error (`host-sim mtts-wp`).
 
 use super::calibration::Calibration;
 use super::register::{Control, ReadingPattern};
 use super::{COLS, FRAME_WORDS, PIXELS};
-use crate::fmath::{pow2, root4};
+use crate::fmath::pow2;
 use crate::units::{Kelvin, ZERO_CELSIUS_K};
+
+/// The square root and fourth root the To calculation takes (datasheet §11.2.2.9: To is the
+/// fourth root of a fourth-power sum, and the extended-range Sx term too).
+pub trait Roots {
+    /// Return √x (NaN for negative x).
+    fn sqrt(x: f32) -> f32;
+
+    /// Return x^(1/4); by default two square roots, as the Melexis library computes it.
+    #[inline]
+    fn root4(x: f32) -> f32 {
+        Self::sqrt(Self::sqrt(x))
+    }
+}
+
+/// The firmware's roots: [`crate::fmath::sqrt`] — `VSQRT.F32` on the Cortex-M4F, the correctly
+/// rounded `libm::sqrtf` elsewhere (bit-identical) — and the fourth root as two of them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HardwareRoots;
+
+impl Roots for HardwareRoots {
+    #[inline]
+    fn sqrt(x: f32) -> f32 {
+        crate::fmath::sqrt(x)
+    }
+
+    #[inline]
+    fn root4(x: f32) -> f32 {
+        crate::fmath::root4(x)
+    }
+}
 
 /// Frame word index of the aux word Vbe (Ta_Vbe, RAM 0x0700).
 pub const IDX_VBE: usize = 768;
@@ -235,8 +270,18 @@ pub fn conversion_pattern(p: usize) -> i32 {
 
 /// Compute To (Kelvin) for the pixels of one subpage into `out`, leaving the other pixels
 /// untouched (datasheet §11.2.2.5–§11.2.2.9, library `MLX90640_CalculateTo`). Returns the
-/// subpage's Vdd and Ta after checking them.
+/// subpage's Vdd and Ta after checking them. The roots are [`HardwareRoots`].
 pub fn calculate_to(
+    frame: &SubpageFrame,
+    cal: &Calibration,
+    params: &DecodeParams,
+    out: &mut [f32; PIXELS],
+) -> Result<SubpageInfo, FrameError> {
+    calculate_to_with::<HardwareRoots>(frame, cal, params, out)
+}
+
+/// [`calculate_to`] with the roots of `R`.
+pub fn calculate_to_with<R: Roots>(
     frame: &SubpageFrame,
     cal: &Calibration,
     params: &DecodeParams,
@@ -345,8 +390,8 @@ pub fn calculate_to(
         ir -= tgc_cp;
         ir /= params.emissivity;
         let alpha = alpha_scale / cal.alpha[p] as f32 * ks_ta_factor;
-        let sx = root4(alpha * alpha * alpha * (ir + alpha * ta_tr)) * ks_to[1];
-        let to_k = root4(ir / (alpha * one_minus + sx) + ta_tr);
+        let sx = R::root4(alpha * alpha * alpha * (ir + alpha * ta_tr)) * ks_to[1];
+        let to_k = R::root4(ir / (alpha * one_minus + sx) + ta_tr);
         let to_c = to_k - ZERO_CELSIUS_K;
         let range = if to_c < ct[1] {
             0
@@ -357,7 +402,7 @@ pub fn calculate_to(
         } else {
             3
         };
-        *dst = root4(
+        *dst = R::root4(
             ir / (alpha * alpha_corr_r[range] * (1.0 + ks_to[range] * (to_c - ct[range]))) + ta_tr,
         );
     }
@@ -470,8 +515,18 @@ impl Image {
 
     /// Decode one subpage into the image: compute To for its pixels and correct its broken and
     /// outlier pixels. A change of reading pattern clears the other subpage's pixels. On error
-    /// the image is unchanged.
+    /// the image is unchanged. The roots are [`HardwareRoots`].
     pub fn update(
+        &mut self,
+        frame: &SubpageFrame,
+        cal: &Calibration,
+        params: &DecodeParams,
+    ) -> Result<SubpageInfo, FrameError> {
+        self.update_with::<HardwareRoots>(frame, cal, params)
+    }
+
+    /// [`Image::update`] with the roots of `R`.
+    pub fn update_with<R: Roots>(
         &mut self,
         frame: &SubpageFrame,
         cal: &Calibration,
@@ -479,7 +534,7 @@ impl Image {
     ) -> Result<SubpageInfo, FrameError> {
         let pattern = frame.control().pattern();
         let mut scratch = self.to_k;
-        let info = calculate_to(frame, cal, params, &mut scratch)?;
+        let info = calculate_to_with::<R>(frame, cal, params, &mut scratch)?;
         if pattern != self.pattern {
             self.to_k = [f32::NAN; PIXELS];
             self.covered = [false; 2];

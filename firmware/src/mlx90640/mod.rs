@@ -14,7 +14,10 @@ pub mod calibration;
 pub mod driver;
 pub mod register;
 
-pub use calc::{DecodeParams, FrameError, Image, ImageStats, SubpageFrame, SubpageInfo};
+pub use calc::{
+    DecodeParams, FrameError, HardwareRoots, Image, ImageStats, Roots, SubpageFrame, SubpageInfo,
+    calculate_to_with,
+};
 pub use calibration::{Calibration, CalibrationError};
 pub use driver::{Config, Error, Mlx90640};
 pub use register::{Control, ReadingPattern, RefreshRate, Resolution, Status};

@@ -1,0 +1,805 @@
+//! `host-sim mtts-wp`: the MTTS work-precision table — speed against error.
+//!
+//! This module owns the measurement behind `docs/mtts-work-precision.md` and its rendering:
+//! - for every upsampling factor s × clustering method, over the standard scenes × noise seeds
+//!   × method seeds ([`measure`]): |T1 − truth| and |T2 − truth| (mean, max), the SSE gap to
+//!   the optimum, the run-to-run spread over method seeds, host ns per frame;
+//! - the optimum ([`optimal_sse`]): exact 1-D k-means in f64 of the very values the pipeline
+//!   clusters — the filled image upsampled by the firmware's own upsampler, clamped to the
+//!   image's range as its histogram does — on the sorted values by dynamic programming with
+//!   the divide-and-conquer speed-up (O(K·n·log n), exact because the optimal split is
+//!   monotone), independent of the firmware's binned solver;
+//! - Cortex-M4 instruction counts parsed from a saved `scripts/bench-m4` output ([`M4Counts`]);
+//! - the roots table (variant, max |ΔTo| against the f64 reference of [`crate::to_roots`],
+//!   to_768 instructions) and the Pareto fronts of both tables ([`pareto`]).
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+use thermorph::mtts::upsample::{UpsampleScratch, Upsampler};
+use thermorph::mtts::{self, Config, IMG_PIXELS, Method, Mtts, Scratch};
+
+use crate::scene::{Scene, standard_scenes};
+use crate::to_roots;
+
+/// Options of `host-sim mtts-wp`.
+#[derive(Args, Clone, Debug)]
+pub struct WpArgs {
+    /// A saved `scripts/bench-m4` output: the M4 instruction columns (empty without it).
+    #[arg(long)]
+    pub m4: Option<PathBuf>,
+    /// Write the markdown here instead of standard output.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Noise seeds per scene, and method seeds per image (≥ 2 for a spread).
+    #[arg(long, default_value_t = 5)]
+    pub seeds: u64,
+}
+
+/// The method names, as `host-sim mtts --method` and `bench-m4` spell them.
+pub fn method_name(m: Method) -> &'static str {
+    match m {
+        Method::Exact => "exact",
+        Method::Lloyd => "lloyd",
+        Method::KMeansPlusPlus => "kmeanspp",
+    }
+}
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct WpConfig {
+    /// Upsampling factors.
+    pub scales: Vec<u8>,
+    /// Clustering methods.
+    pub methods: Vec<Method>,
+    /// Scenes.
+    pub scenes: Vec<Scene>,
+    /// Noise seeds 1…n per scene.
+    pub noise_seeds: u64,
+    /// Method seeds 1…n per image.
+    pub method_seeds: u64,
+    /// Timed passes over the scenes per setting (the median is reported); 0: no timing.
+    pub timing_repeats: usize,
+}
+
+impl WpConfig {
+    /// The full table: s ∈ {1, 2, 4, 8} × the three methods × the twelve standard scenes,
+    /// `seeds` noise seeds and `seeds` method seeds.
+    pub fn full(seeds: u64) -> Self {
+        WpConfig {
+            scales: vec![1, 2, 4, 8],
+            methods: vec![Method::Exact, Method::Lloyd, Method::KMeansPlusPlus],
+            scenes: standard_scenes().to_vec(),
+            noise_seeds: seeds,
+            method_seeds: seeds,
+            timing_repeats: 15,
+        }
+    }
+}
+
+/// One row of the work-precision table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// Upsampling factor.
+    pub scale: u8,
+    /// Clustering method.
+    pub method: Method,
+    /// Mean |T1 − truth| over all runs, K.
+    pub t1_mean_err_k: f64,
+    /// Largest |T1 − truth|, K.
+    pub t1_max_err_k: f64,
+    /// Mean |T2 − truth|, K.
+    pub t2_mean_err_k: f64,
+    /// Largest |T2 − truth|, K.
+    pub t2_max_err_k: f64,
+    /// Mean relative SSE gap to the optimum, (SSE − SSE_opt)/SSE_opt.
+    pub gap_mean: f64,
+    /// Largest relative SSE gap.
+    pub gap_max: f64,
+    /// Smallest relative SSE gap (≥ 0 up to rounding: nothing beats the optimum).
+    pub gap_min: f64,
+    /// Largest max − min of T1 or T2 over the method seeds for one image, K.
+    pub spread_max_k: f64,
+    /// Mean over images of that spread (the larger of T1's and T2's), K.
+    pub spread_mean_k: f64,
+    /// Median host time of one frame (the whole MTTS, a first frame), ns; `None` untimed.
+    pub host_ns_per_frame: Option<f64>,
+    /// Cortex-M4 instructions of the whole MTTS of one frame (bench-m4), if known.
+    pub m4_insns: Option<u64>,
+    /// Runs (images × method seeds).
+    pub runs: usize,
+}
+
+impl Row {
+    /// The larger of the mean T1 and T2 errors, K.
+    pub fn mean_err_k(&self) -> f64 {
+        self.t1_mean_err_k.max(self.t2_mean_err_k)
+    }
+
+    /// The larger of the max T1 and T2 errors, K.
+    pub fn max_err_k(&self) -> f64 {
+        self.t1_max_err_k.max(self.t2_max_err_k)
+    }
+}
+
+/// The upsampled values the pipeline clusters for `filled` (an inpainted image) at `scale`:
+/// the bicubic output clamped to the image's range, sorted ascending.
+pub fn upsampled_sorted(filled: &[f32; IMG_PIXELS], scale: u8) -> Result<Vec<f64>, String> {
+    let up = Upsampler::new(scale).map_err(|e| e.to_string())?;
+    let (lo, hi) = filled
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let mut sc = Box::new(UpsampleScratch::new());
+    let (r, c) = up.out_size();
+    let mut v = Vec::with_capacity(r * c);
+    up.run(filled, &mut sc, |_, row| {
+        v.extend(row.iter().map(|&x| x.clamp(lo, hi) as f64))
+    });
+    v.sort_by(f64::total_cmp);
+    Ok(v)
+}
+
+/// The least SSE of `sorted` (ascending) split into at most `k` groups, K², in f64.
+///
+/// Dynamic programming over prefix sums of the values (shifted by their mean for precision):
+/// D[m][j] = min_{i ≤ j} D[m−1][i−1] + cost(i, j), each layer by divide and conquer on the
+/// monotone optimal split (Grønlund et al. 2017) — exact, O(k·n·log n).
+pub fn optimal_sse(sorted: &[f64], k: usize) -> f64 {
+    let n = sorted.len();
+    if n == 0 || k == 0 {
+        return 0.0;
+    }
+    let mean = sorted.iter().sum::<f64>() / n as f64;
+    let mut s1 = vec![0.0; n + 1];
+    let mut s2 = vec![0.0; n + 1];
+    for (i, &x) in sorted.iter().enumerate() {
+        let d = x - mean;
+        s1[i + 1] = s1[i] + d;
+        s2[i + 1] = s2[i] + d * d;
+    }
+    // SSE of values i..=j.
+    let cost = |i: usize, j: usize| {
+        let m = (j + 1 - i) as f64;
+        let a = s1[j + 1] - s1[i];
+        (s2[j + 1] - s2[i] - a * a / m).max(0.0)
+    };
+    let mut prev: Vec<f64> = (0..n).map(|j| cost(0, j)).collect();
+    let mut cur = vec![0.0; n];
+    for m in 1..k.min(n) {
+        // cur[j] for j ≥ m: the last group starts at i ∈ m..=j.
+        let mut stack = vec![(m, n - 1, m, n - 1)];
+        while let Some((lo, hi, olo, ohi)) = stack.pop() {
+            let j = (lo + hi) / 2;
+            let (mut best, mut bi) = (f64::INFINITY, olo);
+            for i in olo..=ohi.min(j) {
+                let c = prev[i - 1] + cost(i, j);
+                if c < best {
+                    best = c;
+                    bi = i;
+                }
+            }
+            cur[j] = best;
+            if j > lo {
+                stack.push((lo, j - 1, olo, bi));
+            }
+            if j < hi {
+                stack.push((j + 1, hi, bi, ohi));
+            }
+        }
+        for j in 0..m {
+            cur[j] = 0.0; // j + 1 ≤ m values in m + 1 groups: no error
+        }
+        std::mem::swap(&mut prev, &mut cur);
+    }
+    prev[n - 1]
+}
+
+/// The SSE of `sorted` split where `clusters` puts its boundaries (each group about its own
+/// mean), K²: the partition a method's result induces on the unbinned values.
+pub fn partition_sse(sorted: &[f64], clusters: &mtts::cluster::Clusters) -> f64 {
+    let mut n = [0f64; mtts::cluster::MAX_K];
+    let mut s1 = [0f64; mtts::cluster::MAX_K];
+    let mut s2 = [0f64; mtts::cluster::MAX_K];
+    let shift = sorted.iter().sum::<f64>() / sorted.len().max(1) as f64;
+    for &x in sorted {
+        let c = clusters.label(x as f32);
+        let d = x - shift;
+        n[c] += 1.0;
+        s1[c] += d;
+        s2[c] += d * d;
+    }
+    (0..mtts::cluster::MAX_K)
+        .filter(|&c| n[c] > 0.0)
+        .map(|c| (s2[c] - s1[c] * s1[c] / n[c]).max(0.0))
+        .sum()
+}
+
+/// Run the measurement of `cfg` (M4 columns empty: see [`M4Counts::fill`]).
+pub fn measure(cfg: &WpConfig) -> Result<Vec<Row>, String> {
+    let k = Config::default().k as usize;
+    let mut scratch = Box::new(Scratch::new());
+    // Render each image once; keep it with its inpainted copy and truth.
+    let mut images = Vec::new();
+    for s in &cfg.scenes {
+        for seed in 1..=cfg.noise_seeds {
+            let r = s.render(seed);
+            let mut filled = r.image_k;
+            mtts::inpaint(&mut filled).map_err(|e| format!("{}: {e}", s.name))?;
+            images.push((r.image_k, filled, r.truth_k));
+        }
+    }
+    let mut rows = Vec::new();
+    for &scale in &cfg.scales {
+        // The optimum of each image at this factor.
+        let mut prepared = Vec::new();
+        for (img, filled, truth) in &images {
+            let v = upsampled_sorted(filled, scale)?;
+            let opt = optimal_sse(&v, k);
+            prepared.push((img, v, opt, truth));
+        }
+        for &method in &cfg.methods {
+            let (mut e1, mut e2) = (Vec::new(), Vec::new());
+            let mut gaps = Vec::new();
+            let mut spreads = Vec::new();
+            for (img, v, opt, truth) in &prepared {
+                let (mut t1s, mut t2s) = (Vec::new(), Vec::new());
+                for mseed in 1..=cfg.method_seeds {
+                    let mut m = Mtts::new(Config {
+                        scale,
+                        method,
+                        seed: mseed,
+                        ..Config::default()
+                    })
+                    .map_err(|e| e.to_string())?;
+                    let out = m.process(img, &mut scratch).map_err(|e| e.to_string())?;
+                    let (t1, t2) = (out.t1().k() as f64, out.t2().k() as f64);
+                    // A missing region (NaN) is an infinite error.
+                    let err = |t: f64, want: f64| {
+                        let d = (t - want).abs();
+                        if d.is_nan() { f64::INFINITY } else { d }
+                    };
+                    e1.push(err(t1, truth[0]));
+                    e2.push(err(t2, truth[1]));
+                    t1s.push(t1);
+                    t2s.push(t2);
+                    let sse = partition_sse(v, &out.clusters);
+                    gaps.push(if *opt > 0.0 { (sse - opt) / opt } else { 0.0 });
+                }
+                let range = |t: &[f64]| {
+                    let (a, b) = t
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                            (a.min(x), b.max(x))
+                        });
+                    b - a
+                };
+                spreads.push(range(&t1s).max(range(&t2s)));
+            }
+            let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
+            let max = |x: &[f64]| x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let min = |x: &[f64]| x.iter().copied().fold(f64::INFINITY, f64::min);
+            let host_ns = if cfg.timing_repeats > 0 {
+                Some(time_per_frame_ns(cfg, scale, method, &mut scratch)?)
+            } else {
+                None
+            };
+            rows.push(Row {
+                scale,
+                method,
+                t1_mean_err_k: mean(&e1),
+                t1_max_err_k: max(&e1),
+                t2_mean_err_k: mean(&e2),
+                t2_max_err_k: max(&e2),
+                gap_mean: mean(&gaps),
+                gap_max: max(&gaps),
+                gap_min: min(&gaps),
+                spread_max_k: max(&spreads),
+                spread_mean_k: mean(&spreads),
+                host_ns_per_frame: host_ns,
+                m4_insns: None,
+                runs: e1.len(),
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// Median over `cfg.timing_repeats` passes of the host time of one frame's whole MTTS (a first
+/// frame: the pipeline is reset before each), over the scenes rendered with noise seed 1, ns.
+fn time_per_frame_ns(
+    cfg: &WpConfig,
+    scale: u8,
+    method: Method,
+    scratch: &mut Scratch,
+) -> Result<f64, String> {
+    let imgs: Vec<[f32; IMG_PIXELS]> = cfg.scenes.iter().map(|s| s.render(1).image_k).collect();
+    let mut m = Mtts::new(Config {
+        scale,
+        method,
+        ..Config::default()
+    })
+    .map_err(|e| e.to_string())?;
+    let mut pass = |m: &mut Mtts| -> Result<f64, String> {
+        let t0 = Instant::now();
+        for img in &imgs {
+            m.reset();
+            let out = m
+                .process(std::hint::black_box(img), scratch)
+                .map_err(|e| e.to_string())?;
+            std::hint::black_box(out);
+        }
+        Ok(t0.elapsed().as_nanos() as f64 / imgs.len() as f64)
+    };
+    pass(&mut m)?; // warm-up
+    let mut t = (0..cfg.timing_repeats)
+        .map(|_| pass(&mut m))
+        .collect::<Result<Vec<_>, _>>()?;
+    t.sort_by(f64::total_cmp);
+    Ok(t[t.len() / 2])
+}
+
+/// The counts of a saved `scripts/bench-m4` output.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct M4Counts {
+    /// `wp_mtts scale=S method=M insns=N`: whole MTTS of one frame.
+    pub mtts: HashMap<(u8, String), u64>,
+    /// `wp_roots variant=V to768_insns=N`: the to_768 stage with each roots variant.
+    pub roots: HashMap<String, u64>,
+}
+
+impl M4Counts {
+    /// Parse a bench-m4 output; other lines are ignored. Errors: malformed `wp_` lines (with
+    /// their line number), or no `wp_mtts` line at all (not a bench-m4 output).
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let mut c = M4Counts::default();
+        for (n, line) in text.lines().enumerate() {
+            let line = line.trim();
+            let bad = || format!("line {}: malformed `{line}`", n + 1);
+            let fields = |line: &str| -> HashMap<String, String> {
+                line.split_whitespace()
+                    .skip(1)
+                    .filter_map(|f| f.split_once('='))
+                    .map(|(a, b)| (a.to_string(), b.to_string()))
+                    .collect()
+            };
+            if line.starts_with("wp_mtts ") {
+                let f = fields(line);
+                let scale = f
+                    .get("scale")
+                    .and_then(|s| s.parse().ok())
+                    .ok_or_else(bad)?;
+                let method = f.get("method").ok_or_else(bad)?.clone();
+                let insns = f
+                    .get("insns")
+                    .and_then(|s| s.parse().ok())
+                    .ok_or_else(bad)?;
+                c.mtts.insert((scale, method), insns);
+            } else if line.starts_with("wp_roots ") {
+                let f = fields(line);
+                let variant = f.get("variant").ok_or_else(bad)?.clone();
+                let insns = f
+                    .get("to768_insns")
+                    .and_then(|s| s.parse().ok())
+                    .ok_or_else(bad)?;
+                c.roots.insert(variant, insns);
+            }
+        }
+        if c.mtts.is_empty() {
+            return Err("no `wp_mtts` lines: not a scripts/bench-m4 output".into());
+        }
+        Ok(c)
+    }
+
+    /// Read and parse `path`; errors name the file.
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        Self::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Put the counts into `rows`; every row and every roots variant must have one.
+    pub fn fill(&self, rows: &mut [Row], roots: &mut [RootsRow]) -> Result<(), String> {
+        for r in rows.iter_mut() {
+            let name = method_name(r.method);
+            r.m4_insns = Some(
+                *self
+                    .mtts
+                    .get(&(r.scale, name.to_string()))
+                    .ok_or_else(|| format!("no `wp_mtts scale={} method={name}` line", r.scale))?,
+            );
+        }
+        for r in roots.iter_mut() {
+            r.to768_insns = Some(
+                *self
+                    .roots
+                    .get(&r.variant)
+                    .ok_or_else(|| format!("no `wp_roots variant={}` line", r.variant))?,
+            );
+        }
+        Ok(())
+    }
+}
+
+/// One row of the roots table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RootsRow {
+    /// Variant name.
+    pub variant: String,
+    /// Its To error against the f64 reference.
+    pub error: to_roots::ToError,
+    /// Cortex-M4 instructions of the to_768 stage (both subpages) with it, if known.
+    pub to768_insns: Option<u64>,
+}
+
+/// The roots table over `cases` (M4 column empty).
+pub fn roots_table(cases: &[to_roots::Case]) -> Vec<RootsRow> {
+    to_roots::VARIANTS
+        .iter()
+        .map(|&(name, calc)| RootsRow {
+            variant: name.to_string(),
+            error: to_roots::max_error_k(calc, cases),
+            to768_insns: None,
+        })
+        .collect()
+}
+
+/// Indices of the points not dominated by another (≤ in every objective, < in one); every
+/// objective is to be minimised.
+pub fn pareto(points: &[Vec<f64>]) -> Vec<bool> {
+    points
+        .iter()
+        .map(|p| {
+            !points.iter().any(|q| {
+                q.iter().zip(p).all(|(a, b)| a <= b) && q.iter().zip(p).any(|(a, b)| a < b)
+            })
+        })
+        .collect()
+}
+
+/// The objectives of a row: cost (M4 instructions, else host ns), mean error, max error and
+/// run-to-run spread.
+fn objectives(r: &Row) -> Vec<f64> {
+    let cost = match (r.m4_insns, r.host_ns_per_frame) {
+        (Some(i), _) => i as f64,
+        (None, Some(ns)) => ns,
+        (None, None) => 0.0,
+    };
+    vec![cost, r.mean_err_k(), r.max_err_k(), r.spread_max_k]
+}
+
+fn opt_u64(v: Option<u64>) -> String {
+    v.map(|v| v.to_string()).unwrap_or_default()
+}
+
+fn label(r: &Row) -> String {
+    format!("s={} {}", r.scale, method_name(r.method))
+}
+
+/// Render the document.
+pub fn markdown(cfg: &WpConfig, rows: &[Row], roots: &[RootsRow]) -> String {
+    let mut s = String::new();
+    let front = pareto(&rows.iter().map(objectives).collect::<Vec<_>>());
+    let cost_name = if rows.iter().all(|r| r.m4_insns.is_some()) {
+        "M4 instructions"
+    } else {
+        "host ns/frame"
+    };
+    let _ = writeln!(s, "# MTTS work-precision: speed against error\n");
+    let _ = writeln!(
+        s,
+        "Generated by `scripts/work-precision` (`bash scripts/bench-m4`, then `host-sim mtts-wp \
+         --m4 <its output> --out docs/mtts-work-precision.md`); every figure below is measured \
+         by that run. Do not edit by hand.\n"
+    );
+    let names: Vec<&str> = cfg.scenes.iter().map(|s| s.name).collect();
+    let _ = writeln!(
+        s,
+        "**Setup.** K = {}, {} histogram bins. {} scenes ({}), each rendered with noise seeds \
+         1…{}; each image clustered with method seeds 1…{} by a fresh pipeline (a first \
+         frame: no previous geometry) — {} runs per row. Truth: the scene's region \
+         temperatures.\n",
+        Config::default().k,
+        Config::default().bins,
+        cfg.scenes.len(),
+        names.join(", "),
+        cfg.noise_seeds,
+        cfg.method_seeds,
+        rows.first().map(|r| r.runs).unwrap_or(0)
+    );
+    let _ = writeln!(
+        s,
+        "- **|T1−truth|, |T2−truth|**: mean and max over all runs, K.\n\
+         - **SSE gap**: (SSE − SSE_opt)/SSE_opt on the values the pipeline clusters (the filled \
+         image upsampled by the firmware's upsampler, clamped to the image's range). SSE: the \
+         method's cluster boundaries applied to those unbinned values, each group about its own \
+         mean. SSE_opt: exact 1-D k-means of the same values in f64 — sorted values, prefix \
+         sums, dynamic programming with the divide-and-conquer split search (exact: the optimal \
+         split is monotone), O(K·n·log n), independent of the firmware's binned solver.\n\
+         - **spread**: max − min of T1 (and of T2) over the method seeds for one image; the \
+         larger of the two, mean and max over images, K.\n\
+         - **host ns/frame**: the whole MTTS of one frame on this computer, median of {} \
+         timed passes over the scenes (noise seed 1); a benchmark figure, machine-dependent.\n\
+         - **M4 insns**: the whole MTTS of one frame on the Cortex-M4F under QEMU, exact \
+         instruction counts (the `wp_mtts` lines of `scripts/bench-m4`; its input frame: the \
+         rendered `heating-358` scene through the virtual sensor; a first frame){}.\n",
+        cfg.timing_repeats,
+        if rows.iter().all(|r| r.m4_insns.is_some()) {
+            ""
+        } else {
+            " — no bench-m4 output was given: column empty, the front uses host time"
+        }
+    );
+    let _ = writeln!(
+        s,
+        "| s | method | mean abs T1−truth K | max abs T1−truth K | mean abs T2−truth K | \
+         max abs T2−truth K | mean SSE gap % | max SSE gap % | mean spread K | max spread K | \
+         host ns/frame | M4 insns | front |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for (r, &f) in rows.iter().zip(&front) {
+        let default = r.scale == 4 && r.method == Method::Exact;
+        let _ = writeln!(
+            s,
+            "| {} | {}{} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} | {} |",
+            r.scale,
+            method_name(r.method),
+            if default { " (default)" } else { "" },
+            r.t1_mean_err_k,
+            r.t1_max_err_k,
+            r.t2_mean_err_k,
+            r.t2_max_err_k,
+            100.0 * r.gap_mean,
+            100.0 * r.gap_max,
+            r.spread_mean_k,
+            r.spread_max_k,
+            r.host_ns_per_frame
+                .map(|v| format!("{v:.0}"))
+                .unwrap_or_default(),
+            opt_u64(r.m4_insns),
+            if f { "**yes**" } else { "" }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n**Front.** A setting is on the Pareto front when no other is at least as good in \
+         every one of: cost ({cost_name}), mean error (the larger of the mean |T1−truth| and \
+         |T2−truth|), worst error (the larger of the max ones) and max spread — and better in \
+         one.\n"
+    );
+    s += &default_verdict(rows, &front, cost_name);
+
+    // Roots.
+    let _ = writeln!(s, "\n## Roots in the To calculation\n");
+    let pixels = roots.first().map(|r| r.error.pixels).unwrap_or(0);
+    let _ = writeln!(
+        s,
+        "Three fourth roots per pixel (the extended-range Sx term, a first To that picks the \
+         temperature range, the final To). Each variant replaces the square and fourth roots \
+         (`thermorph::mlx90640::Roots`); its To over {pixels} pixels — the shared real dumps \
+         (Melexis example, datasheet example, Signaloid, ceri) and synthetic subpages of three \
+         virtual sensors (the twelve scenes, random fields of 263–573 K through every \
+         extended range, 16/18/19-bit) — is compared with an f64 evaluation of the same \
+         formulas (`host_sim::to_roots::to_f64`). to_768: both subpages of bench-m4's frame \
+         (To and bad-pixel correction), Cortex-M4F under QEMU (`wp_roots` lines).\n"
+    );
+    let _ = writeln!(
+        s,
+        "| variant | max abs ΔTo K | max relative ΔTo | to_768 M4 insns | front |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|");
+    let rfront = pareto(
+        &roots
+            .iter()
+            .map(|r| {
+                vec![
+                    r.to768_insns.map(|v| v as f64).unwrap_or(0.0),
+                    r.error.max_abs_k,
+                ]
+            })
+            .collect::<Vec<_>>(),
+    );
+    for (r, &f) in roots.iter().zip(&rfront) {
+        let _ = writeln!(
+            s,
+            "| {}{} | {:.3e} | {:.2e} | {} | {} |",
+            r.variant,
+            if r.variant == "vsqrt" {
+                " (default)"
+            } else {
+                ""
+            },
+            r.error.max_abs_k,
+            r.error.max_rel,
+            opt_u64(r.to768_insns),
+            if f { "**yes**" } else { "" }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nQEMU counts instructions, not cycles: `VSQRT.F32` is one instruction that takes 14 \
+         cycles on the Cortex-M4F (ARM DDI 0439B, table 7-1), so in cycles the hardware path's \
+         lead over the software roots is narrower than the instruction counts show, and a \
+         bit-trick root such as micromath's may even be cheaper — at its error above, which \
+         rules it out for To."
+    );
+    if let Some(hw) = roots.iter().find(|r| r.variant == "vsqrt") {
+        let verdict = rfront[roots.iter().position(|r| r.variant == "vsqrt").unwrap_or(0)];
+        let same_as_libm = roots
+            .iter()
+            .any(|r| r.variant == "libm_sqrtf" && r.error == hw.error);
+        let cheaper: Vec<String> = roots
+            .iter()
+            .filter(|r| match (r.to768_insns, hw.to768_insns) {
+                (Some(a), Some(b)) => a < b,
+                _ => false,
+            })
+            .map(|r| format!("{} ({:.1e} K)", r.variant, r.error.max_abs_k))
+            .collect();
+        let _ = writeln!(
+            s,
+            "\n**Default `vsqrt`: {}.** Max |ΔTo| {:.1e} K{} — the f32 calculation's own \
+             rounding; {}.",
+            if verdict {
+                "on the front"
+            } else {
+                "NOT on the front"
+            },
+            hw.error.max_abs_k,
+            if same_as_libm {
+                ", the same as libm's correctly rounded `sqrtf` (bit-identical images)"
+            } else {
+                ""
+            },
+            if hw.to768_insns.is_none() {
+                "no M4 counts were given, so the front compares errors only".to_string()
+            } else if cheaper.is_empty() {
+                let better: Vec<String> = roots
+                    .iter()
+                    .filter(|r| r.error.max_abs_k < hw.error.max_abs_k)
+                    .map(|r| {
+                        format!(
+                            "{} ({:.1e} K at {} instructions)",
+                            r.variant,
+                            r.error.max_abs_k,
+                            opt_u64(r.to768_insns)
+                        )
+                    })
+                    .collect();
+                format!(
+                    "no variant takes fewer Cortex-M4 instructions{}",
+                    if better.is_empty() {
+                        String::new()
+                    } else {
+                        format!(
+                            "; more accurate, within the same f32 rounding, but dearer: {}",
+                            better.join(", ")
+                        )
+                    }
+                )
+            } else {
+                format!("cheaper in instructions: {}", cheaper.join(", "))
+            }
+        );
+    }
+    s
+}
+
+/// The paragraph on the default setting (s = 4, exact): on the front or not, and against what.
+fn default_verdict(rows: &[Row], front: &[bool], cost_name: &str) -> String {
+    let Some(di) = rows
+        .iter()
+        .position(|r| r.scale == 4 && r.method == Method::Exact)
+    else {
+        return String::new();
+    };
+    let d = &rows[di];
+    let od = objectives(d);
+    let mut s = String::new();
+    if front[di] {
+        let cheaper: Vec<String> = rows
+            .iter()
+            .filter(|r| objectives(r)[0] < od[0])
+            .map(|r| {
+                let o = objectives(r);
+                let mut why = Vec::new();
+                if o[1] > od[1] {
+                    why.push(format!("mean error {:.3} K", o[1]));
+                }
+                if o[2] > od[2] {
+                    why.push(format!("worst error {:.3} K", o[2]));
+                }
+                if o[3] > od[3] {
+                    why.push(format!("spread {:.3} K", o[3]));
+                }
+                format!("{} ({})", label(r), why.join(", "))
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "**Default s = 4, exact: on the front.** Mean error {:.3} K, worst {:.3} K, spread \
+             {:.3} K (deterministic), {:.0} {cost_name}. Every cheaper setting is worse in some \
+             error measure: {}.",
+            od[1],
+            od[2],
+            od[3],
+            od[0],
+            if cheaper.is_empty() {
+                "none is cheaper".to_string()
+            } else {
+                cheaper.join("; ")
+            }
+        );
+        let dearer_better: Vec<String> = rows
+            .iter()
+            .filter(|r| objectives(r)[0] > od[0] && objectives(r)[1] < od[1])
+            .map(|r| {
+                format!(
+                    "{} (mean error {:.3} K, {:.0})",
+                    label(r),
+                    objectives(r)[1],
+                    objectives(r)[0]
+                )
+            })
+            .collect();
+        if !dearer_better.is_empty() {
+            let _ = writeln!(
+                s,
+                "More accurate settings cost more: {}.",
+                dearer_better.join("; ")
+            );
+        }
+    } else {
+        let dom: Vec<String> = rows
+            .iter()
+            .filter(|r| {
+                let o = objectives(r);
+                o.iter().zip(&od).all(|(a, b)| a <= b) && o.iter().zip(&od).any(|(a, b)| a < b)
+            })
+            .map(label)
+            .collect();
+        let _ = writeln!(
+            s,
+            "**Default s = 4, exact: NOT on the front** — dominated by {}.",
+            dom.join(", ")
+        );
+    }
+    s
+}
+
+/// Run `host-sim mtts-wp`.
+pub fn run(args: &WpArgs) -> Result<(), String> {
+    if args.seeds < 2 {
+        return Err("--seeds must be at least 2 (the spread needs two method seeds)".into());
+    }
+    // Read the M4 counts first: a bad file fails before the long measurement.
+    let m4 = args.m4.as_deref().map(M4Counts::read).transpose()?;
+    let cfg = WpConfig::full(args.seeds);
+    let mut rows = measure(&cfg)?;
+    let dir = crate::data::mlx90640_dir();
+    if !dir.is_dir() {
+        return Err(format!(
+            "sensor data folder {} is missing (the roots table reads the real dumps; set {})",
+            dir.display(),
+            crate::data::DATA_DIR_ENV
+        ));
+    }
+    let cases = to_roots::cases(Some(&dir))?;
+    let mut roots = roots_table(&cases);
+    if let Some(m4) = &m4 {
+        m4.fill(&mut rows, &mut roots)
+            .map_err(|e| format!("{}: {e}", args.m4.as_ref().unwrap().display()))?;
+    }
+    let md = markdown(&cfg, &rows, &roots);
+    match &args.out {
+        Some(p) => std::fs::write(p, md).map_err(|e| format!("{}: cannot write: {e}", p.display())),
+        None => {
+            print!("{md}");
+            Ok(())
+        }
+    }
+}
