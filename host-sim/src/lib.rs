@@ -4,11 +4,11 @@
 //! - [`data`]: where the shared sensor dumps live.
 //! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files.
+//! - [`mtts_wp`]: the MTTS work-precision table (`host-sim mtts-wp`).
 //! - [`plant`]: the simulated block: thermal network, SMA springs, SMP lattice, bending.
 //! - [`plot`]: the PNG plot of a run.
 //! - [`run`]: `host-sim run`, a scene played against the plant, and its outputs.
 //! - [`scenario`]: scene files (TOML) and the bundled scenes.
-//! - [`mtts_wp`]: the MTTS work-precision table (`host-sim mtts-wp`).
 //! - [`scene`]: the camera's view of the block, with ground truth.
 //! - [`sim_time`]: the simulated clock and delay.
 //! - [`to_roots`]: root variants of the To calculation and its f64 reference.
@@ -19,11 +19,11 @@ pub mod decode;
 pub mod dump;
 pub mod eeprom;
 pub mod mtts_cli;
+pub mod mtts_wp;
 pub mod plant;
 pub mod plot;
 pub mod run;
 pub mod scenario;
-pub mod mtts_wp;
 pub mod scene;
 pub mod sensor_demo;
 pub mod sim_time;

@@ -20,8 +20,8 @@
 //! Σ_boundaries n_bin·2w·(b − a), an upper bound of the SSE gap to the unbinned optimum.
 //!
 //! The host crate solves the same problem on the sorted values without binning as the reference
-//! (`host_sim::mtts_ref`); [`lloyd`] is the thesis's Lloyd iteration with random or k-means++ seeding from a
-//! seeded generator, kept for comparison.
+//! (`host_sim::mtts_wp::optimal_sse`); [`lloyd`] is the thesis's Lloyd iteration with random or
+//! k-means++ seeding from a seeded generator, kept for comparison.
 
 use super::MttsError;
 
