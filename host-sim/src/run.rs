@@ -22,7 +22,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use serde::Serialize;
-use thermorph::mlx90640::{Config as SensorConfig, DecodeParams, PIXELS};
+use thermorph::mlx90640::{Config as SensorConfig, DecodeParams};
 use thermorph::mtts::{self, Mtts, REGIONS, Scratch};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
@@ -58,7 +58,6 @@ struct Camera {
     frames: u64,
     errors: u64,
     last: Option<[f64; REGIONS]>,
-    field: [f32; PIXELS],
 }
 
 impl Camera {
@@ -74,7 +73,6 @@ impl Camera {
             frames: 0,
             errors: 0,
             last: None,
-            field: [0.0; PIXELS],
         })
     }
 
@@ -102,8 +100,7 @@ impl Camera {
                 seed: 0,
             },
         );
-        self.field = r.image_k;
-        self.rig.set_field(&self.field);
+        self.rig.set_field(&r.image_k);
         self.rig.bus.0.borrow_mut().set_fault(fault);
         let t_end_us = (t_s * 1e6) as u64;
         while self.rig.clock.now_us() < t_end_us {
