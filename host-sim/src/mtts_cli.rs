@@ -67,14 +67,28 @@ pub fn write_image(img: &[f32; IMG_PIXELS], out: &mut impl Write) -> std::io::Re
     Ok(())
 }
 
+/// The clustering methods as the command line (and `bench-m4`) spells them.
+pub const METHODS: [(&str, Method); 3] = [
+    ("exact", Method::Exact),
+    ("lloyd", Method::Lloyd),
+    ("kmeanspp", Method::KMeansPlusPlus),
+];
+
 /// Parse a method name.
 pub fn parse_method(s: &str) -> Result<Method, String> {
-    match s {
-        "exact" => Ok(Method::Exact),
-        "lloyd" => Ok(Method::Lloyd),
-        "kmeanspp" => Ok(Method::KMeansPlusPlus),
-        _ => Err(format!("method `{s}` is not exact, lloyd or kmeanspp")),
-    }
+    METHODS
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|(_, m)| *m)
+        .ok_or_else(|| format!("method `{s}` is not exact, lloyd or kmeanspp"))
+}
+
+/// The name of a method, as [`parse_method`] reads it.
+pub fn method_name(m: Method) -> &'static str {
+    METHODS
+        .iter()
+        .find(|(_, x)| *x == m)
+        .map_or("exact", |(n, _)| *n)
 }
 
 /// Run MTTS on an image file and write `region,name,temp_k,pixels` (pixels: upsampled pixels

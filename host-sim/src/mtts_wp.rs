@@ -22,6 +22,7 @@ use clap::Args;
 use thermorph::mtts::upsample::{UpsampleScratch, Upsampler};
 use thermorph::mtts::{self, Config, IMG_PIXELS, Method, Mtts, Scratch};
 
+use crate::mtts_cli::method_name;
 use crate::scene::{Scene, standard_scenes};
 use crate::to_roots;
 
@@ -37,15 +38,6 @@ pub struct WpArgs {
     /// Noise seeds per scene, and method seeds per image (≥ 2 for a spread).
     #[arg(long, default_value_t = 5)]
     pub seeds: u64,
-}
-
-/// The method names, as `host-sim mtts --method` and `bench-m4` spell them.
-pub fn method_name(m: Method) -> &'static str {
-    match m {
-        Method::Exact => "exact",
-        Method::Lloyd => "lloyd",
-        Method::KMeansPlusPlus => "kmeanspp",
-    }
 }
 
 /// What to measure.

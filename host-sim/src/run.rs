@@ -137,21 +137,16 @@ impl Camera {
     }
 }
 
-/// The five region temperatures the camera sees, from the plant: the heater film through
-/// the lattice gaps, the SMP outer surface, the edges (seen at grazing angles: 70 % of the
-/// way from the background to the surface), the radiation zone (25 %), the background (the
-/// ambient), and the springs (their mean).
+/// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):
+/// the heater film through the lattice gaps, the SMP outer surface, edges and radiation zone
+/// between it and the background (the ambient), and the springs at their mean.
 pub fn camera_temps(obs: &Observation) -> Temps {
-    let bg = obs.ambient_k;
-    let t2 = obs.smp_outer_k;
-    Temps {
-        heater_k: obs.heater_k,
-        surface_k: t2,
-        edge_k: bg + 0.7 * (t2 - bg),
-        radiation_k: bg + 0.25 * (t2 - bg),
-        background_k: bg,
-        spring_k: obs.springs_k.iter().sum::<f64>() / 3.0,
-    }
+    Temps::from_surfaces(
+        obs.ambient_k,
+        obs.heater_k,
+        obs.smp_outer_k,
+        obs.springs_k.iter().sum::<f64>() / 3.0,
+    )
 }
 
 /// Everything a run produced.

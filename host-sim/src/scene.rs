@@ -75,6 +75,21 @@ pub struct Temps {
 }
 
 impl Temps {
+    /// The view of a block whose heater film is at `heater_k` and SMP outer surface at
+    /// `surface_k` against a background at `background_k`: the edges, seen at grazing angles,
+    /// 70 % of the way from the background to the surface; the radiation zone 25 %; the
+    /// springs at `spring_k`.
+    pub fn from_surfaces(background_k: f64, heater_k: f64, surface_k: f64, spring_k: f64) -> Self {
+        Temps {
+            heater_k,
+            surface_k,
+            edge_k: background_k + 0.7 * (surface_k - background_k),
+            radiation_k: background_k + 0.25 * (surface_k - background_k),
+            background_k,
+            spring_k,
+        }
+    }
+
     /// Return the five region temperatures in region order.
     pub fn regions(&self) -> [f64; REGIONS] {
         [
@@ -206,14 +221,7 @@ pub struct Scene {
 /// strong noise, cold and hot ambients.
 pub fn standard_scenes() -> [Scene; 12] {
     let g = Geometry::default();
-    let heat = |bg: f64, t1: f64, t2: f64| Temps {
-        heater_k: t1,
-        surface_k: t2,
-        edge_k: bg + 0.7 * (t2 - bg),
-        radiation_k: bg + 0.25 * (t2 - bg),
-        background_k: bg,
-        spring_k: bg + 5.0,
-    };
+    let heat = |bg: f64, t1: f64, t2: f64| Temps::from_surfaces(bg, t1, t2, bg + 5.0);
     let s = |name, geometry, temps, noise_k| Scene {
         name,
         geometry,
