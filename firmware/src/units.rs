@@ -28,6 +28,24 @@ impl Kelvin {
     }
 }
 
+/// A monotonic instant or a span in milliseconds (time since boot on the board, simulated
+/// time in host-sim).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Default, Hash)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub struct Millis(pub u64);
+
+impl Millis {
+    /// Return the span from `earlier` to `self` in seconds (0 if `earlier` is later).
+    pub fn seconds_since(self, earlier: Millis) -> f32 {
+        self.0.saturating_sub(earlier.0) as f32 * 1e-3
+    }
+
+    /// Return the raw value in milliseconds.
+    pub fn ms(self) -> u64 {
+        self.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

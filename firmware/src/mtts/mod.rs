@@ -85,6 +85,20 @@ pub enum Method {
     KMeansPlusPlus,
 }
 
+/// What the supervisor's mode says about the two control targets: a prior the region finder
+/// combines with the spatial fit (it never decides alone).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum Prior {
+    /// Nothing known (power-up, a fault).
+    #[default]
+    Unknown,
+    /// The heater area is expected hotter than the SMP surface (the heating modes).
+    HeaterHotter,
+    /// The SMP surface is expected hotter than the heater area (forming's hot-zone inversion).
+    SurfaceHotter,
+}
+
 /// MTTS settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
@@ -280,6 +294,7 @@ pub struct Mtts {
     upsampler: Upsampler,
     geometry: Geometry,
     rng: XorShift,
+    prior: Prior,
 }
 
 impl Mtts {
@@ -296,6 +311,7 @@ impl Mtts {
             config,
             geometry: Geometry::DEFAULT,
             rng: XorShift::new(config.seed),
+            prior: Prior::Unknown,
         })
     }
 
@@ -307,6 +323,16 @@ impl Mtts {
     /// Return the geometry the next frame starts from.
     pub fn geometry(&self) -> Geometry {
         self.geometry
+    }
+
+    /// Set the prior the next frames are read with (kept until changed).
+    pub fn set_prior(&mut self, prior: Prior) {
+        self.prior = prior;
+    }
+
+    /// Return the prior in force.
+    pub fn prior(&self) -> Prior {
+        self.prior
     }
 
     /// Forget the previous frames (geometry back to the default).
