@@ -10,17 +10,25 @@
 //! - [`measurement`]: what sensing hands control, one [`measurement::Measurement`] a frame.
 //! - [`outputs`]: heater and fan duty and the spring gates, the only things a decision drives.
 //! - [`block`]: the block's geometry.
-//! - [`console`]: the line-based serial console protocol.
+//! - [`console`]: the line-based serial console protocol: assembling bytes into lines.
+//! - [`command`]: the command table and the parser of console lines.
+//! - [`settings`]: every tunable parameter (targets, gains, weights, durations, limits).
+//! - [`control`]: the control laws: PID, split range, relay autotune.
+//! - [`supervisor`]: modes, safety and the fault latch; `Supervisor::step` → `Decision`.
 //! - [`fmath`]: the few float functions the target lacks in `core` (square root).
 #![cfg_attr(not(test), no_std)]
 
 pub mod block;
+pub mod command;
 pub mod console;
+pub mod control;
 pub mod fmath;
 pub mod measurement;
 pub mod mlx90640;
 pub mod mtts;
 pub mod outputs;
+pub mod settings;
+pub mod supervisor;
 pub mod units;
 
 /// Firmware version string shown by the console's `version` command.

@@ -82,3 +82,67 @@ impl Default for SensingHint {
         }
     }
 }
+
+/// Return Tc for the pair (T1, T2) under `hint`: Tc = w1·T1* + w2·T2*, where (T1*, T2*) is the
+/// pair ordered as the mode expects it — with [`Prior::HeaterHotter`](crate::mtts::Prior) T1* is
+/// the hotter of the two, with `SurfaceHotter` the colder, with `Unknown` the pair as measured.
+///
+/// Ordering by rank makes Tc immune to a swapped (or merged) T1/T2: with the default weights
+/// (0, 1) the heating modes control the colder of the two — the whole cross-section reaches the
+/// target and a swap cannot make the controller chase the hotter one past it — and forming
+/// controls the hotter one, so it ends only when everything it sees is cool.
+pub fn controlled_temperature(t1: Kelvin, t2: Kelvin, hint: &SensingHint) -> Kelvin {
+    use crate::mtts::Prior;
+    let (hi, lo) = if t1.k() >= t2.k() { (t1, t2) } else { (t2, t1) };
+    let (a, b) = match hint.prior {
+        Prior::Unknown => (t1, t2),
+        Prior::HeaterHotter => (hi, lo),
+        Prior::SurfaceHotter => (lo, hi),
+    };
+    hint.weights.apply(a, b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mtts::{Prior, Weights};
+
+    #[test]
+    fn tc_ranks_the_pair_as_the_mode_expects() {
+        let w = Weights { w1: 0.0, w2: 1.0 };
+        let heat = SensingHint {
+            prior: Prior::HeaterHotter,
+            weights: w,
+        };
+        let form = SensingHint {
+            prior: Prior::SurfaceHotter,
+            weights: w,
+        };
+        // Heating: the colder of the two, whichever label it carries.
+        assert_eq!(
+            controlled_temperature(Kelvin(360.0), Kelvin(350.0), &heat),
+            Kelvin(350.0)
+        );
+        assert_eq!(
+            controlled_temperature(Kelvin(350.0), Kelvin(360.0), &heat),
+            Kelvin(350.0)
+        );
+        // Forming: the hotter.
+        assert_eq!(
+            controlled_temperature(Kelvin(320.0), Kelvin(330.0), &form),
+            Kelvin(330.0)
+        );
+        assert_eq!(
+            controlled_temperature(Kelvin(330.0), Kelvin(320.0), &form),
+            Kelvin(330.0)
+        );
+        let blend = SensingHint {
+            prior: Prior::Unknown,
+            weights: Weights { w1: 0.25, w2: 0.75 },
+        };
+        assert_eq!(
+            controlled_temperature(Kelvin(340.0), Kelvin(320.0), &blend),
+            Kelvin(325.0)
+        );
+    }
+}

@@ -5,6 +5,7 @@
 //! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files.
 //! - [`mtts_wp`]: the MTTS work-precision table (`host-sim mtts-wp`).
+//! - [`paper`]: `host-sim paper`, the thesis's experiments against the real supervisor.
 //! - [`plant`]: the simulated block: thermal network, SMA springs, SMP lattice, bending.
 //! - [`plot`]: the PNG plot of a run.
 //! - [`run`]: `host-sim run`, a scene played against the plant, and its outputs.
@@ -20,6 +21,7 @@ pub mod dump;
 pub mod eeprom;
 pub mod mtts_cli;
 pub mod mtts_wp;
+pub mod paper;
 pub mod plant;
 pub mod plot;
 pub mod run;

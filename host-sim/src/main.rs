@@ -84,6 +84,13 @@ enum Command {
     },
     /// Measure the MTTS work-precision table (speed against error) and print it as markdown.
     MttsWp(host_sim::mtts_wp::WpArgs),
+    /// Run the thesis's experiments (camera on, the firmware's supervisor) and print each
+    /// SPEC section 8 figure beside the thesis's, with its tolerance and pass/fail.
+    Paper {
+        /// Print one JSON object keyed by figure instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -132,6 +139,7 @@ fn main() -> ExitCode {
         }
         Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
         Command::MttsWp(args) => host_sim::mtts_wp::run(&args),
+        Command::Paper { json } => host_sim::paper::cli(json),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

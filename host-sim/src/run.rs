@@ -25,6 +25,14 @@ use serde::Serialize;
 use thermorph::mlx90640::{Config as SensorConfig, DecodeParams};
 use thermorph::mtts::{self, Mtts, REGIONS, Scratch};
 
+use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
+use thermorph::outputs::Outputs;
+use thermorph::settings::Settings;
+use thermorph::supervisor::events::EventKind;
+use thermorph::supervisor::report::Reply;
+use thermorph::supervisor::{Decision, Supervisor};
+use thermorph::units::{Kelvin, Millis};
+
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 use crate::scenario::{FaultKind, Scenario};
 use crate::scene::{self, Geometry, Temps};
@@ -46,6 +54,45 @@ pub struct Row {
     pub truth_k: [f64; REGIONS],
     /// Bit mask of the scene's faults active in this period (bit i = fault i).
     pub faults: u32,
+    /// The supervisor in this period (closed-loop scenes only).
+    pub control: Option<ControlRow>,
+}
+
+/// What the supervisor did in one period of a closed-loop run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlRow {
+    /// Its mode (as `status` names it).
+    pub mode: &'static str,
+    /// Its phase within the mode (`-` where none).
+    pub phase: &'static str,
+    /// The loop's target, K (NaN when no loop runs).
+    pub target_k: f64,
+    /// Tc as the supervisor computed it, K (NaN before the first measurement).
+    pub tc_k: f64,
+    /// The latched fault's code, if any.
+    pub fault: Option<&'static str>,
+}
+
+/// A console line of the scene and the supervisor's reply.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ReplyRecord {
+    /// When it was sent, s.
+    pub at_s: f64,
+    /// The line.
+    pub line: String,
+    /// The reply line.
+    pub reply: String,
+}
+
+/// A fault the supervisor latched.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FaultRecord {
+    /// When, s.
+    pub at_s: f64,
+    /// Its code.
+    pub code: String,
+    /// Its reason.
+    pub reason: String,
 }
 
 /// The camera chain: renderer → virtual MLX90640 → firmware driver → MTTS.
@@ -137,6 +184,112 @@ impl Camera {
     }
 }
 
+/// The firmware's supervisor in the loop: console lines in, plant inputs out.
+pub struct Control {
+    /// The supervisor, exactly as the board runs it.
+    pub supervisor: Supervisor,
+    /// Every fault it latched.
+    pub faults: Vec<FaultRecord>,
+    seen_events: u32,
+}
+
+impl Control {
+    /// Start the supervisor at `now` with the default settings.
+    pub fn new(now: Millis) -> Self {
+        Control {
+            supervisor: Supervisor::new(now, Settings::DEFAULT),
+            faults: Vec::new(),
+            seen_events: 0,
+        }
+    }
+
+    /// One control period: the new measurement (if a frame came) and the due console lines
+    /// (each a step of its own, as the board does); returns the plant's inputs.
+    pub fn step(
+        &mut self,
+        now: Millis,
+        m: Option<&Measurement>,
+        lines: &[crate::scenario::CommandLine],
+        replies: &mut Vec<ReplyRecord>,
+    ) -> Inputs {
+        let mut d = self.supervisor.step(now, m, None);
+        for l in lines {
+            let c = thermorph::command::parse(&l.line);
+            d = match c {
+                Ok(c) => self.supervisor.step(now, None, Some(c)),
+                Err(e) => Decision {
+                    reply: Some(Reply::parse_error(e)),
+                    ..d
+                },
+            };
+            replies.push(ReplyRecord {
+                at_s: l.at_s,
+                line: l.line.clone(),
+                reply: d
+                    .reply
+                    .as_ref()
+                    .map_or(String::new(), |r| r.as_str().to_string()),
+            });
+        }
+        for e in self.supervisor.events().since(self.seen_events) {
+            if let EventKind::Fault(f) = e.kind {
+                self.faults.push(FaultRecord {
+                    at_s: e.at.ms() as f64 * 1e-3,
+                    code: f.code().into(),
+                    reason: f.reason().to_string(),
+                });
+            }
+        }
+        self.seen_events = self.supervisor.events().total();
+        inputs_of(&d.outputs)
+    }
+
+    /// The supervisor's state for the time series.
+    pub fn row(&self) -> ControlRow {
+        let s = &self.supervisor;
+        ControlRow {
+            mode: s.mode().name(),
+            phase: s.mode().phase_name(),
+            target_k: s.target_k() as f64,
+            tc_k: s.tc_k() as f64,
+            fault: s.fault().map(|f| f.code()),
+        }
+    }
+}
+
+/// The plant's inputs for a decision's outputs.
+pub fn inputs_of(o: &Outputs) -> Inputs {
+    Inputs {
+        heater_duty: o.heater.fraction() as f64,
+        fan_duty: o.fan.fraction() as f64,
+        springs_on: core::array::from_fn(|i| o.springs.contains(i)),
+        ..Inputs::default()
+    }
+}
+
+/// A measurement of region temperatures taken at `t_s` (frame number `seq`).
+fn measurement_of(
+    regions_k: &[f64; REGIONS],
+    cylinder_max: Option<Kelvin>,
+    t_s: f64,
+    seq: u64,
+    control: &Option<Control>,
+) -> Measurement {
+    let regions = regions_k.map(|t| Kelvin(t as f32));
+    let hint = control
+        .as_ref()
+        .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
+    Measurement {
+        at: Millis((t_s * 1000.0).round() as u64),
+        seq: seq as u32,
+        regions,
+        tc: controlled_temperature(regions[0], regions[1], &hint),
+        cylinder_max,
+        filled_pixels: 0,
+        quality: Quality::Resolved,
+    }
+}
+
 /// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):
 /// the heater film through the lattice gaps, the SMP outer surface, edges and radiation zone
 /// between it and the background (the ambient), and the springs at their mean.
@@ -225,12 +378,31 @@ pub struct Summary {
     pub periods_without_measurement: usize,
     /// MTTS accuracy (camera on only).
     pub camera_stats: Option<CameraStats>,
-    /// The SPEC section 8 figures.
+    /// The SPEC section 8 figures (open-loop scenes; `host-sim paper` measures them closed
+    /// loop).
     pub figures: Vec<Figure>,
+    /// Each console line of the scene with its reply (closed-loop scenes).
+    pub replies: Vec<ReplyRecord>,
+    /// Every fault the supervisor latched (closed-loop scenes).
+    pub faults: Vec<FaultRecord>,
 }
 
 /// Play `scenario`; `progress` is called after each period with the fraction done.
 pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResult, String> {
+    run_with(scenario, progress, &mut |_, _| None)
+}
+
+/// Decides console lines from the supervisor's state (for experiments that enter modes back to
+/// back): called each period with the time and the supervisor; a returned line is sent then.
+pub type Reactor<'a> = dyn FnMut(f64, &Supervisor) -> Option<String> + 'a;
+
+/// [`run`], with `react` able to send console lines as the supervisor's state changes (the
+/// scene must run closed loop: at least one `[[command]]`).
+pub fn run_with(
+    scenario: &Scenario,
+    progress: &mut dyn FnMut(f64),
+    react: &mut Reactor<'_>,
+) -> Result<RunResult, String> {
     let mut plant = Plant::new(&PlantConfig {
         ambient_k: scenario.ambient_k,
         initial_k: scenario.initial_k,
@@ -247,6 +419,11 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResu
     let mut rows = Vec::with_capacity(steps);
     let mut cmd = Inputs::default();
     let mut next_action = 0;
+    let mut next_command = 0;
+    let closed_loop = !scenario.commands.is_empty();
+    let mut control = closed_loop.then(|| Control::new(Millis(0)));
+    let mut replies = Vec::new();
+    let mut measurement: Option<Measurement> = None;
     let started = Instant::now();
     for k in 0..steps {
         let t0_s = k as f64 * scenario.period_s;
@@ -267,6 +444,23 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResu
             }
             next_action += 1;
         }
+        if let Some(c) = control.as_mut() {
+            let now = Millis((t0_s * 1000.0).round() as u64);
+            let mut lines = Vec::new();
+            while let Some(l) = scenario
+                .commands
+                .get(next_command)
+                .filter(|l| l.at_s <= t0_s + 1e-9)
+            {
+                lines.push(l.clone());
+                next_command += 1;
+            }
+            if let Some(line) = react(t0_s, &c.supervisor) {
+                lines.push(crate::scenario::CommandLine { at_s: t0_s, line });
+            }
+            let d = c.step(now, measurement.take().as_ref(), &lines, &mut replies);
+            cmd = d;
+        }
         let mut inputs = cmd;
         let mut faults = 0u32;
         let mut sensor_fault = None;
@@ -285,9 +479,23 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResu
         let obs = plant.observe();
         let truth_k = camera_temps(&obs).regions();
         let measured_k = match camera.as_mut() {
-            Some(c) => c.update(&obs, sensor_fault, t1_s),
+            Some(c) => {
+                let frames = c.frames;
+                if let Some(ctl) = &control {
+                    c.mtts.set_prior(ctl.supervisor.sensing_hint().prior);
+                }
+                let m = c.update(&obs, sensor_fault, t1_s);
+                if c.frames > frames {
+                    measurement = m.map(|r| measurement_of(&r, None, t1_s, c.frames, &control));
+                }
+                m
+            }
             None if sensor_fault.is_some() => None,
-            None => Some(truth_k),
+            None => {
+                let cyl = Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32));
+                measurement = Some(measurement_of(&truth_k, cyl, t1_s, k as u64 + 1, &control));
+                Some(truth_k)
+            }
         };
         rows.push(Row {
             inputs,
@@ -296,11 +504,14 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResu
             measured_k,
             truth_k,
             faults,
+            control: control.as_ref().map(Control::row),
         });
         progress((k + 1) as f64 / steps as f64);
     }
     let wall_s = started.elapsed().as_secs_f64();
-    let summary = summarise(scenario, &rows, wall_s, camera.as_ref());
+    let mut summary = summarise(scenario, &rows, wall_s, camera.as_ref());
+    summary.replies = replies;
+    summary.faults = control.map(|c| c.faults).unwrap_or_default();
     Ok(RunResult { rows, summary })
 }
 
@@ -363,7 +574,13 @@ fn summarise(scenario: &Scenario, rows: &[Row], wall_s: f64, camera: Option<&Cam
         ],
         periods_without_measurement: rows.iter().filter(|r| r.measured_k.is_none()).count(),
         camera_stats,
-        figures: figures(rows),
+        figures: if scenario.commands.is_empty() {
+            figures(rows)
+        } else {
+            Vec::new()
+        },
+        replies: Vec::new(),
+        faults: Vec::new(),
     }
 }
 
@@ -503,7 +720,7 @@ pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), String> {
 pub const CSV_HEADER: &str = "time_s,heater_duty_pct,fan_duty_pct,spring_a,spring_b,spring_c,\
 heater_k,smp_inner_k,smp_outer_k,duct_air_k,spring_a_k,spring_b_k,spring_c_k,\
 austenite_a,austenite_b,austenite_c,frozen_fraction,bend_deg,bend_plane_deg,k_b_nmm_per_rad,\
-heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults";
+heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_k,tc_k,fault";
 
 /// Write the time series as CSV (`nan` where there is no measurement).
 pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
@@ -543,7 +760,30 @@ pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
                 None => write!(out, ",nan")?,
             }
         }
-        writeln!(out, ",{}", r.faults)?;
+        write!(out, ",{}", r.faults)?;
+        // The supervisor's columns: `-`/`nan` in open-loop scenes; `fault` is `none` unless
+        // a fault is latched.
+        match &r.control {
+            Some(c) => {
+                let k = |v: f64| {
+                    if v.is_finite() {
+                        format!("{v:.3}")
+                    } else {
+                        "nan".into()
+                    }
+                };
+                writeln!(
+                    out,
+                    ",{},{},{},{},{}",
+                    c.mode,
+                    c.phase,
+                    k(c.target_k),
+                    k(c.tc_k),
+                    c.fault.unwrap_or("none")
+                )?
+            }
+            None => writeln!(out, ",-,-,nan,nan,none")?,
+        }
     }
     Ok(())
 }
@@ -767,6 +1007,7 @@ mod tests {
                     measured_k: Some(truth_k),
                     truth_k,
                     faults: 0,
+                    control: None,
                 }
             })
             .collect()

@@ -90,6 +90,15 @@ pub struct Action {
     pub springs_on: Option<[bool; 3]>,
 }
 
+/// One timed console line (the scene then runs the supervisor in the loop).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CommandLine {
+    /// When, s from the start.
+    pub at_s: f64,
+    /// The line as typed (checked by the firmware's parser when the scene is loaded).
+    pub line: String,
+}
+
 /// What an injected fault does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FaultKind {
@@ -149,6 +158,9 @@ pub struct Scenario {
     pub camera: CameraSettings,
     /// Actions sorted by time (ties keep file order).
     pub actions: Vec<Action>,
+    /// Console lines sorted by time (ties keep file order). A scene with any runs closed loop:
+    /// the firmware's supervisor drives the outputs, and `actions` must be empty.
+    pub commands: Vec<CommandLine>,
     /// Injected faults.
     pub faults: Vec<FaultSpec>,
 }
@@ -219,6 +231,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
             "fidelity",
             "camera",
             "action",
+            "command",
             "fault",
         ],
     )?;
@@ -404,6 +417,46 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
     }
     actions.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
 
+    let mut commands = Vec::new();
+    if let Some((k, item)) = root.get_key_value("command") {
+        for (i, t) in tables(&cx, k, item, "command")?.into_iter().enumerate() {
+            let p = format!("command[{}].", i + 1);
+            check_keys(&cx, t, &p, &["at", "line"])?;
+            let at_s = match t.get_key_value("at") {
+                Some((k, v)) => time(&cx, k, v, &format!("{p}at"), (0.0, duration_s))?,
+                None => return Err(cx.err(t.span(), &format!("{p}at"), "missing")),
+            };
+            let line = match t.get_key_value("line") {
+                Some((k, v)) => {
+                    let line = string(&cx, k, v, &format!("{p}line"))?;
+                    if let Err(e) = thermorph::command::parse(line) {
+                        return Err(cx.err(
+                            v.span(),
+                            &format!("{p}line"),
+                            format!(
+                                "the console would refuse it: {} ({})",
+                                e.code(),
+                                e.message()
+                            ),
+                        ));
+                    }
+                    line.to_string()
+                }
+                None => return Err(cx.err(t.span(), &format!("{p}line"), "missing")),
+            };
+            commands.push(CommandLine { at_s, line });
+        }
+        if !actions.is_empty() {
+            return Err(cx.err(
+                item.span(),
+                "command",
+                "a scene with console commands runs the supervisor and may not set duties by \
+                 hand: remove its [[action]] tables",
+            ));
+        }
+    }
+    commands.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+
     let mut faults = Vec::new();
     if let Some((k, item)) = root.get_key_value("fault") {
         for (i, t) in tables(&cx, k, item, "fault")?.into_iter().enumerate() {
@@ -516,6 +569,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
         max_step_s,
         camera,
         actions,
+        commands,
         faults,
     })
 }

@@ -1,0 +1,331 @@
+//! The console's command set: one table ([`COMMANDS`]) drives parsing, `help` and the README's
+//! list, and [`parse`] turns a line into a typed [`Command`] for `Supervisor::step`.
+//!
+//! Words are separated by spaces or tabs and are case-insensitive. Parsing checks the shape of
+//! each argument (mode names, spring letters, parameter names, numbers); the supervisor checks
+//! what depends on its state (ranges that involve other settings, a latched fault).
+
+use crate::outputs::SpringMask;
+use crate::settings::PARAMS;
+
+/// Why a line was refused before it reached the supervisor; each has a stable code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum ParseError {
+    /// The line exceeded the console's line length.
+    LineTooLong,
+    /// The line held a byte that is not printable ASCII or TAB.
+    BinaryInput,
+    /// Bytes of the line were lost on the way in (receive overrun).
+    LostBytes,
+    /// The first word is not a command.
+    UnknownCommand,
+    /// The command's arguments are wrong.
+    BadArguments,
+    /// `get` or `set` named no parameter.
+    UnknownName,
+}
+
+impl ParseError {
+    /// Return the stable code written after `err `.
+    pub fn code(self) -> &'static str {
+        match self {
+            Self::LineTooLong => "line-too-long",
+            Self::BinaryInput => "binary-input",
+            Self::LostBytes => "lost-bytes",
+            Self::UnknownCommand => "unknown-command",
+            Self::BadArguments => "bad-arguments",
+            Self::UnknownName => "unknown-name",
+        }
+    }
+
+    /// Return the human message.
+    pub fn message(self) -> &'static str {
+        match self {
+            Self::LineTooLong => "line too long, discarded",
+            Self::BinaryInput => "line holds non-printable bytes",
+            Self::LostBytes => "bytes of this line were lost, line discarded",
+            Self::UnknownCommand => "unknown command, try `help`",
+            Self::BadArguments => "wrong arguments, try `help`",
+            Self::UnknownName => "no such parameter, try `get`",
+        }
+    }
+}
+
+/// A mode the console can ask for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum ModeRequest {
+    /// Mode 0: hold the standby temperature.
+    Standby,
+    /// Mode 1: one stepping phase.
+    StepSmall,
+    /// Mode 2: stepping phases with pulses between them.
+    StepLarge,
+    /// Mode 3: cool with the fan to lock the shape.
+    Form,
+    /// Mode 4: reheat with the springs cold to recover the straight shape.
+    Recover,
+}
+
+/// The console names of [`ModeRequest`]s, in the order of the thesis's mode numbers.
+pub const MODE_NAMES: [(&str, ModeRequest); 5] = [
+    ("standby", ModeRequest::Standby),
+    ("step-small", ModeRequest::StepSmall),
+    ("step-large", ModeRequest::StepLarge),
+    ("form", ModeRequest::Form),
+    ("recover", ModeRequest::Recover),
+];
+
+/// A parsed command.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Command {
+    /// List the commands.
+    Help,
+    /// Show the firmware version.
+    Version,
+    /// Show mode, temperatures, outputs and faults.
+    Status,
+    /// Enter a mode; the springs for the stepping modes (default: the last used, at first A).
+    Mode(ModeRequest, Option<SpringMask>),
+    /// Pause stepping (springs off, timers held).
+    Pause,
+    /// Resume paused stepping.
+    Resume,
+    /// Every output off, no mode running, until a `mode` command.
+    Stop,
+    /// Clear a latched fault whose cause is gone.
+    Reset,
+    /// Read a parameter (index into [`PARAMS`]), or list them all with `None`.
+    Get(Option<u8>),
+    /// Write a parameter (index into [`PARAMS`]) in its console unit.
+    Set(u8, f32),
+    /// Tune the PID gains with a relay test.
+    Autotune,
+    /// Print the event log.
+    Log,
+    /// Telemetry lines on or off, at a rate in Hz.
+    Stream(bool, Option<f32>),
+    /// An emergency stop from the console.
+    EStop,
+    /// The emergency-stop button's level, sent by the board at start and on every change.
+    Button {
+        /// The button is pressed.
+        pressed: bool,
+    },
+}
+
+/// One line of the command table.
+pub struct CommandSpec {
+    /// The command word.
+    pub name: &'static str,
+    /// Its arguments, as `help` shows them.
+    pub args: &'static str,
+    /// What it does.
+    pub help: &'static str,
+}
+
+/// Every console command, in `help` order.
+pub const COMMANDS: &[CommandSpec] = &[
+    CommandSpec {
+        name: "help",
+        args: "",
+        help: "list the commands",
+    },
+    CommandSpec {
+        name: "version",
+        args: "",
+        help: "firmware version",
+    },
+    CommandSpec {
+        name: "status",
+        args: "",
+        help: "mode, temperatures, outputs, fault",
+    },
+    CommandSpec {
+        name: "mode",
+        args: "standby|step-small|step-large|form|recover [SPRINGS]",
+        help: "enter a mode; SPRINGS: letters of A, B, C for stepping",
+    },
+    CommandSpec {
+        name: "pause",
+        args: "",
+        help: "pause stepping (springs off, timers held)",
+    },
+    CommandSpec {
+        name: "resume",
+        args: "",
+        help: "resume paused stepping",
+    },
+    CommandSpec {
+        name: "stop",
+        args: "",
+        help: "every output off until the next mode",
+    },
+    CommandSpec {
+        name: "reset",
+        args: "",
+        help: "clear a latched fault whose cause is gone",
+    },
+    CommandSpec {
+        name: "get",
+        args: "[NAME]",
+        help: "read one parameter, or all",
+    },
+    CommandSpec {
+        name: "set",
+        args: "NAME VALUE",
+        help: "write a parameter (unit as get shows)",
+    },
+    CommandSpec {
+        name: "autotune",
+        args: "",
+        help: "relay autotune of the PID gains",
+    },
+    CommandSpec {
+        name: "log",
+        args: "",
+        help: "recent mode changes and faults",
+    },
+    CommandSpec {
+        name: "stream",
+        args: "on|off [HZ]",
+        help: "telemetry lines starting with #",
+    },
+    CommandSpec {
+        name: "estop",
+        args: "",
+        help: "emergency stop (latched)",
+    },
+];
+
+fn number(word: &str) -> Option<f32> {
+    let v: f32 = word.parse().ok()?;
+    v.is_finite().then_some(v)
+}
+
+/// Parse one line (without its end).
+pub fn parse(line: &str) -> Result<Command, ParseError> {
+    let mut words = line.split([' ', '\t']).filter(|w| !w.is_empty());
+    let verb = words.next().ok_or(ParseError::UnknownCommand)?;
+    let spec = COMMANDS
+        .iter()
+        .find(|c| c.name.eq_ignore_ascii_case(verb))
+        .ok_or(ParseError::UnknownCommand)?;
+    let a = words.next();
+    let b = words.next();
+    if words.next().is_some() {
+        return Err(ParseError::BadArguments);
+    }
+    let bad = ParseError::BadArguments;
+    let none = |cmd: Command| match (a, b) {
+        (None, None) => Ok(cmd),
+        _ => Err(ParseError::BadArguments),
+    };
+    match spec.name {
+        "help" => none(Command::Help),
+        "version" => none(Command::Version),
+        "status" => none(Command::Status),
+        "pause" => none(Command::Pause),
+        "resume" => none(Command::Resume),
+        "stop" => none(Command::Stop),
+        "reset" => none(Command::Reset),
+        "autotune" => none(Command::Autotune),
+        "log" => none(Command::Log),
+        "estop" => none(Command::EStop),
+        "mode" => {
+            let name = a.ok_or(bad)?;
+            let (_, mode) = MODE_NAMES
+                .iter()
+                .find(|(n, _)| n.eq_ignore_ascii_case(name))
+                .ok_or(bad)?;
+            let springs = match b {
+                None => None,
+                Some(w) => Some(SpringMask::parse(w).ok_or(bad)?),
+            };
+            if springs.is_some() && !matches!(mode, ModeRequest::StepSmall | ModeRequest::StepLarge)
+            {
+                return Err(bad);
+            }
+            Ok(Command::Mode(*mode, springs))
+        }
+        "get" => match (a, b) {
+            (None, None) => Ok(Command::Get(None)),
+            (Some(n), None) => Ok(Command::Get(Some(param_index(n)?))),
+            _ => Err(bad),
+        },
+        "set" => {
+            let i = param_index(a.ok_or(bad)?)?;
+            let v = number(b.ok_or(bad)?).ok_or(bad)?;
+            Ok(Command::Set(i, v))
+        }
+        "stream" => {
+            let on = match a {
+                Some(w) if w.eq_ignore_ascii_case("on") => true,
+                Some(w) if w.eq_ignore_ascii_case("off") => false,
+                _ => return Err(bad),
+            };
+            let hz = match b {
+                None => None,
+                Some(w) if on => Some(number(w).ok_or(bad)?),
+                Some(_) => return Err(bad),
+            };
+            Ok(Command::Stream(on, hz))
+        }
+        _ => Err(ParseError::UnknownCommand),
+    }
+}
+
+fn param_index(name: &str) -> Result<u8, ParseError> {
+    PARAMS
+        .iter()
+        .position(|q| q.name.eq_ignore_ascii_case(name))
+        .map(|i| i as u8)
+        .ok_or(ParseError::UnknownName)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_table_command_parses_with_its_arguments() {
+        for c in COMMANDS {
+            let line = match c.name {
+                "mode" => "mode step-large AB",
+                "get" => "get hot_k",
+                "set" => "set hot_k 357.5",
+                "stream" => "stream on 4",
+                n => n,
+            };
+            assert!(parse(line).is_ok(), "{line}");
+        }
+    }
+
+    #[test]
+    fn modes_springs_and_numbers() {
+        assert_eq!(
+            parse("MODE Step-Large ba"),
+            Ok(Command::Mode(
+                ModeRequest::StepLarge,
+                SpringMask::parse("AB")
+            ))
+        );
+        assert_eq!(
+            parse("mode standby"),
+            Ok(Command::Mode(ModeRequest::Standby, None))
+        );
+        assert_eq!(parse("mode form A"), Err(ParseError::BadArguments));
+        assert_eq!(parse("mode step-small ABD"), Err(ParseError::BadArguments));
+        assert_eq!(parse("mode fly"), Err(ParseError::BadArguments));
+        assert_eq!(parse("set hot_k nan"), Err(ParseError::BadArguments));
+        assert_eq!(parse("set hot_k inf"), Err(ParseError::BadArguments));
+        assert_eq!(parse("set nope 1"), Err(ParseError::UnknownName));
+        assert_eq!(parse("get"), Ok(Command::Get(None)));
+        assert_eq!(parse("stream off 3"), Err(ParseError::BadArguments));
+        assert_eq!(parse("stream on"), Ok(Command::Stream(true, None)));
+        assert_eq!(parse("status now"), Err(ParseError::BadArguments));
+        assert_eq!(parse("frobnicate"), Err(ParseError::UnknownCommand));
+        assert_eq!(parse("set a b c"), Err(ParseError::BadArguments));
+    }
+}

@@ -1,0 +1,603 @@
+//! Every tunable number of the controller in one table: targets, gains, weights, durations and
+//! limits, with units and ranges.
+//!
+//! This module owns the parameter list. [`PARAMS`] drives the console's `get` and `set`, the
+//! `help` text, the README's list and the stored settings record, so a parameter exists in
+//! exactly one place. Values are `f32` in the unit the name ends with (`_k` Kelvin, `_s`
+//! seconds, `_pct` percent, gains per Kelvin of error on a duty fraction).
+
+use crate::control::PidGains;
+use crate::mtts::Weights;
+
+/// The PID gains the block ships with: what `autotune` (relay around 340 K, Ziegler–Nichols'
+/// classic rule) measured on the simulated block at 298 K ambient — Ku = 0.231 /K, Tu = 3.5 s.
+pub const DEFAULT_GAINS: PidGains = PidGains {
+    kp_per_k: 0.139,
+    ki_per_k_s: 0.079,
+    kd_s_per_k: 0.061,
+};
+
+/// The controller's settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Standby target, K (SPEC 4: 323 K, never above).
+    pub standby_k: f32,
+    /// Stepping and recovery target, K (358 K: the whole cross-section above the transition).
+    pub hot_k: f32,
+    /// Forming ends once the hotter target is at or below this, K.
+    pub form_end_k: f32,
+    /// Stepping starts once the colder target is at least `hot_k − ready_band_k`, K.
+    pub ready_band_k: f32,
+    /// ...and has stayed there this long, s.
+    pub ready_dwell_s: f32,
+    /// PID gains of the heater/fan loop.
+    pub gains: PidGains,
+    /// Time constant of the derivative's low-pass filter, s.
+    pub d_filter_s: f32,
+    /// Outside ±this of the target the loop drives bang-bang and resets its integrator, K.
+    pub functional_band_k: f32,
+    /// Weight of T1 in Tc in standby (T2 gets 1 − w1). With the heating modes' ordering (T1 =
+    /// the hotter of the pair) 1 holds the hottest region at `standby_k`: "never above".
+    pub w1_standby: f32,
+    /// Weight of T1 in Tc in stepping: 0 brings the colder region (the whole cross-section) to
+    /// `hot_k`.
+    pub w1_step: f32,
+    /// Weight of T1 in Tc in recovery: 1 reheats on the heater area, as the thesis's ≈25 s.
+    pub w1_recover: f32,
+    /// Weight of T1 in Tc in forming (ordering: T1 = the colder, heater side): 0 cools until the
+    /// hotter region is at `form_end_k`.
+    pub w1_form: f32,
+    /// While heating, the heater duty is cut in proportion as the hotter region comes within
+    /// `heater_cap_band_k` of this, K (an override that keeps the film below its limit while
+    /// the loop brings the colder region up).
+    pub heater_cap_k: f32,
+    /// Width of the heater cap's proportional band, K.
+    pub heater_cap_band_k: f32,
+    /// Over-temperature limit of the hotter region and the hottest cylinder pixel (the PI
+    /// heater film seen through the lattice), K.
+    pub t_heater_max_k: f32,
+    /// Length of one stepping phase (springs on), s.
+    pub step_s: f32,
+    /// Length of one pulsing phase (springs off between steps), s.
+    pub pulse_s: f32,
+    /// Stepping phases in large stepping.
+    pub large_steps: f32,
+    /// Recovery: length of the pulse on all springs, s.
+    pub recover_pulse_s: f32,
+    /// Recovery: time held at `hot_k` after the pulse before standby, s.
+    pub recover_hold_s: f32,
+    /// Fan duty in forming, fraction.
+    pub form_fan: f32,
+    /// Split range: loop outputs within ±this drive neither heater nor fan, fraction.
+    pub fan_deadband: f32,
+    /// Over-temperature limit of the SMP: the colder of T1/T2 and regions 3–5, K.
+    pub t_max_k: f32,
+    /// Longest a spring may stay on continuously, s.
+    pub spring_on_max_s: f32,
+    /// Highest spring duty over the duty window, fraction.
+    pub spring_duty_max: f32,
+    /// Window of the spring duty limit, s.
+    pub spring_window_s: f32,
+    /// Sensor loss: longest time without a valid measurement, s.
+    pub sensor_timeout_s: f32,
+    /// Runaway while heating: the least rise expected within `runaway_window_s`, K.
+    pub runaway_gain_k: f32,
+    /// Runaway while heating: the window, s.
+    pub runaway_window_s: f32,
+    /// Runaway while heating: the check runs while the heater's duty is at least this, fraction.
+    pub runaway_duty: f32,
+    /// Runaway while holding: errors within ±this count as held, K.
+    pub hold_band_k: f32,
+    /// Runaway while holding: the largest accumulated error beyond the band, K·s.
+    pub hold_max_error_ks: f32,
+    /// Autotune: relay target, K.
+    pub tune_k: f32,
+    /// Autotune: the relay's middle duty (it swings base ± amplitude), fraction.
+    pub tune_base: f32,
+    /// Autotune: relay amplitude (heater duty swings base ± this), fraction.
+    pub tune_amplitude: f32,
+    /// Autotune: longest run before it gives up, s.
+    pub tune_timeout_s: f32,
+}
+
+impl Settings {
+    /// The defaults: SPEC sections 4 and 5 and the tuned gains.
+    pub const DEFAULT: Settings = Settings {
+        standby_k: 323.0,
+        hot_k: 358.0,
+        form_end_k: 323.0,
+        ready_band_k: 0.5,
+        ready_dwell_s: 2.0,
+        gains: DEFAULT_GAINS,
+        d_filter_s: 1.0,
+        functional_band_k: 50.0,
+        w1_standby: 1.0,
+        w1_step: 0.0,
+        w1_recover: 1.0,
+        w1_form: 0.0,
+        heater_cap_k: 393.0,
+        heater_cap_band_k: 4.0,
+        t_heater_max_k: 403.0,
+        step_s: 6.0,
+        pulse_s: 2.0,
+        large_steps: 4.0,
+        recover_pulse_s: 1.0,
+        recover_hold_s: 15.0,
+        form_fan: 1.0,
+        fan_deadband: 0.02,
+        t_max_k: 373.0,
+        spring_on_max_s: 8.0,
+        spring_duty_max: 0.6,
+        spring_window_s: 60.0,
+        sensor_timeout_s: 1.0,
+        runaway_gain_k: 2.0,
+        runaway_window_s: 20.0,
+        runaway_duty: 0.8,
+        hold_band_k: 5.0,
+        hold_max_error_ks: 120.0,
+        tune_k: 340.0,
+        tune_base: 0.4,
+        tune_amplitude: 0.3,
+        tune_timeout_s: 600.0,
+    };
+
+    /// Return Tc weights with `w1` for T1.
+    pub fn weights(w1: f32) -> Weights {
+        Weights { w1, w2: 1.0 - w1 }
+    }
+
+    /// Check the relations between parameters that one range cannot express.
+    pub fn check(&self) -> Result<(), &'static str> {
+        if self.standby_k >= self.hot_k {
+            return Err("standby_k must be below hot_k");
+        }
+        if self.hot_k + 5.0 > self.t_max_k || self.standby_k + 5.0 > self.t_max_k {
+            return Err("targets must be at least 5 K below t_max_k");
+        }
+        if self.tune_k + 5.0 > self.t_max_k {
+            return Err("tune_k must be at least 5 K below t_max_k");
+        }
+        if self.step_s > self.spring_on_max_s || self.recover_pulse_s > self.spring_on_max_s {
+            return Err("step_s and recover_pulse_s must not exceed spring_on_max_s");
+        }
+        if self.heater_cap_k + 2.0 > self.t_heater_max_k {
+            return Err("heater_cap_k must be at least 2 K below t_heater_max_k");
+        }
+        if self.hot_k > self.heater_cap_k {
+            return Err("hot_k must not exceed heater_cap_k");
+        }
+        if self.form_end_k > self.hot_k {
+            return Err("form_end_k must not exceed hot_k");
+        }
+        Ok(())
+    }
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// One settable parameter.
+pub struct Param {
+    /// Name on the console.
+    pub name: &'static str,
+    /// Unit shown after the value (empty for a plain number).
+    pub unit: &'static str,
+    /// Smallest accepted value.
+    pub min: f32,
+    /// Largest accepted value.
+    pub max: f32,
+    /// One-line description.
+    pub help: &'static str,
+    /// Read the value.
+    pub get: fn(&Settings) -> f32,
+    /// Write the value (already range-checked).
+    pub set: fn(&mut Settings, f32),
+    /// The value is a whole number.
+    pub integer: bool,
+}
+
+macro_rules! param {
+    ($name:literal, $unit:literal, $min:expr, $max:expr, $help:literal, |$s:ident| $field:expr) => {
+        Param {
+            name: $name,
+            unit: $unit,
+            min: $min,
+            max: $max,
+            help: $help,
+            get: |$s: &Settings| $field,
+            set: |$s: &mut Settings, v: f32| $field = v,
+            integer: false,
+        }
+    };
+}
+
+/// A whole-number parameter.
+macro_rules! count {
+    ($name:literal, $min:expr, $max:expr, $help:literal, |$s:ident| $field:expr) => {
+        Param {
+            integer: true,
+            ..param!($name, "", $min, $max, $help, |$s| $field)
+        }
+    };
+}
+
+/// A parameter shown in percent and kept as a fraction.
+macro_rules! pct {
+    ($name:literal, $min:expr, $max:expr, $help:literal, |$s:ident| $field:expr) => {
+        Param {
+            name: $name,
+            unit: "%",
+            min: $min,
+            max: $max,
+            help: $help,
+            get: |$s: &Settings| $field * 100.0,
+            set: |$s: &mut Settings, v: f32| $field = v / 100.0,
+            integer: false,
+        }
+    };
+}
+
+/// Every parameter, in the order of the stored record. Percent parameters are stored as
+/// fractions inside and shown in percent; see [`Param::get`] of each.
+pub const PARAMS: &[Param] = &[
+    param!("standby_k", "K", 293.0, 343.0, "standby target", |s| s
+        .standby_k),
+    param!(
+        "hot_k",
+        "K",
+        338.0,
+        368.0,
+        "stepping and recovery target",
+        |s| s.hot_k
+    ),
+    param!(
+        "form_end_k",
+        "K",
+        293.0,
+        343.0,
+        "forming ends at or below this",
+        |s| s.form_end_k
+    ),
+    param!(
+        "ready_band_k",
+        "K",
+        0.0,
+        5.0,
+        "stepping starts within this of hot_k",
+        |s| s.ready_band_k
+    ),
+    param!("ready_dwell_s", "s", 0.0, 30.0, "...held this long", |s| s
+        .ready_dwell_s),
+    param!(
+        "kp",
+        "1/K",
+        0.0,
+        10.0,
+        "proportional gain (duty per K)",
+        |s| s.gains.kp_per_k
+    ),
+    param!("ki", "1/(K*s)", 0.0, 1.0, "integral gain", |s| s
+        .gains
+        .ki_per_k_s),
+    param!("kd", "s/K", 0.0, 100.0, "derivative gain", |s| s
+        .gains
+        .kd_s_per_k),
+    param!(
+        "d_filter_s",
+        "s",
+        0.0,
+        10.0,
+        "derivative low-pass time constant",
+        |s| s.d_filter_s
+    ),
+    param!(
+        "functional_band_k",
+        "K",
+        1.0,
+        50.0,
+        "bang-bang outside this of target",
+        |s| s.functional_band_k
+    ),
+    param!(
+        "w1_standby",
+        "",
+        0.0,
+        1.0,
+        "weight of T1 (the hotter) in Tc in standby",
+        |s| s.w1_standby
+    ),
+    param!(
+        "w1_step",
+        "",
+        0.0,
+        1.0,
+        "weight of T1 (the hotter) in Tc in stepping",
+        |s| s.w1_step
+    ),
+    param!(
+        "w1_recover",
+        "",
+        0.0,
+        1.0,
+        "weight of T1 (the hotter) in Tc in recovery",
+        |s| s.w1_recover
+    ),
+    param!(
+        "w1_form",
+        "",
+        0.0,
+        1.0,
+        "weight of T1 (the colder) in Tc in forming",
+        |s| s.w1_form
+    ),
+    param!(
+        "heater_cap_k",
+        "K",
+        343.0,
+        400.0,
+        "heater duty cut as the hotter region nears this",
+        |s| s.heater_cap_k
+    ),
+    param!(
+        "heater_cap_band_k",
+        "K",
+        0.5,
+        20.0,
+        "width of the heater cap",
+        |s| s.heater_cap_band_k
+    ),
+    param!("step_s", "s", 0.5, 15.0, "stepping phase", |s| s.step_s),
+    param!("pulse_s", "s", 0.5, 30.0, "pulsing phase", |s| s.pulse_s),
+    count!(
+        "large_steps",
+        1.0,
+        10.0,
+        "stepping phases in large stepping",
+        |s| s.large_steps
+    ),
+    param!(
+        "recover_pulse_s",
+        "s",
+        0.2,
+        5.0,
+        "recovery pulse on all springs",
+        |s| s.recover_pulse_s
+    ),
+    param!(
+        "recover_hold_s",
+        "s",
+        0.0,
+        120.0,
+        "recovery hold after the pulse",
+        |s| s.recover_hold_s
+    ),
+    pct!("form_fan_pct", 10.0, 100.0, "fan duty in forming", |s| s
+        .form_fan),
+    pct!(
+        "fan_deadband_pct",
+        0.0,
+        20.0,
+        "split-range dead band",
+        |s| s.fan_deadband
+    ),
+    param!(
+        "t_max_k",
+        "K",
+        330.0,
+        383.0,
+        "SMP over-temperature limit",
+        |s| s.t_max_k
+    ),
+    param!(
+        "t_heater_max_k",
+        "K",
+        340.0,
+        413.0,
+        "heater-film over-temperature limit",
+        |s| s.t_heater_max_k
+    ),
+    param!(
+        "spring_on_max_s",
+        "s",
+        1.0,
+        15.0,
+        "longest continuous spring on-time",
+        |s| s.spring_on_max_s
+    ),
+    pct!(
+        "spring_duty_max_pct",
+        10.0,
+        100.0,
+        "spring duty limit",
+        |s| s.spring_duty_max
+    ),
+    param!(
+        "spring_window_s",
+        "s",
+        10.0,
+        600.0,
+        "spring duty window",
+        |s| s.spring_window_s
+    ),
+    param!(
+        "sensor_timeout_s",
+        "s",
+        0.5,
+        2.0,
+        "sensor loss after this without a frame",
+        |s| s.sensor_timeout_s
+    ),
+    param!(
+        "runaway_gain_k",
+        "K",
+        0.5,
+        20.0,
+        "least rise while heating hard",
+        |s| s.runaway_gain_k
+    ),
+    param!(
+        "runaway_window_s",
+        "s",
+        5.0,
+        120.0,
+        "...within this window",
+        |s| s.runaway_window_s
+    ),
+    pct!(
+        "runaway_duty_pct",
+        30.0,
+        100.0,
+        "...while the heater is at least this",
+        |s| s.runaway_duty
+    ),
+    param!(
+        "hold_band_k",
+        "K",
+        1.0,
+        20.0,
+        "holding: errors within this are fine",
+        |s| s.hold_band_k
+    ),
+    param!(
+        "hold_max_error_ks",
+        "K*s",
+        10.0,
+        2000.0,
+        "holding: largest error beyond the band",
+        |s| s.hold_max_error_ks
+    ),
+    param!("tune_k", "K", 303.0, 368.0, "autotune target", |s| s.tune_k),
+    pct!(
+        "tune_base_pct",
+        10.0,
+        90.0,
+        "autotune relay middle duty",
+        |s| s.tune_base
+    ),
+    pct!(
+        "tune_amplitude_pct",
+        5.0,
+        50.0,
+        "autotune relay amplitude",
+        |s| s.tune_amplitude
+    ),
+    param!(
+        "tune_timeout_s",
+        "s",
+        60.0,
+        3600.0,
+        "autotune time limit",
+        |s| s.tune_timeout_s
+    ),
+];
+
+/// Why `set` refused a value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SetError {
+    /// No parameter has that name.
+    UnknownName,
+    /// The value is not a finite number (or not whole where it must be).
+    NotANumber,
+    /// The value is outside the parameter's range.
+    OutOfRange {
+        /// Smallest accepted value.
+        min: f32,
+        /// Largest accepted value.
+        max: f32,
+    },
+    /// The value contradicts another parameter.
+    Conflict(&'static str),
+}
+
+/// Return the parameter called `name` (case-insensitive).
+pub fn find(name: &str) -> Option<&'static Param> {
+    PARAMS.iter().find(|p| p.name.eq_ignore_ascii_case(name))
+}
+
+impl Settings {
+    /// Return the value of the parameter called `name`.
+    pub fn get(&self, name: &str) -> Option<f32> {
+        find(name).map(|p| (p.get)(self))
+    }
+
+    /// Set the parameter called `name` to `value` (in its console unit); on any error nothing
+    /// changes.
+    pub fn set(&mut self, name: &str, value: f32) -> Result<(), SetError> {
+        let p = find(name).ok_or(SetError::UnknownName)?;
+        if !value.is_finite() || (p.integer && value != libm::roundf(value)) {
+            return Err(SetError::NotANumber);
+        }
+        if !(p.min..=p.max).contains(&value) {
+            return Err(SetError::OutOfRange {
+                min: p.min,
+                max: p.max,
+            });
+        }
+        let mut next = *self;
+        (p.set)(&mut next, value);
+        next.check().map_err(SetError::Conflict)?;
+        *self = next;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_in_range_and_consistent() {
+        let s = Settings::DEFAULT;
+        s.check().unwrap();
+        for p in PARAMS {
+            let v = (p.get)(&s);
+            assert!((p.min..=p.max).contains(&v), "{} = {v}", p.name);
+            let mut t = s;
+            t.set(p.name, v).unwrap();
+            assert_eq!(t, s, "{} does not round-trip", p.name);
+        }
+    }
+
+    #[test]
+    fn names_are_unique_and_lower_case() {
+        for (i, p) in PARAMS.iter().enumerate() {
+            assert!(
+                p.name
+                    .bytes()
+                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_')
+            );
+            assert!(
+                PARAMS[i + 1..].iter().all(|q| q.name != p.name),
+                "{}",
+                p.name
+            );
+        }
+    }
+
+    #[test]
+    fn set_checks_units_ranges_and_relations() {
+        let mut s = Settings::DEFAULT;
+        assert_eq!(s.set("HOT_K", 360.0), Ok(()));
+        assert_eq!(s.hot_k, 360.0);
+        assert_eq!(s.set("nope", 1.0), Err(SetError::UnknownName));
+        assert_eq!(s.set("hot_k", f32::NAN), Err(SetError::NotANumber));
+        assert_eq!(
+            s.set("hot_k", 400.0),
+            Err(SetError::OutOfRange {
+                min: 338.0,
+                max: 368.0
+            })
+        );
+        assert!(matches!(s.set("step_s", 9.0), Err(SetError::Conflict(_))));
+        assert!(matches!(
+            s.set("large_steps", 2.5),
+            Err(SetError::NotANumber)
+        ));
+        assert_eq!(s.set("form_fan_pct", 50.0), Ok(()));
+        assert!((s.form_fan - 0.5).abs() < 1e-6);
+        assert_eq!(s.hot_k, 360.0, "a refused set changes nothing");
+    }
+}

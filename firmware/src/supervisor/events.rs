@@ -1,0 +1,108 @@
+//! The supervisor's event ring: mode changes, faults, resets and autotune results, newest last,
+//! the oldest dropped when full. The console's `log` prints it.
+
+use heapless::Deque;
+
+use super::safety::Fault;
+use crate::units::Millis;
+
+/// Events kept.
+pub const EVENT_CAPACITY: usize = 16;
+
+/// What happened.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EventKind {
+    /// The mode changed (names as `status` shows them).
+    Mode {
+        /// The mode left.
+        from: &'static str,
+        /// The mode entered.
+        to: &'static str,
+    },
+    /// A fault was latched.
+    Fault(Fault),
+    /// A latched fault was cleared by `reset`.
+    Cleared(Fault),
+    /// An autotune finished and set the gains.
+    Tuned {
+        /// Ultimate gain, duty per K.
+        ku_per_k: f32,
+        /// Ultimate period, s.
+        tu_s: f32,
+    },
+    /// An autotune gave up (the gains are unchanged).
+    TuneAborted(&'static str),
+    /// The large stepping ran its last phase.
+    SteppingDone,
+}
+
+/// One event with its time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Event {
+    /// When it happened.
+    pub at: Millis,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+/// The ring of recent events, with a count of all events ever pushed.
+#[derive(Clone, Debug, Default)]
+pub struct EventLog {
+    ring: Deque<Event, EVENT_CAPACITY>,
+    total: u32,
+}
+
+impl EventLog {
+    /// Make an empty log.
+    pub const fn new() -> Self {
+        EventLog {
+            ring: Deque::new(),
+            total: 0,
+        }
+    }
+
+    /// Add an event, dropping the oldest when full.
+    pub fn push(&mut self, at: Millis, kind: EventKind) {
+        if self.ring.is_full() {
+            self.ring.pop_front();
+        }
+        // Cannot fail: a slot was just freed if needed.
+        let _ = self.ring.push_back(Event { at, kind });
+        self.total = self.total.wrapping_add(1);
+    }
+
+    /// Return the events kept, oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &Event> {
+        self.ring.iter()
+    }
+
+    /// Return how many events were ever pushed (so a reader can tell which are new).
+    pub fn total(&self) -> u32 {
+        self.total
+    }
+
+    /// Return the events pushed after the first `seen` of all time (at most the ring).
+    pub fn since(&self, seen: u32) -> impl Iterator<Item = &Event> {
+        let new = self.total.wrapping_sub(seen) as usize;
+        let skip = self.ring.len().saturating_sub(new);
+        self.ring.iter().skip(skip)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ring_drops_the_oldest_and_counts_everything() {
+        let mut log = EventLog::new();
+        for i in 0..20u64 {
+            log.push(Millis(i), EventKind::SteppingDone);
+        }
+        assert_eq!(log.total(), 20);
+        assert_eq!(log.iter().count(), EVENT_CAPACITY);
+        assert_eq!(log.iter().next().unwrap().at, Millis(4));
+        assert_eq!(log.since(18).count(), 2);
+        assert_eq!(log.since(18).next().unwrap().at, Millis(18));
+    }
+}

@@ -1,0 +1,863 @@
+//! The supervisor: modes, the heater/fan loop, the spring timing and the fault latch, as one
+//! pure state machine.
+//!
+//! [`Supervisor::step`]`(now, measurement, command)` is the only place a decision about an
+//! output is made. The board calls it on every measurement, every console line and every tick
+//! of its control loop, and applies the returned [`Decision`] to its pins; host-sim does the same
+//! with its plant. Nothing else drives an output.
+//!
+//! ```text
+//!                     power-up
+//!                        |
+//!                        v          mode standby / end of any mode
+//!   +------------> [ Standby ] <-----------------------------------+
+//!   |             hold standby_k                                   |
+//!   |    mode step-small|step-large [SPRINGS]                       |
+//!   |                    v                                          |
+//!   |            [ Stepping: Soak ]  heat until the colder target   |
+//!   |                    |           ≥ hot_k − ready_band_k for     |
+//!   |                    v           ready_dwell_s                  |
+//!   |   +--> [ Stepping: Spring i ] springs on for step_s           |
+//!   |   |                |  (pause: springs off, timers held;       |
+//!   |   |                v   resume: carry on)                      |
+//!   |   +--- [ Stepping: Pulse i ]  springs off for pulse_s         |
+//!   |                    | after the last spring phase              |
+//!   |                    v                                          |
+//!   |            [ Stepping: Hold ]  hold hot_k; `mode step-*` again|
+//!   |                                                               |
+//!   |  mode form --> [ Forming ] heater off, fan form_fan, until the |
+//!   |                hotter target ≤ form_end_k ------------------->+
+//!   |  mode recover -> [ Recovery: Heat ] to hot_k (as Soak)         |
+//!   |                   -> [ Pulse ] all springs, recover_pulse_s    |
+//!   |                   -> [ Hold ] recover_hold_s at hot_k -------->+
+//!   |  autotune -> [ Autotune ] relay around tune_k; done or aborted >+
+//!   |  stop -> [ Stopped ] everything off, until a `mode` command
+//!   |
+//!   +-- reset (cause gone) -- [ Faulted ] <-- any fault, from any mode:
+//!                               heater and springs off, fan on where
+//!                               cooling helps; latched
+//! ```
+//!
+//! The loop: one PID on Tc with a split-range output, heater for u > 0 and fan for u < 0 with a
+//! dead band between ([`SplitRange`]), so the two never run against
+//! each other; forming runs the fan open loop with the heater off (a mode rule). The PID is fed
+//! only by new measurements, with Δt from their timestamps; a change of mode, target or gains
+//! is bumpless (the next output continues from the last), and outside ±`functional_band_k` the
+//! loop drives bang-bang with its integrator reset (Marlin's functional range), so a 35 K
+//! target step heats at full power instead of waiting for the integrator.
+//!
+//! Tc is [`controlled_temperature`](crate::measurement::controlled_temperature) of the mode's
+//! [`SensingHint`]: the heating modes control the colder of T1/T2, forming the hotter one.
+
+pub mod events;
+pub mod report;
+pub mod safety;
+
+use crate::command::{Command, ModeRequest};
+use crate::control::{
+    AutotuneConfig, AutotuneStep, Pid, PidConfig, RelayAutotune, SplitRange, TuneRule,
+};
+use crate::measurement::{Measurement, SensingHint, controlled_temperature};
+use crate::mtts::Prior;
+use crate::outputs::{Duty, Outputs, SpringMask};
+use crate::settings::{PARAMS, SetError, Settings};
+use crate::units::{Kelvin, Millis};
+use events::{EventKind, EventLog};
+use report::Reply;
+use safety::{Fault, FaultKind, LoopState, Safety};
+
+/// Plausible region temperatures for a measurement to count as valid, K.
+pub const VALID_K: (f32, f32) = (200.0, 500.0);
+
+/// Which stepping mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepKind {
+    /// One stepping phase.
+    Small,
+    /// `large_steps` stepping phases with pulses between.
+    Large,
+}
+
+/// Where a stepping mode is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepPhase {
+    /// Heating until the colder target is ready; since when it has been ready.
+    Soak {
+        /// The first time the colder target was within the ready band, if it still is.
+        ready_since: Option<Millis>,
+    },
+    /// Springs on: phase `index` (0-based), `left_ms` to go.
+    Spring {
+        /// Which stepping phase.
+        index: u8,
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Springs off between stepping phases.
+    Pulse {
+        /// The stepping phase that follows.
+        index: u8,
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Done: holding `hot_k` with the springs off.
+    Hold,
+}
+
+/// A stepping mode's state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stepping {
+    /// Small or large.
+    pub kind: StepKind,
+    /// The springs it drives.
+    pub springs: SpringMask,
+    /// Where it is.
+    pub phase: StepPhase,
+    /// Paused: springs off and timers held.
+    pub paused: bool,
+}
+
+/// Where recovery is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RecoverPhase {
+    /// Heating to `hot_k` (as stepping's soak).
+    Heat {
+        /// The first time the colder target was within the ready band, if it still is.
+        ready_since: Option<Millis>,
+    },
+    /// All springs on to clear stress-induced martensite; time left, ms.
+    Pulse {
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Holding `hot_k` while the stored strain releases; time left, ms.
+    Hold {
+        /// Time left, ms.
+        left_ms: u32,
+    },
+}
+
+/// The supervisor's mode; each variant carries its own state.
+#[derive(Clone, Debug)]
+pub enum Mode {
+    /// Mode 0: hold `standby_k`.
+    Standby,
+    /// Modes 1 and 2.
+    Stepping(Stepping),
+    /// Mode 3: fan on, heater off, until the hotter target is at `form_end_k`.
+    Forming {
+        /// When forming started.
+        since: Millis,
+    },
+    /// Mode 4.
+    Recovery(RecoverPhase),
+    /// A relay autotune.
+    Autotune(RelayAutotune),
+    /// Everything off until a `mode` command.
+    Stopped,
+    /// A fault is latched: heater and springs off.
+    Faulted,
+}
+
+impl Mode {
+    /// Return the mode's name as `status` and telemetry show it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Mode::Standby => "standby",
+            Mode::Stepping(s) if s.kind == StepKind::Small => "step-small",
+            Mode::Stepping(_) => "step-large",
+            Mode::Forming { .. } => "form",
+            Mode::Recovery(_) => "recover",
+            Mode::Autotune(_) => "autotune",
+            Mode::Stopped => "stopped",
+            Mode::Faulted => "fault",
+        }
+    }
+
+    /// Return the stepping/recovery phase's name (`-` where a mode has none).
+    pub fn phase_name(&self) -> &'static str {
+        match self {
+            Mode::Stepping(s) if s.paused => "paused",
+            Mode::Stepping(s) => match s.phase {
+                StepPhase::Soak { .. } => "soak",
+                StepPhase::Spring { .. } => "spring",
+                StepPhase::Pulse { .. } => "pulse",
+                StepPhase::Hold => "hold",
+            },
+            Mode::Recovery(RecoverPhase::Heat { .. }) => "heat",
+            Mode::Recovery(RecoverPhase::Pulse { .. }) => "pulse",
+            Mode::Recovery(RecoverPhase::Hold { .. }) => "hold",
+            _ => "-",
+        }
+    }
+}
+
+/// Telemetry: on, and when the next line is due.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Stream {
+    period_ms: u32,
+    next_at: Millis,
+}
+
+/// Fastest telemetry rate, Hz.
+pub const STREAM_MAX_HZ: f32 = 20.0;
+/// Telemetry rate when `stream on` names none, Hz.
+pub const STREAM_DEFAULT_HZ: f32 = 4.0;
+
+/// What one step decided.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Decision {
+    /// The outputs to apply now.
+    pub outputs: Outputs,
+    /// What the sensing pipeline should assume and weigh for the next frames.
+    pub sensing: SensingHint,
+    /// The reply to the command of this step (exactly one per command).
+    pub reply: Option<Reply>,
+    /// A telemetry line is due: the board writes [`Supervisor::write_telemetry`].
+    pub telemetry: bool,
+    /// The step used a measurement at most `sensor_timeout_s` old, or sensor loss is latched:
+    /// the control loop is alive, so the board may feed its watchdog.
+    pub alive: bool,
+}
+
+/// The supervisor.
+#[derive(Clone, Debug)]
+pub struct Supervisor {
+    settings: Settings,
+    mode: Mode,
+    pid: Pid,
+    split: SplitRange,
+    target_k: f32,
+    outputs: Outputs,
+    fault: Option<Fault>,
+    safety: Safety,
+    events: EventLog,
+    last: Option<Measurement>,
+    tc_k: f32,
+    last_step: Millis,
+    started: Millis,
+    springs: SpringMask,
+    stream: Option<Stream>,
+    button_pressed: bool,
+}
+
+fn pid_config(s: &Settings) -> PidConfig {
+    PidConfig {
+        derivative_tau_s: s.d_filter_s,
+        functional_band_k: s.functional_band_k,
+        ..PidConfig::split_range(s.gains)
+    }
+}
+
+fn ms(seconds: f32) -> u32 {
+    (seconds * 1000.0 + 0.5) as u32
+}
+
+impl Supervisor {
+    /// Start in standby at `now` with `settings` (checked; invalid ones give the defaults).
+    pub fn new(now: Millis, settings: Settings) -> Self {
+        let settings = if settings.check().is_ok() {
+            settings
+        } else {
+            Settings::DEFAULT
+        };
+        Supervisor {
+            pid: Pid::new(pid_config(&settings), settings.standby_k),
+            split: SplitRange::new(settings.fan_deadband),
+            target_k: settings.standby_k,
+            settings,
+            mode: Mode::Standby,
+            outputs: Outputs::OFF,
+            fault: None,
+            safety: Safety::new(),
+            events: EventLog::new(),
+            last: None,
+            tc_k: f32::NAN,
+            last_step: now,
+            started: now,
+            springs: SpringMask::from_bits(1),
+            stream: None,
+            button_pressed: false,
+        }
+    }
+
+    /// Return the mode.
+    pub fn mode(&self) -> &Mode {
+        &self.mode
+    }
+
+    /// Return the latched fault.
+    pub fn fault(&self) -> Option<Fault> {
+        self.fault
+    }
+
+    /// Return the settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Return the event log.
+    pub fn events(&self) -> &EventLog {
+        &self.events
+    }
+
+    /// Return the loop's target, K (NaN when no loop runs).
+    pub fn target_k(&self) -> f32 {
+        if let Mode::Autotune(t) = &self.mode {
+            t.config().target_k
+        } else if self.loop_active() {
+            self.target_k
+        } else {
+            f32::NAN
+        }
+    }
+
+    /// Return Tc of the last valid measurement, K (NaN before the first).
+    pub fn tc_k(&self) -> f32 {
+        self.tc_k
+    }
+
+    /// Return the last valid measurement.
+    pub fn last_measurement(&self) -> Option<&Measurement> {
+        self.last.as_ref()
+    }
+
+    /// Return the outputs of the last decision.
+    pub fn outputs(&self) -> Outputs {
+        self.outputs
+    }
+
+    /// Return the sensing hint of the mode.
+    pub fn sensing_hint(&self) -> SensingHint {
+        match self.mode {
+            Mode::Forming { .. } => SensingHint {
+                prior: Prior::SurfaceHotter,
+                weights: Settings::weights(self.settings.w1_form),
+            },
+            Mode::Stopped | Mode::Faulted => SensingHint {
+                prior: Prior::Unknown,
+                weights: Settings::weights(self.settings.w1_standby),
+            },
+            Mode::Stepping(_) => SensingHint {
+                prior: Prior::HeaterHotter,
+                weights: Settings::weights(self.settings.w1_step),
+            },
+            Mode::Recovery(_) => SensingHint {
+                prior: Prior::HeaterHotter,
+                weights: Settings::weights(self.settings.w1_recover),
+            },
+            Mode::Standby | Mode::Autotune(_) => SensingHint {
+                prior: Prior::HeaterHotter,
+                weights: Settings::weights(self.settings.w1_standby),
+            },
+        }
+    }
+
+    /// One step: take the measurement (if a new one came) and the command (if a line came),
+    /// check every fault, run the mode, and decide the outputs.
+    pub fn step(
+        &mut self,
+        now: Millis,
+        measurement: Option<&Measurement>,
+        command: Option<Command>,
+    ) -> Decision {
+        let now = now.max(self.last_step);
+        let elapsed_ms = now.0.saturating_sub(self.last_step.0).min(u32::MAX as u64) as u32;
+        self.last_step = now;
+
+        // 1. The measurement: only a valid, newer one is used.
+        let fresh = measurement.filter(|m| self.valid(m)).copied();
+        let mut dt_s = 0.0;
+        if let Some(m) = fresh {
+            dt_s = self.last.map_or(0.0, |l| m.at.seconds_since(l.at));
+            self.tc_k = controlled_temperature(m.t1(), m.t2(), &self.sensing_hint()).k();
+            self.last = Some(m);
+        }
+
+        // 2. The command.
+        let reply = command.map(|c| self.command(now, c));
+
+        // 3. Faults that depend on the sensor.
+        let age_s = now.seconds_since(self.last.map_or(self.started, |m| m.at));
+        if age_s > self.settings.sensor_timeout_s {
+            self.latch(
+                now,
+                Fault {
+                    kind: FaultKind::SensorLoss,
+                    value: age_s,
+                },
+            );
+        }
+        if let Some(m) = fresh {
+            if let Some(f) = Safety::over_temperature(&m, &self.settings) {
+                self.latch(now, f);
+            }
+            let l = LoopState {
+                target_k: self.target_k,
+                tc_k: self.tc_k,
+                heater_duty: self.outputs.heater.fraction(),
+                active: self.loop_active() && !matches!(self.mode, Mode::Autotune(_)),
+            };
+            if let Some(f) = self.safety.runaway(now, dt_s, l, &self.settings) {
+                self.latch(now, f);
+            }
+        }
+
+        // 4. The mode.
+        let mut outputs = self.run_mode(now, elapsed_ms, fresh.as_ref(), dt_s);
+
+        // 5. Spring limits on what would be applied (a spring past its limit never stays on).
+        if let Some(f) = self
+            .safety
+            .track_springs(outputs.springs, elapsed_ms, &self.settings)
+        {
+            self.latch(now, f);
+            outputs = self.safe_outputs();
+        }
+        if self.fault.is_some() {
+            outputs = self.safe_outputs();
+        }
+        self.outputs = outputs;
+
+        // 6. Telemetry.
+        let mut telemetry = false;
+        if let Some(s) = &mut self.stream
+            && now >= s.next_at
+        {
+            telemetry = true;
+            s.next_at = Millis(s.next_at.0 + s.period_ms as u64).max(now);
+        }
+
+        let sensor_lost = matches!(self.fault, Some(f) if f.kind == FaultKind::SensorLoss);
+        Decision {
+            outputs,
+            sensing: self.sensing_hint(),
+            reply,
+            telemetry,
+            alive: age_s <= self.settings.sensor_timeout_s || sensor_lost,
+        }
+    }
+
+    fn valid(&self, m: &Measurement) -> bool {
+        let newer = self.last.is_none_or(|l| m.at > l.at);
+        let ok = |t: Kelvin| t.k().is_finite() && (VALID_K.0..=VALID_K.1).contains(&t.k());
+        newer && ok(m.t1()) && ok(m.t2())
+    }
+
+    fn loop_active(&self) -> bool {
+        !matches!(
+            self.mode,
+            Mode::Forming { .. } | Mode::Stopped | Mode::Faulted
+        )
+    }
+
+    fn safe_outputs(&self) -> Outputs {
+        let fan = match self.fault {
+            Some(f) if f.fan_helps() => Duty::from_fraction(self.settings.form_fan),
+            _ => Duty::OFF,
+        };
+        Outputs {
+            heater: Duty::OFF,
+            fan,
+            springs: SpringMask::NONE,
+        }
+    }
+
+    fn latch(&mut self, now: Millis, f: Fault) {
+        if self.fault.is_some() {
+            return;
+        }
+        self.fault = Some(f);
+        self.events.push(now, EventKind::Fault(f));
+        self.enter(now, Mode::Faulted);
+    }
+
+    fn enter(&mut self, now: Millis, mode: Mode) {
+        let from = self.mode.name();
+        let to = mode.name();
+        // Bumpless: the loop continues from the output it had (forming hands over its fan).
+        let u = self.outputs.heater.fraction() - self.outputs.fan.fraction();
+        self.mode = mode;
+        self.pid.reset_to(u);
+        if from != to {
+            self.events.push(now, EventKind::Mode { from, to });
+        }
+    }
+
+    fn set_target(&mut self, target_k: f32) {
+        if target_k != self.target_k {
+            self.target_k = target_k;
+            // Only a non-finite target is refused, and settings keep targets finite.
+            let _ = self.pid.set_target(target_k);
+        }
+    }
+
+    /// Run the mode; return the outputs it wants.
+    fn run_mode(
+        &mut self,
+        now: Millis,
+        elapsed_ms: u32,
+        fresh: Option<&Measurement>,
+        dt_s: f32,
+    ) -> Outputs {
+        let s = self.settings;
+        let hotter = self.last.map(|m| m.t1().k().max(m.t2().k()));
+        let tc = self.tc_k;
+        let ready = |since: Option<Millis>| -> (Option<Millis>, bool) {
+            match tc {
+                c if c >= s.hot_k - s.ready_band_k => {
+                    let t0 = since.unwrap_or(now);
+                    (Some(t0), now.seconds_since(t0) >= s.ready_dwell_s)
+                }
+                _ => (None, false),
+            }
+        };
+        let mut springs = SpringMask::NONE;
+        let mut next: Option<Mode> = None;
+        let target = match &mut self.mode {
+            Mode::Standby => s.standby_k,
+            Mode::Stepping(st) => {
+                let run_ms = if st.paused { 0 } else { elapsed_ms };
+                match &mut st.phase {
+                    StepPhase::Soak { ready_since } => {
+                        let (since, go) = ready(*ready_since);
+                        *ready_since = since;
+                        if go {
+                            st.phase = StepPhase::Spring {
+                                index: 0,
+                                left_ms: ms(s.step_s),
+                            };
+                        }
+                    }
+                    StepPhase::Spring { index, left_ms } => {
+                        *left_ms = left_ms.saturating_sub(run_ms);
+                        if *left_ms == 0 {
+                            let steps = match st.kind {
+                                StepKind::Small => 1,
+                                StepKind::Large => s.large_steps as u8,
+                            };
+                            st.phase = if *index + 1 >= steps {
+                                self.events.push(now, EventKind::SteppingDone);
+                                StepPhase::Hold
+                            } else {
+                                StepPhase::Pulse {
+                                    index: *index + 1,
+                                    left_ms: ms(s.pulse_s),
+                                }
+                            };
+                        }
+                    }
+                    StepPhase::Pulse { index, left_ms } => {
+                        *left_ms = left_ms.saturating_sub(run_ms);
+                        if *left_ms == 0 {
+                            st.phase = StepPhase::Spring {
+                                index: *index,
+                                left_ms: ms(s.step_s),
+                            };
+                        }
+                    }
+                    StepPhase::Hold => {}
+                }
+                if matches!(st.phase, StepPhase::Spring { .. }) && !st.paused {
+                    springs = st.springs;
+                }
+                s.hot_k
+            }
+            Mode::Forming { .. } => {
+                if hotter.is_some_and(|h| h <= s.form_end_k) {
+                    next = Some(Mode::Standby);
+                }
+                s.standby_k
+            }
+            Mode::Recovery(phase) => {
+                match phase {
+                    RecoverPhase::Heat { ready_since } => {
+                        let (since, go) = ready(*ready_since);
+                        *ready_since = since;
+                        if go {
+                            *phase = RecoverPhase::Pulse {
+                                left_ms: ms(s.recover_pulse_s),
+                            };
+                        }
+                    }
+                    RecoverPhase::Pulse { left_ms } => {
+                        *left_ms = left_ms.saturating_sub(elapsed_ms);
+                        if *left_ms == 0 {
+                            *phase = RecoverPhase::Hold {
+                                left_ms: ms(s.recover_hold_s),
+                            };
+                        }
+                    }
+                    RecoverPhase::Hold { left_ms } => {
+                        *left_ms = left_ms.saturating_sub(elapsed_ms);
+                        if *left_ms == 0 {
+                            next = Some(Mode::Standby);
+                        }
+                    }
+                }
+                if matches!(phase, RecoverPhase::Pulse { .. }) {
+                    springs = SpringMask::ALL;
+                }
+                s.hot_k
+            }
+            Mode::Autotune(tuner) => {
+                if let Some(m) = fresh {
+                    match tuner.step(m.at.ms() as f32 * 1e-3, self.tc_k) {
+                        AutotuneStep::Running { heater_duty } => {
+                            return Outputs {
+                                heater: heater_duty,
+                                fan: Duty::OFF,
+                                springs: SpringMask::NONE,
+                            };
+                        }
+                        AutotuneStep::Done(r) => {
+                            let mut gains = s;
+                            gains.gains = r.gains;
+                            if gains.check().is_ok() && self.pid.set_gains(r.gains).is_ok() {
+                                self.settings.gains = r.gains;
+                                self.events.push(
+                                    now,
+                                    EventKind::Tuned {
+                                        ku_per_k: r.ku_per_k,
+                                        tu_s: r.tu_s,
+                                    },
+                                );
+                            } else {
+                                self.events
+                                    .push(now, EventKind::TuneAborted("gains out of range"));
+                            }
+                            next = Some(Mode::Standby);
+                        }
+                        AutotuneStep::Aborted(why) => {
+                            self.events.push(now, EventKind::TuneAborted(why.name()));
+                            next = Some(Mode::Standby);
+                        }
+                    }
+                } else {
+                    // Between frames the relay's output holds.
+                    return Outputs {
+                        springs: SpringMask::NONE,
+                        ..self.outputs
+                    };
+                }
+                s.tune_k
+            }
+            Mode::Stopped | Mode::Faulted => return self.safe_outputs(),
+        };
+        if let Some(m) = next {
+            self.enter(now, m);
+            return self.run_mode(now, 0, None, 0.0);
+        }
+        if let Mode::Forming { .. } = self.mode {
+            return Outputs {
+                heater: Duty::OFF,
+                fan: Duty::from_fraction(s.form_fan),
+                springs: SpringMask::NONE,
+            };
+        }
+        self.set_target(target);
+        let u = if fresh.is_some() {
+            self.pid.update(self.tc_k, dt_s)
+        } else {
+            self.pid.output()
+        };
+        let hc = self.split.apply(u);
+        // The heater cap: an override on the hotter region, so that bringing the colder one up
+        // never drives the film past its limit.
+        let cap = hotter.map_or(1.0, |h| (s.heater_cap_k - h) / s.heater_cap_band_k);
+        Outputs {
+            heater: Duty::from_fraction(hc.heater.fraction().min(cap.clamp(0.0, 1.0))),
+            fan: hc.fan,
+            springs,
+        }
+    }
+
+    /// Carry out a command; return its reply.
+    fn command(&mut self, now: Millis, c: Command) -> Reply {
+        match c {
+            Command::Help => Reply::help(),
+            Command::Version => Reply::version(),
+            Command::Status => Reply::status(self, now),
+            Command::Log => Reply::log(&self.events),
+            Command::Get(None) => Reply::get_all(&self.settings),
+            Command::Get(Some(i)) => Reply::get(&self.settings, i as usize),
+            Command::Set(i, v) => {
+                let Some(p) = PARAMS.get(i as usize) else {
+                    return Reply::err("unknown-name", "no such parameter");
+                };
+                match self.settings.set(p.name, v) {
+                    Ok(()) => {
+                        self.split = SplitRange::new(self.settings.fan_deadband);
+                        // A new loop with the new settings, continuing from the last output.
+                        let u = self.pid.output();
+                        self.pid = Pid::new(pid_config(&self.settings), self.target_k);
+                        self.pid.reset_to(u);
+                        Reply::get(&self.settings, i as usize)
+                    }
+                    Err(SetError::OutOfRange { min, max }) => Reply::out_of_range(p, min, max),
+                    Err(SetError::Conflict(why)) => Reply::err("conflict", why),
+                    Err(SetError::NotANumber) => Reply::err("bad-arguments", "not a valid number"),
+                    Err(SetError::UnknownName) => Reply::err("unknown-name", "no such parameter"),
+                }
+            }
+            Command::Stream(false, _) => {
+                self.stream = None;
+                Reply::ok("stream off")
+            }
+            Command::Stream(true, hz) => {
+                let hz = hz.unwrap_or(STREAM_DEFAULT_HZ);
+                if !(hz > 0.0 && hz <= STREAM_MAX_HZ) {
+                    return Reply::err("out-of-range", "stream rate must be in (0, 20] Hz");
+                }
+                self.stream = Some(Stream {
+                    period_ms: ms(1.0 / hz).max(1),
+                    next_at: now,
+                });
+                Reply::stream_on(hz)
+            }
+            Command::EStop => {
+                self.latch(
+                    now,
+                    Fault {
+                        kind: FaultKind::EStop,
+                        value: 0.0,
+                    },
+                );
+                Reply::ok("emergency stop latched")
+            }
+            Command::Button { pressed } => {
+                self.button_pressed = pressed;
+                if pressed {
+                    self.latch(
+                        now,
+                        Fault {
+                            kind: FaultKind::EStop,
+                            value: 1.0,
+                        },
+                    );
+                }
+                Reply::ok(if pressed {
+                    "button pressed"
+                } else {
+                    "button released"
+                })
+            }
+            Command::Reset => self.reset(now),
+            _ if self.fault.is_some() => Reply::fault_latched(self.fault),
+            Command::Stop => {
+                self.enter(now, Mode::Stopped);
+                Reply::ok("stopped, every output off")
+            }
+            Command::Pause | Command::Resume => {
+                let pause = c == Command::Pause;
+                match &mut self.mode {
+                    Mode::Stepping(st) if st.paused != pause => {
+                        st.paused = pause;
+                        Reply::ok(if pause { "paused" } else { "resumed" })
+                    }
+                    Mode::Stepping(_) => Reply::err(
+                        "bad-state",
+                        if pause {
+                            "already paused"
+                        } else {
+                            "not paused"
+                        },
+                    ),
+                    _ => Reply::err("bad-state", "only stepping pauses"),
+                }
+            }
+            Command::Autotune => {
+                let s = &self.settings;
+                // Ziegler–Nichols' classic rule: on the simulated block it gives 0.6 K of
+                // overshoot and a ±0.2 K hold (README, control section); the no-overshoot rule
+                // holds the standby target ±0.3 K but takes 30 s to preheat.
+                let tuner = RelayAutotune::new(AutotuneConfig {
+                    rule: TuneRule::ZieglerNichols,
+                    timeout_s: s.tune_timeout_s,
+                    max_overshoot_k: (s.t_max_k - s.tune_k - 1.0).min(8.0),
+                    ..AutotuneConfig::around(
+                        s.tune_k,
+                        Duty::from_fraction(s.tune_base),
+                        s.tune_amplitude,
+                    )
+                });
+                self.enter(now, Mode::Autotune(tuner));
+                Reply::ok("autotune started")
+            }
+            Command::Mode(req, springs) => {
+                let mode = match req {
+                    ModeRequest::Standby => Mode::Standby,
+                    ModeRequest::StepSmall | ModeRequest::StepLarge => {
+                        if let Some(sp) = springs {
+                            self.springs = sp;
+                        }
+                        // From a hold at hot_k, a new step still waits the dwell (a fresh check).
+                        Mode::Stepping(Stepping {
+                            kind: if req == ModeRequest::StepSmall {
+                                StepKind::Small
+                            } else {
+                                StepKind::Large
+                            },
+                            springs: self.springs,
+                            phase: StepPhase::Soak { ready_since: None },
+                            paused: false,
+                        })
+                    }
+                    ModeRequest::Form => Mode::Forming { since: now },
+                    ModeRequest::Recover => {
+                        Mode::Recovery(RecoverPhase::Heat { ready_since: None })
+                    }
+                };
+                self.enter(now, mode);
+                Reply::mode(&self.mode, self.springs)
+            }
+        }
+    }
+
+    fn reset(&mut self, now: Millis) -> Reply {
+        let Some(f) = self.fault else {
+            return Reply::ok("no fault latched");
+        };
+        let s = &self.settings;
+        let fresh = self
+            .last
+            .is_some_and(|m| now.seconds_since(m.at) <= s.sensor_timeout_s);
+        let gone = match f.kind {
+            FaultKind::SensorLoss => fresh,
+            FaultKind::OverTemperature => {
+                fresh
+                    && self.last.is_some_and(|m| {
+                        let mut cooler = m;
+                        for t in cooler.regions.iter_mut() {
+                            t.0 += 5.0;
+                        }
+                        cooler.cylinder_max = cooler.cylinder_max.map(|t| Kelvin(t.0 + 5.0));
+                        Safety::over_temperature(&cooler, s).is_none()
+                    })
+            }
+            FaultKind::SpringOnTime(_) | FaultKind::SpringDuty(_) => (0..crate::outputs::SPRINGS)
+                .all(|i| self.safety.spring_duty(i) < 0.5 * s.spring_duty_max),
+            FaultKind::RunawayHeating | FaultKind::RunawayHolding => fresh,
+            FaultKind::EStop => !self.button_pressed,
+        };
+        if !gone {
+            return Reply::cause_present(f);
+        }
+        self.fault = None;
+        self.events.push(now, EventKind::Cleared(f));
+        self.outputs = Outputs::OFF;
+        self.enter(now, Mode::Standby);
+        Reply::ok("fault cleared, standby")
+    }
+
+    /// Write the telemetry line (with its `#` and CR LF).
+    pub fn write_telemetry(
+        &self,
+        now: Millis,
+        out: &mut impl core::fmt::Write,
+    ) -> core::fmt::Result {
+        report::telemetry(self, now, out)
+    }
+}
+#[cfg(test)]
+mod tests;

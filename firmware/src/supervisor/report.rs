@@ -1,0 +1,302 @@
+//! The supervisor's words: reply lines (`ok …` / `err <code>: <message>`) and telemetry lines
+//! (`# …`). This module owns their formats; the README documents them.
+//!
+//! A reply is one line without its end (the board adds CR LF). It never holds a line break,
+//! and a reply that would not fit [`REPLY_CAP`] is cut and ends in ` ...`.
+
+use core::fmt::{self, Write};
+
+use super::events::{EventKind, EventLog};
+use super::safety::Fault;
+use super::{Mode, Supervisor};
+use crate::command::COMMANDS;
+use crate::outputs::SpringMask;
+use crate::settings::{PARAMS, Param, Settings};
+use crate::units::Millis;
+
+/// Longest reply line, bytes.
+pub const REPLY_CAP: usize = 1024;
+
+/// One reply line.
+#[derive(Clone, PartialEq, Eq)]
+pub struct Reply {
+    buf: heapless::String<REPLY_CAP>,
+    cut: bool,
+}
+
+impl fmt::Debug for Reply {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl Write for Reply {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        if self.cut {
+            return Ok(());
+        }
+        for c in s.chars() {
+            // Never a line break inside a reply.
+            let c = if c == '\r' || c == '\n' { ' ' } else { c };
+            if self.buf.len() + c.len_utf8() > REPLY_CAP - 4 {
+                self.cut = true;
+                let _ = self.buf.push_str(" ...");
+                return Ok(());
+            }
+            let _ = self.buf.push(c);
+        }
+        Ok(())
+    }
+}
+
+impl Reply {
+    fn new() -> Reply {
+        Reply {
+            buf: heapless::String::new(),
+            cut: false,
+        }
+    }
+
+    /// Return the line (without its end).
+    pub fn as_str(&self) -> &str {
+        self.buf.as_str()
+    }
+
+    /// Return whether it is an `ok` reply.
+    pub fn is_ok(&self) -> bool {
+        self.buf.starts_with("ok")
+    }
+
+    fn with(f: impl FnOnce(&mut Reply) -> fmt::Result) -> Reply {
+        let mut r = Reply::new();
+        // Writing into a Reply cannot fail (it cuts instead).
+        let _ = f(&mut r);
+        r
+    }
+
+    /// `ok <text>`.
+    pub fn ok(text: &str) -> Reply {
+        Reply::with(|r| write!(r, "ok {text}"))
+    }
+
+    /// `err <code>: <message>`.
+    pub fn err(code: &str, message: &str) -> Reply {
+        Reply::with(|r| write!(r, "err {code}: {message}"))
+    }
+
+    /// The reply to a line refused by the parser.
+    pub fn parse_error(e: crate::command::ParseError) -> Reply {
+        Reply::err(e.code(), e.message())
+    }
+
+    pub(super) fn help() -> Reply {
+        Reply::with(|r| {
+            r.write_str("ok commands:")?;
+            for (i, c) in COMMANDS.iter().enumerate() {
+                let sep = if i == 0 { " " } else { "; " };
+                if c.args.is_empty() {
+                    write!(r, "{sep}{}", c.name)?;
+                } else {
+                    write!(r, "{sep}{} {}", c.name, c.args)?;
+                }
+            }
+            Ok(())
+        })
+    }
+
+    pub(super) fn version() -> Reply {
+        Reply::with(|r| write!(r, "ok thermorph {}", crate::VERSION))
+    }
+
+    pub(super) fn status(s: &Supervisor, now: Millis) -> Reply {
+        Reply::with(|r| {
+            write!(r, "ok mode={} phase={}", s.mode.name(), s.mode.phase_name())?;
+            write_k(r, "target_k", s.target_k())?;
+            write_k(r, "tc_k", s.tc_k)?;
+            match s.last {
+                Some(m) => {
+                    for (i, t) in m.regions.iter().enumerate() {
+                        write!(r, " t{}_k=", i + 1)?;
+                        write_num(r, t.k())?;
+                    }
+                    write!(
+                        r,
+                        " quality={} frame={} age_s={:.2} filled={}",
+                        m.quality.name(),
+                        m.seq,
+                        now.seconds_since(m.at),
+                        m.filled_pixels
+                    )?;
+                }
+                None => {
+                    r.write_str(" t1_k=- t2_k=- t3_k=- t4_k=- t5_k=- quality=- frame=- age_s=-")?
+                }
+            }
+            write!(
+                r,
+                " heater_pct={:.1} fan_pct={:.1} springs={}",
+                s.outputs.heater.pct(),
+                s.outputs.fan.pct(),
+                s.outputs.springs
+            )?;
+            write!(r, " select={}", s.springs)?;
+            match s.fault {
+                Some(f) => write!(r, " fault={} reason=\"{}\"", f.code(), f.reason()),
+                None => r.write_str(" fault=none"),
+            }
+        })
+    }
+
+    pub(super) fn log(events: &EventLog) -> Reply {
+        Reply::with(|r| {
+            write!(r, "ok events={}", events.total())?;
+            for e in events.iter() {
+                write!(r, " | {:.2} ", e.at.ms() as f32 * 1e-3)?;
+                write_event(r, &e.kind)?;
+            }
+            Ok(())
+        })
+    }
+
+    pub(super) fn get_all(s: &Settings) -> Reply {
+        Reply::with(|r| {
+            r.write_str("ok")?;
+            for p in PARAMS {
+                write!(r, " {}=", p.name)?;
+                write_num(r, (p.get)(s))?;
+            }
+            Ok(())
+        })
+    }
+
+    pub(super) fn get(s: &Settings, i: usize) -> Reply {
+        match PARAMS.get(i) {
+            Some(p) => Reply::with(|r| {
+                write!(r, "ok {}=", p.name)?;
+                write_num(r, (p.get)(s))?;
+                if !p.unit.is_empty() {
+                    write!(r, " {}", p.unit)?;
+                }
+                Ok(())
+            }),
+            None => Reply::err("unknown-name", "no such parameter"),
+        }
+    }
+
+    pub(super) fn out_of_range(p: &Param, min: f32, max: f32) -> Reply {
+        Reply::with(|r| {
+            write!(r, "err out-of-range: {} must be in [", p.name)?;
+            write_num(r, min)?;
+            r.write_str(", ")?;
+            write_num(r, max)?;
+            write!(r, "] {}", p.unit)
+        })
+    }
+
+    pub(super) fn stream_on(hz: f32) -> Reply {
+        Reply::with(|r| write!(r, "ok stream on {hz} Hz"))
+    }
+
+    pub(super) fn fault_latched(f: Option<Fault>) -> Reply {
+        Reply::with(|r| match f {
+            Some(f) => write!(
+                r,
+                "err fault-latched: {} ({}); `reset` first",
+                f.code(),
+                f.reason()
+            ),
+            None => r.write_str("err fault-latched: `reset` first"),
+        })
+    }
+
+    pub(super) fn cause_present(f: Fault) -> Reply {
+        Reply::with(|r| {
+            write!(
+                r,
+                "err cause-present: {} ({}) is not gone",
+                f.code(),
+                f.reason()
+            )
+        })
+    }
+
+    pub(super) fn mode(m: &Mode, springs: SpringMask) -> Reply {
+        Reply::with(|r| match m {
+            Mode::Stepping(_) => write!(r, "ok mode {} springs={springs}", m.name()),
+            _ => write!(r, "ok mode {}", m.name()),
+        })
+    }
+}
+
+fn write_num(r: &mut impl Write, v: f32) -> fmt::Result {
+    if !v.is_finite() {
+        r.write_str("-")
+    } else if v == libm::roundf(v) && libm::fabsf(v) < 1e7 {
+        write!(r, "{}", v as i32)
+    } else {
+        write!(r, "{v:.3}")
+    }
+}
+
+fn write_k(r: &mut impl Write, name: &str, v: f32) -> fmt::Result {
+    if v.is_finite() {
+        write!(r, " {name}={v:.2}")
+    } else {
+        write!(r, " {name}=-")
+    }
+}
+
+fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
+    match e {
+        EventKind::Mode { from, to } => write!(r, "mode {from} -> {to}"),
+        EventKind::Fault(f) => write!(r, "fault {} ({})", f.code(), f.reason()),
+        EventKind::Cleared(f) => write!(r, "cleared {}", f.code()),
+        EventKind::Tuned { ku_per_k, tu_s } => {
+            write!(r, "autotune done ku={ku_per_k:.4}/K tu={tu_s:.1} s")
+        }
+        EventKind::TuneAborted(why) => write!(r, "autotune aborted ({why})"),
+        EventKind::SteppingDone => r.write_str("stepping done"),
+    }
+}
+
+/// The telemetry line's fields, in order (the README's table is checked against this).
+pub const TELEMETRY_FIELDS: [&str; 11] = [
+    "t_s",
+    "mode",
+    "t1_k",
+    "t2_k",
+    "tc_k",
+    "target_k",
+    "heater_pct",
+    "fan_pct",
+    "springs",
+    "quality",
+    "fault",
+];
+
+/// Write one telemetry line: `# t_s=… mode=… t1_k=… t2_k=… tc_k=… target_k=… heater_pct=…
+/// fan_pct=… springs=… quality=… fault=…` and CR LF.
+pub fn telemetry(s: &Supervisor, now: Millis, out: &mut impl Write) -> fmt::Result {
+    write!(
+        out,
+        "# t_s={:.3} mode={}",
+        now.ms() as f64 * 1e-3,
+        s.mode.name()
+    )?;
+    let (t1, t2) = s
+        .last
+        .map_or((f32::NAN, f32::NAN), |m| (m.t1().k(), m.t2().k()));
+    write_k(out, "t1_k", t1)?;
+    write_k(out, "t2_k", t2)?;
+    write_k(out, "tc_k", s.tc_k)?;
+    write_k(out, "target_k", s.target_k())?;
+    write!(
+        out,
+        " heater_pct={:.1} fan_pct={:.1} springs={} quality={} fault={}\r\n",
+        s.outputs.heater.pct(),
+        s.outputs.fan.pct(),
+        s.outputs.springs,
+        s.last.map_or("-", |m| m.quality.name()),
+        s.fault.map_or("none", |f| f.code())
+    )
+}

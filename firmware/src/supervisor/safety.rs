@@ -1,0 +1,380 @@
+//! Fault detection (SPEC section 5): over-temperature, spring on-time and duty, sensor loss,
+//! thermal runaway while heating and while holding, emergency stop.
+//!
+//! This module owns the fault types and the checks' state; the supervisor calls the checks and
+//! owns the latch. Runaway is checked the Marlin/Klipper way, and only where the heater is
+//! supposed to raise or hold the temperature (never in forming, where the fan pulls it down on
+//! purpose, nor while stopped or faulted):
+//! - heating: while the heater runs at ≥ `runaway_duty` and Tc is below `target − hold_band_k`,
+//!   Tc must rise by `runaway_gain_k` within every `runaway_window_s` (Klipper's heating_gain /
+//!   check_gain_time, Marlin's WATCH_TEMP);
+//! - holding: once Tc has reached the target band, the error beyond `±hold_band_k` is
+//!   integrated (K·s) and the fault trips above `hold_max_error_ks` (Klipper's max_error);
+//!   it decays back while Tc is inside the band. A change of target re-arms both checks.
+
+use core::fmt;
+
+use crate::measurement::Measurement;
+use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
+use crate::settings::Settings;
+use crate::units::Millis;
+
+/// Why the supervisor latched a fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FaultKind {
+    /// A region (or the hottest cylinder pixel) is above `t_max_k`.
+    OverTemperature,
+    /// A spring was on longer than `spring_on_max_s` (index 0 = A).
+    SpringOnTime(u8),
+    /// A spring's duty over the window exceeded `spring_duty_max_pct` (index 0 = A).
+    SpringDuty(u8),
+    /// No valid measurement within `sensor_timeout_s`.
+    SensorLoss,
+    /// The heater ran hard with too little rise.
+    RunawayHeating,
+    /// The held temperature drifted from its target for too long.
+    RunawayHolding,
+    /// The emergency stop (button or console).
+    EStop,
+}
+
+/// A latched fault with the value that tripped it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fault {
+    /// What tripped.
+    pub kind: FaultKind,
+    /// The value that tripped it (K, s, a fraction, K·s, or K of rise; see [`Fault::reason`]).
+    pub value: f32,
+}
+
+impl Fault {
+    /// Return the stable code shown on the console and in files.
+    pub fn code(&self) -> &'static str {
+        match self.kind {
+            FaultKind::OverTemperature => "over-temperature",
+            FaultKind::SpringOnTime(_) => "spring-on-time",
+            FaultKind::SpringDuty(_) => "spring-duty",
+            FaultKind::SensorLoss => "sensor-loss",
+            FaultKind::RunawayHeating => "runaway-heating",
+            FaultKind::RunawayHolding => "runaway-holding",
+            FaultKind::EStop => "estop",
+        }
+    }
+
+    /// Return whether the fan should run while this fault is latched (cooling helps unless a
+    /// person stopped everything).
+    pub fn fan_helps(&self) -> bool {
+        !matches!(self.kind, FaultKind::EStop)
+    }
+
+    /// Return a one-line human reason (no line breaks).
+    pub fn reason(&self) -> Reason {
+        Reason(*self)
+    }
+}
+
+/// The human reason of a fault, as `Display`.
+pub struct Reason(Fault);
+
+impl fmt::Display for Reason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0.value;
+        match self.0.kind {
+            FaultKind::OverTemperature => write!(f, "a region reached {v:.1} K"),
+            FaultKind::SpringOnTime(i) => {
+                write!(
+                    f,
+                    "spring {} on for {v:.1} s",
+                    SPRING_NAMES[i as usize % SPRINGS]
+                )
+            }
+            FaultKind::SpringDuty(i) => write!(
+                f,
+                "spring {} duty {:.0} % over its window",
+                SPRING_NAMES[i as usize % SPRINGS],
+                v * 100.0
+            ),
+            FaultKind::SensorLoss => write!(f, "no valid measurement for {v:.2} s"),
+            FaultKind::RunawayHeating => {
+                write!(
+                    f,
+                    "heater at high duty but Tc rose only {v:.2} K in the window"
+                )
+            }
+            FaultKind::RunawayHolding => write!(f, "Tc away from target for {v:.0} K*s"),
+            FaultKind::EStop => f.write_str("emergency stop"),
+        }
+    }
+}
+
+/// The state of the checks that need memory.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Safety {
+    /// Continuous on-time of each spring, ms.
+    spring_on_ms: [u32; SPRINGS],
+    /// Each spring's duty, averaged over the window (exponential), fraction.
+    spring_duty: [f32; SPRINGS],
+    /// Heating check: when the window started and Tc then.
+    heat_window: Option<(Millis, f32)>,
+    /// Holding check: the target it watches.
+    hold_target_k: f32,
+    /// Holding check: Tc has been inside the band since the target was set.
+    hold_met: bool,
+    /// Holding check: error accumulated beyond the band, K·s.
+    hold_error_ks: f32,
+}
+
+/// What the runaway check is told about the loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopState {
+    /// The loop's target, K.
+    pub target_k: f32,
+    /// The controlled temperature of this measurement, K.
+    pub tc_k: f32,
+    /// The heater duty applied since the last measurement, fraction.
+    pub heater_duty: f32,
+    /// The mode wants the heater to raise or hold Tc (false in forming, stopped, faulted).
+    pub active: bool,
+}
+
+impl Safety {
+    /// Make the checks' state.
+    pub const fn new() -> Self {
+        Safety {
+            spring_on_ms: [0; SPRINGS],
+            spring_duty: [0.0; SPRINGS],
+            heat_window: None,
+            hold_target_k: 0.0,
+            hold_met: false,
+            hold_error_ks: 0.0,
+        }
+    }
+
+    /// Return the over-temperature fault of a measurement, if any. By rank, so a swapped
+    /// T1/T2 changes nothing: the colder of T1/T2 (the SMP) and regions 3–5 against
+    /// `t_max_k`; the hotter of T1/T2 and the hottest cylinder pixel (the PI heater film seen
+    /// through the lattice) against `t_heater_max_k`.
+    pub fn over_temperature(m: &Measurement, s: &Settings) -> Option<Fault> {
+        let (t1, t2) = (m.t1().k(), m.t2().k());
+        let smp = m.regions[2..]
+            .iter()
+            .map(|t| t.k())
+            .chain([t1.min(t2)])
+            .filter(|t| t.is_finite())
+            .fold(f32::MIN, f32::max);
+        let film = [t1.max(t2)]
+            .into_iter()
+            .chain(m.cylinder_max.map(|t| t.k()))
+            .filter(|t| t.is_finite())
+            .fold(f32::MIN, f32::max);
+        if smp > s.t_max_k {
+            Some(Fault {
+                kind: FaultKind::OverTemperature,
+                value: smp,
+            })
+        } else if film > s.t_heater_max_k {
+            Some(Fault {
+                kind: FaultKind::OverTemperature,
+                value: film,
+            })
+        } else {
+            None
+        }
+    }
+
+    /// Account `elapsed_ms` of `springs` being on; return a fault if one is past its limits.
+    pub fn track_springs(
+        &mut self,
+        springs: SpringMask,
+        elapsed_ms: u32,
+        s: &Settings,
+    ) -> Option<Fault> {
+        let a = (elapsed_ms as f32 * 1e-3 / s.spring_window_s).min(1.0);
+        let mut fault = None;
+        for i in 0..SPRINGS {
+            let on = springs.contains(i);
+            self.spring_on_ms[i] = if on {
+                self.spring_on_ms[i].saturating_add(elapsed_ms)
+            } else {
+                0
+            };
+            self.spring_duty[i] += ((on as u8 as f32) - self.spring_duty[i]) * a;
+            let on_s = self.spring_on_ms[i] as f32 * 1e-3;
+            if on_s > s.spring_on_max_s {
+                fault.get_or_insert(Fault {
+                    kind: FaultKind::SpringOnTime(i as u8),
+                    value: on_s,
+                });
+            } else if self.spring_duty[i] > s.spring_duty_max {
+                fault.get_or_insert(Fault {
+                    kind: FaultKind::SpringDuty(i as u8),
+                    value: self.spring_duty[i],
+                });
+            }
+        }
+        fault
+    }
+
+    /// Return how long spring `i` has been on continuously, s.
+    pub fn spring_on_s(&self, i: usize) -> f32 {
+        self.spring_on_ms.get(i).map_or(0.0, |&ms| ms as f32 * 1e-3)
+    }
+
+    /// Return spring `i`'s duty over the window, fraction.
+    pub fn spring_duty(&self, i: usize) -> f32 {
+        self.spring_duty.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// Run the runaway checks on a new measurement taken `dt_s` after the previous one.
+    pub fn runaway(&mut self, now: Millis, dt_s: f32, l: LoopState, s: &Settings) -> Option<Fault> {
+        if !l.active || !l.tc_k.is_finite() {
+            self.rearm(l.target_k);
+            self.hold_target_k = f32::NAN;
+            return None;
+        }
+        if l.target_k != self.hold_target_k {
+            self.rearm(l.target_k);
+        }
+        let below = l.tc_k < l.target_k - s.hold_band_k;
+        // Heating: a hard-driven heater must show a rise within every window.
+        if below && l.heater_duty >= s.runaway_duty && !self.hold_met {
+            match self.heat_window {
+                None => self.heat_window = Some((now, l.tc_k)),
+                Some((t0, tc0)) if now.seconds_since(t0) >= s.runaway_window_s => {
+                    let rise = l.tc_k - tc0;
+                    if rise < s.runaway_gain_k {
+                        return Some(Fault {
+                            kind: FaultKind::RunawayHeating,
+                            value: rise,
+                        });
+                    }
+                    self.heat_window = Some((now, l.tc_k));
+                }
+                Some(_) => {}
+            }
+        } else {
+            self.heat_window = None;
+        }
+        // Holding: once the band was reached, integrate the error beyond it.
+        let excess = libm::fabsf(l.tc_k - l.target_k) - s.hold_band_k;
+        if excess <= 0.0 {
+            self.hold_met = true;
+            self.hold_error_ks = (self.hold_error_ks + excess * dt_s).max(0.0);
+        } else if self.hold_met {
+            self.hold_error_ks += excess * dt_s;
+            if self.hold_error_ks > s.hold_max_error_ks {
+                return Some(Fault {
+                    kind: FaultKind::RunawayHolding,
+                    value: self.hold_error_ks,
+                });
+            }
+        }
+        None
+    }
+
+    /// Start the runaway checks afresh for a new target.
+    fn rearm(&mut self, target_k: f32) {
+        self.heat_window = None;
+        self.hold_target_k = target_k;
+        self.hold_met = false;
+        self.hold_error_ks = 0.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(
+        safety: &mut Safety,
+        s: &Settings,
+        secs: f32,
+        mut tc: impl FnMut(f32) -> f32,
+        duty: f32,
+        target: f32,
+    ) -> Option<(f32, Fault)> {
+        let dt = 0.25;
+        let mut t = 0.0;
+        while t <= secs {
+            let l = LoopState {
+                target_k: target,
+                tc_k: tc(t),
+                heater_duty: duty,
+                active: true,
+            };
+            if let Some(f) = safety.runaway(Millis((t * 1000.0) as u64), dt, l, s) {
+                return Some((t, f));
+            }
+            t += dt;
+        }
+        None
+    }
+
+    #[test]
+    fn dead_heater_trips_after_one_window() {
+        let s = Settings::DEFAULT;
+        let mut safety = Safety::new();
+        let (t, f) = run(&mut safety, &s, 60.0, |_| 298.0, 1.0, 323.0).unwrap();
+        assert_eq!(f.kind, FaultKind::RunawayHeating);
+        assert!((t - s.runaway_window_s).abs() < 0.3, "tripped at {t}");
+    }
+
+    #[test]
+    fn a_heater_that_heats_does_not_trip() {
+        let s = Settings::DEFAULT;
+        let mut safety = Safety::new();
+        // 0.3 K/s: 6 K per 20 s window, well above 2 K.
+        let tc = |t: f32| (298.0 + 0.3 * t).min(323.0);
+        assert_eq!(run(&mut safety, &s, 300.0, tc, 1.0, 323.0), None);
+    }
+
+    #[test]
+    fn drift_after_reaching_target_trips_by_accumulated_error() {
+        let s = Settings::DEFAULT;
+        let mut safety = Safety::new();
+        // At target for 10 s, then 10 K below: 5 K beyond the band → 120 K·s after 24 s.
+        let tc = |t: f32| if t < 10.0 { 323.0 } else { 313.0 };
+        let (t, f) = run(&mut safety, &s, 100.0, tc, 0.5, 323.0).unwrap();
+        assert_eq!(f.kind, FaultKind::RunawayHolding);
+        assert!((t - 34.0).abs() < 0.6, "tripped at {t}");
+    }
+
+    #[test]
+    fn inactive_loops_never_trip() {
+        let s = Settings::DEFAULT;
+        let mut safety = Safety::new();
+        for i in 0..1000 {
+            let l = LoopState {
+                target_k: 323.0,
+                tc_k: 250.0,
+                heater_duty: 1.0,
+                active: false,
+            };
+            assert_eq!(safety.runaway(Millis(i * 250), 0.25, l, &s), None);
+        }
+    }
+
+    #[test]
+    fn spring_limits() {
+        let s = Settings::DEFAULT;
+        let mut safety = Safety::new();
+        let a = SpringMask::from_bits(1);
+        for _ in 0..32 {
+            assert_eq!(safety.track_springs(a, 250, &s), None);
+        }
+        let f = safety.track_springs(a, 250, &s).unwrap();
+        assert_eq!(f.kind, FaultKind::SpringOnTime(0));
+        // Duty: 6 s on, 1 s off, repeated, is 86 % — above the 60 % limit eventually.
+        let mut safety = Safety::new();
+        let mut tripped = None;
+        for k in 0..400 {
+            let on = k % 28 < 24;
+            let m = if on { a } else { SpringMask::NONE };
+            if let Some(f) = safety.track_springs(m, 250, &s) {
+                tripped = Some(f);
+                break;
+            }
+        }
+        assert_eq!(tripped.map(|f| f.kind), Some(FaultKind::SpringDuty(0)));
+    }
+}

@@ -1,0 +1,329 @@
+//! `host-sim paper`: the thesis's experiments (SPEC section 8) run against the simulated block
+//! with the camera on and the firmware's own supervisor, each figure beside the thesis's.
+//!
+//! This module owns the experiment scripts and the figure definitions of SPEC section 8. Two
+//! runs at 298.15 K ambient, camera on: power-up in standby; at 120 s `mode step-large AB` (or
+//! `A`); once the stepping holds, `mode form`; once forming has handed back to standby,
+//! `mode recover` — modes entered back to back, as the console would be driven. Times come
+//! from the supervisor's mode and phase in each control period, temperatures from its Tc,
+//! angles and k_b from the plant's truth.
+
+use serde::Serialize;
+use thermorph::supervisor::Supervisor;
+
+use crate::run::{Row, run_with};
+use crate::scenario;
+
+/// One figure: the thesis's value, the simulated one and whether it passes.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Figure {
+    /// The thesis's (or SPEC's) value.
+    pub thesis: serde_json::Value,
+    /// The simulated value (`null` if the run never showed it).
+    pub sim: serde_json::Value,
+    /// Within tolerance.
+    pub pass: bool,
+    /// The tolerance, as printed.
+    #[serde(skip)]
+    pub tolerance: String,
+    /// Why it failed, when it did and the reason is known.
+    #[serde(skip)]
+    pub note: String,
+}
+
+/// The figures, keyed as `host-sim paper --json` prints them, in SPEC order.
+pub const KEYS: [&str; 13] = [
+    "preheat_time_s",
+    "standby_overshoot_k",
+    "standby_hold_band_k",
+    "large_stepping_time_s",
+    "pulse_drop_deg",
+    "full_loading_one_spring_deg",
+    "full_loading_two_springs_deg",
+    "forming_time_s",
+    "forming_angle_loss_deg",
+    "formed_k_b",
+    "stiffness_ratio",
+    "recovery_time_s",
+    "cycle_time_s",
+];
+
+/// When the stepping command is sent, s (after the standby figures' window).
+pub const STEP_AT_S: f64 = 120.0;
+
+fn scene(duration_s: f64) -> Result<scenario::Scenario, String> {
+    let text = format!(
+        "name = \"paper\"\n\
+         description = \"the thesis's experiments, camera on, real supervisor\"\n\
+         duration = \"{duration_s} s\"\n\
+         ambient = \"298.15 K\"\n\
+         period = \"0.25 s\"\n\
+         [fidelity]\ncamera = true\n\
+         [camera]\nnoise = \"0.1 K\"\nseed = 1\n\
+         [[command]]\nat = \"0 s\"\nline = \"mode standby\"\n"
+    );
+    scenario::parse(&text, "<paper>", "paper")
+}
+
+/// Run the full cycle with `springs`; returns the rows.
+pub fn cycle(springs: &str, duration_s: f64) -> Result<Vec<Row>, String> {
+    let sc = scene(duration_s)?;
+    let mut stage = 0;
+    let mut react = |t: f64, s: &Supervisor| -> Option<String> {
+        let (mode, phase) = (s.mode().name(), s.mode().phase_name());
+        let line = match stage {
+            0 if t >= STEP_AT_S => format!("mode step-large {springs}"),
+            1 if mode == "step-large" && phase == "hold" => "mode form".into(),
+            2 if mode == "standby" => "mode recover".into(),
+            _ => return None,
+        };
+        stage += 1;
+        Some(line)
+    };
+    Ok(run_with(&sc, &mut |_| {}, &mut react)?.rows)
+}
+
+fn period(rows: &[Row]) -> f64 {
+    match rows {
+        [a, b, ..] => b.obs.time_s - a.obs.time_s,
+        _ => 0.25,
+    }
+}
+
+fn mode(r: &Row) -> &'static str {
+    r.control.map_or("-", |c| c.mode)
+}
+
+fn phase(r: &Row) -> &'static str {
+    r.control.map_or("-", |c| c.phase)
+}
+
+fn tc(r: &Row) -> f64 {
+    r.control.map_or(f64::NAN, |c| c.tc_k)
+}
+
+/// What one cycle showed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CycleFigures {
+    /// Power-up until Tc first reaches 322.5 K, s.
+    pub preheat_time_s: Option<f64>,
+    /// Largest Tc − 323 K after Tc first reaches 323 K, in standby before stepping, K.
+    pub standby_overshoot_k: Option<f64>,
+    /// Largest |Tc − 323 K| over 60 s from 20 s after Tc first reaches 323 K, K.
+    pub standby_hold_band_k: Option<f64>,
+    /// First spring phase's start to the last one's end, s.
+    pub large_stepping_time_s: Option<f64>,
+    /// Bend at each pulse's start minus at its end, degrees.
+    pub pulse_drop_deg: Vec<f64>,
+    /// Bend at the end of stepping, degrees.
+    pub full_loading_deg: Option<f64>,
+    /// Forming's start until the supervisor ends it, s.
+    pub forming_time_s: Option<f64>,
+    /// Bend at forming's start minus 20 s later, degrees.
+    pub forming_angle_loss_deg: Option<f64>,
+    /// k_b when forming ends, N·mm/rad.
+    pub formed_k_b: Option<f64>,
+    /// That over k_b at the end of stepping.
+    pub stiffness_ratio: Option<f64>,
+    /// Recovery's start until the bend is within 2° of straight, s.
+    pub recovery_time_s: Option<f64>,
+    /// First spring phase's start until recovery ends, s.
+    pub cycle_time_s: Option<f64>,
+}
+
+/// Measure SPEC section 8's figures on a cycle's rows.
+pub fn measure(rows: &[Row]) -> CycleFigures {
+    let p = period(rows);
+    let start = |i: usize| rows[i].obs.time_s - p;
+    let mut f = CycleFigures::default();
+    let first = |from: usize, pred: &dyn Fn(&Row) -> bool| {
+        rows.iter()
+            .enumerate()
+            .skip(from)
+            .find(|(_, r)| pred(r))
+            .map(|(i, _)| i)
+    };
+    f.preheat_time_s = first(0, &|r| tc(r) >= 322.5).map(|i| rows[i].obs.time_s);
+    let step_cmd = first(0, &|r| mode(r) == "step-large").unwrap_or(rows.len());
+    if let Some(i323) = first(0, &|r| tc(r) >= 323.0).filter(|&i| i < step_cmd) {
+        let t323 = rows[i323].obs.time_s;
+        f.standby_overshoot_k = rows[i323..step_cmd]
+            .iter()
+            .map(|r| tc(r) - 323.0)
+            .reduce(f64::max);
+        f.standby_hold_band_k = rows[i323..step_cmd]
+            .iter()
+            .filter(|r| (t323 + 20.0..=t323 + 80.0).contains(&r.obs.time_s))
+            .map(|r| (tc(r) - 323.0).abs())
+            .reduce(f64::max);
+    }
+    let springs: Vec<usize> = (step_cmd..rows.len())
+        .filter(|&i| mode(&rows[i]) == "step-large" && phase(&rows[i]) == "spring")
+        .collect();
+    let (Some(&s0), Some(&s1)) = (springs.first(), springs.last()) else {
+        return f;
+    };
+    f.large_stepping_time_s = Some(rows[s1].obs.time_s - start(s0));
+    f.full_loading_deg = Some(rows[s1].obs.bend_deg);
+    let mut i = s0;
+    while i < s1 {
+        if phase(&rows[i]) == "pulse" {
+            let j = (i..s1).find(|&j| phase(&rows[j]) != "pulse").unwrap_or(s1);
+            f.pulse_drop_deg
+                .push(rows[i - 1].obs.bend_deg - rows[j - 1].obs.bend_deg);
+            i = j;
+        } else {
+            i += 1;
+        }
+    }
+    let k_b_hot = rows[s1].obs.k_b_nmm_per_rad;
+    let Some(fs) = first(s1, &|r| mode(r) == "form") else {
+        return f;
+    };
+    let t_form = start(fs);
+    let bend_form = rows[fs - 1].obs.bend_deg;
+    f.forming_angle_loss_deg =
+        first(fs, &|r| r.obs.time_s >= t_form + 20.0).map(|i| bend_form - rows[i].obs.bend_deg);
+    let Some(fe) = first(fs, &|r| mode(r) != "form") else {
+        return f;
+    };
+    f.forming_time_s = Some(start(fe) - t_form);
+    f.formed_k_b = Some(rows[fe - 1].obs.k_b_nmm_per_rad);
+    f.stiffness_ratio = f.formed_k_b.map(|k| k / k_b_hot);
+    let Some(rs) = first(fe, &|r| mode(r) == "recover") else {
+        return f;
+    };
+    let t_rec = start(rs);
+    f.recovery_time_s = first(rs, &|r| r.obs.bend_deg <= 2.0).map(|i| rows[i].obs.time_s - t_rec);
+    f.cycle_time_s = first(rs, &|r| mode(r) != "recover").map(|i| start(i) - start(s0));
+    f
+}
+
+fn num(v: Option<f64>) -> serde_json::Value {
+    v.filter(|x| x.is_finite())
+        .map_or(serde_json::Value::Null, |x| {
+            serde_json::json!((x * 1000.0).round() / 1000.0)
+        })
+}
+
+fn within(v: Option<f64>, lo: f64, hi: f64) -> bool {
+    v.is_some_and(|x| (lo..=hi).contains(&x))
+}
+
+/// Run both cycles and build the table (keys in [`KEYS`] order).
+pub fn figures() -> Result<Vec<(&'static str, Figure)>, String> {
+    let two = measure(&cycle("AB", 700.0)?);
+    let one = measure(&cycle("A", 400.0)?);
+    let fig = |thesis: serde_json::Value, sim: Option<f64>, lo: f64, hi: f64, tol: &str| Figure {
+        thesis,
+        sim: num(sim),
+        pass: within(sim, lo, hi),
+        tolerance: tol.into(),
+        note: String::new(),
+    };
+    let j = |x: f64| serde_json::json!(x);
+    let drops = &two.pulse_drop_deg;
+    let drops_ok = drops.len() == 3 && drops.iter().all(|d| (1.0..=5.0).contains(d));
+    Ok(vec![
+        (
+            "preheat_time_s",
+            fig(j(10.0), two.preheat_time_s, 7.0, 13.0, "±3 s"),
+        ),
+        (
+            "standby_overshoot_k",
+            fig(j(1.0), two.standby_overshoot_k, f64::MIN, 1.0, "< 1 K"),
+        ),
+        (
+            "standby_hold_band_k",
+            fig(j(0.5), two.standby_hold_band_k, 0.0, 0.5, "≤ 0.5 K"),
+        ),
+        (
+            "large_stepping_time_s",
+            fig(j(30.0), two.large_stepping_time_s, 29.5, 30.5, "±0.5 s"),
+        ),
+        (
+            "pulse_drop_deg",
+            Figure {
+                thesis: serde_json::json!([2.0, 4.0]),
+                sim: serde_json::json!(
+                    drops
+                        .iter()
+                        .map(|d| (d * 1000.0).round() / 1000.0)
+                        .collect::<Vec<_>>()
+                ),
+                pass: drops_ok,
+                tolerance: "each 2–4° ±1°".into(),
+                note: String::new(),
+            },
+        ),
+        (
+            "full_loading_one_spring_deg",
+            fig(j(42.0), one.full_loading_deg, 38.0, 46.0, "±4°"),
+        ),
+        (
+            "full_loading_two_springs_deg",
+            fig(j(65.0), two.full_loading_deg, 61.0, 69.0, "±4°"),
+        ),
+        (
+            "forming_time_s",
+            fig(j(50.0), two.forming_time_s, 40.0, 60.0, "±10 s"),
+        ),
+        (
+            "forming_angle_loss_deg",
+            fig(j(5.0), two.forming_angle_loss_deg, 2.0, 8.0, "±3°"),
+        ),
+        (
+            "formed_k_b",
+            fig(j(1400.0), two.formed_k_b, 1190.0, 1610.0, "±15 %"),
+        ),
+        (
+            "stiffness_ratio",
+            fig(j(4.5), two.stiffness_ratio, 3.8, 5.2, "±0.7"),
+        ),
+        (
+            "recovery_time_s",
+            fig(j(40.0), two.recovery_time_s, 30.0, 50.0, "±10 s"),
+        ),
+        (
+            "cycle_time_s",
+            fig(j(120.0), two.cycle_time_s, 100.0, 140.0, "±20 s"),
+        ),
+    ])
+}
+
+/// `host-sim paper [--json]`: print the table (or the JSON object); exit status 0 either way
+/// (the tests assert the passes).
+pub fn cli(json: bool) -> Result<(), String> {
+    let table = figures()?;
+    if json {
+        let map: serde_json::Map<String, serde_json::Value> = table
+            .iter()
+            .map(|(k, f)| {
+                (
+                    (*k).to_string(),
+                    serde_json::to_value(f).unwrap_or_default(),
+                )
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&map).map_err(|e| e.to_string())?
+        );
+        return Ok(());
+    }
+    println!(
+        "{:<30} {:>12} {:>22} {:>14}",
+        "figure", "thesis", "simulated", "tolerance"
+    );
+    for (k, f) in &table {
+        println!(
+            "{:<30} {:>12} {:>22} {:>14} {}",
+            k,
+            f.thesis.to_string(),
+            f.sim.to_string(),
+            f.tolerance,
+            if f.pass { "pass" } else { "FAIL" }
+        );
+    }
+    Ok(())
+}
