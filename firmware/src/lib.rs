@@ -9,6 +9,7 @@
 //! - [`mtts`]: multi-target thermal sensing — five region temperatures from a frame.
 //! - [`measurement`]: what sensing hands control, one [`measurement::Measurement`] a frame.
 //! - [`outputs`]: heater and fan duty and the spring gates, the only things a decision drives.
+//! - [`control`]: the control law — PID, heater/fan split range, relay autotune.
 //! - [`block`]: the block's geometry.
 //! - [`console`]: the line-based serial console protocol.
 //! - [`fmath`]: the few float functions the target lacks in `core` (square root).
@@ -16,6 +17,7 @@
 
 pub mod block;
 pub mod console;
+pub mod control;
 pub mod fmath;
 pub mod measurement;
 pub mod mlx90640;
