@@ -38,8 +38,8 @@
 //! the overshoot is 19.7 K (ZN no-overshoot), 9.2 K (classic ZN) and 0.08 K (Tyreus–Luyben).
 //! Taken as a plain step (no room for a negative integral, as in a heater-only loop) even
 //! Tyreus–Luyben overshoots by a few kelvin, so start the loop bumplessly. Tyreus–Luyben was
-//! designed for
-//! exactly such slow, lag-dominant process loops where overshoot costs more than speed.
+//! designed for exactly such slow, lag-dominant process loops, where overshoot costs more than
+//! speed.
 
 use super::pid::PidGains;
 use crate::outputs::Duty;
