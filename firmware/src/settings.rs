@@ -32,6 +32,9 @@ pub struct Settings {
     pub ready_dwell_s: f32,
     /// PID gains of the heater/fan loop.
     pub gains: PidGains,
+    /// Gains of the cascade's outer loop (where Tc weighs the colder region): K of film
+    /// offset per K of Tc error.
+    pub outer_gains: PidGains,
     /// Time constant of the derivative's low-pass filter, s.
     pub d_filter_s: f32,
     /// Outside ±this of the target the loop drives bang-bang and resets its integrator, K.
@@ -109,6 +112,11 @@ impl Settings {
         ready_band_k: 0.5,
         ready_dwell_s: 2.0,
         gains: DEFAULT_GAINS,
+        outer_gains: PidGains {
+            kp_per_k: 8.0,
+            ki_per_k_s: 1.0,
+            kd_s_per_k: 0.0,
+        },
         d_filter_s: 1.0,
         functional_band_k: 50.0,
         w1_standby: 1.0,
@@ -285,6 +293,22 @@ pub const PARAMS: &[Param] = &[
     param!("kd", "s/K", 0.0, 100.0, "derivative gain", |s| s
         .gains
         .kd_s_per_k),
+    param!(
+        "outer_kp",
+        "K/K",
+        0.0,
+        20.0,
+        "cascade outer loop: film offset per K",
+        |s| s.outer_gains.kp_per_k
+    ),
+    param!(
+        "outer_ki",
+        "1/s",
+        0.0,
+        2.0,
+        "cascade outer loop: integral gain",
+        |s| s.outer_gains.ki_per_k_s
+    ),
     param!(
         "d_filter_s",
         "s",

@@ -226,6 +226,7 @@ pub struct Supervisor {
     settings: Settings,
     mode: Mode,
     pid: Pid,
+    outer: Pid,
     split: SplitRange,
     target_k: f32,
     outputs: Outputs,
@@ -249,6 +250,18 @@ fn pid_config(s: &Settings) -> PidConfig {
     }
 }
 
+/// The cascade's outer loop: Tc's error → how far above the target the film runs, K.
+fn outer_config(s: &Settings, target_k: f32) -> PidConfig {
+    PidConfig {
+        gains: s.outer_gains,
+        output_min: 0.0,
+        output_max: (s.heater_cap_k - s.heater_cap_band_k - target_k).max(0.0),
+        derivative_tau_s: 0.0,
+        max_dt_s: 1.0,
+        functional_band_k: f32::INFINITY,
+    }
+}
+
 fn ms(seconds: f32) -> u32 {
     (seconds * 1000.0 + 0.5) as u32
 }
@@ -263,6 +276,10 @@ impl Supervisor {
         };
         Supervisor {
             pid: Pid::new(pid_config(&settings), settings.standby_k),
+            outer: Pid::new(
+                outer_config(&settings, settings.standby_k),
+                settings.standby_k,
+            ),
             split: SplitRange::new(settings.fan_deadband),
             target_k: settings.standby_k,
             settings,
@@ -489,7 +506,15 @@ impl Supervisor {
             self.target_k = target_k;
             // Only a non-finite target is refused, and settings keep targets finite.
             let _ = self.pid.set_target(target_k);
+            self.rebuild_outer();
         }
+    }
+
+    /// The outer loop's range depends on the target: rebuild it, continuing from its output.
+    fn rebuild_outer(&mut self) {
+        let o = self.outer.output();
+        self.outer = Pid::new(outer_config(&self.settings, self.target_k), self.target_k);
+        self.outer.reset_to(o);
     }
 
     /// Run the mode; return the outputs it wants.
@@ -656,14 +681,21 @@ impl Supervisor {
             };
         }
         self.set_target(target);
-        let u = if fresh.is_some() {
-            self.pid.update(self.tc_k, dt_s)
-        } else {
-            self.pid.output()
+        let cascade = self.sensing_hint().weights.w1 < 1.0;
+        let u = match (fresh, hotter) {
+            (Some(_), Some(h)) if cascade => {
+                // Cascade: the slow outer loop turns Tc's error into how far above the target
+                // the hotter region (the film) should run; the fast inner loop holds the film
+                // there. The outer output is clamped so the film stays below heater_cap_k.
+                let offset = self.outer.update(self.tc_k, dt_s);
+                self.pid.update(h - offset, dt_s)
+            }
+            (Some(_), _) => self.pid.update(self.tc_k, dt_s),
+            _ => self.pid.output(),
         };
         let hc = self.split.apply(u);
-        // The heater cap: an override on the hotter region, so that bringing the colder one up
-        // never drives the film past its limit.
+        // The heater cap, an override on the hotter region: whatever the loop wants, the film
+        // is not driven past heater_cap_k.
         let cap = hotter.map_or(1.0, |h| (s.heater_cap_k - h) / s.heater_cap_band_k);
         Outputs {
             heater: Duty::from_fraction(hc.heater.fraction().min(cap.clamp(0.0, 1.0))),
@@ -692,6 +724,7 @@ impl Supervisor {
                         let u = self.pid.output();
                         self.pid = Pid::new(pid_config(&self.settings), self.target_k);
                         self.pid.reset_to(u);
+                        self.rebuild_outer();
                         Reply::get(&self.settings, i as usize)
                     }
                     Err(SetError::OutOfRange { min, max }) => Reply::out_of_range(p, min, max),
