@@ -7,6 +7,8 @@ use cortex_m_semihosting::{debug, hprintln};
 use thermorph::mlx90640::{Calibration, DecodeParams, Image, SubpageFrame};
 use thermorph::mtts::{Config, Method, Mtts, Scratch};
 
+mod control;
+
 mod data {
     include!(concat!(env!("OUT_DIR"), "/data.rs"));
 }
@@ -267,6 +269,7 @@ fn main() -> ! {
         black_box(a)
     });
     hprintln!("root4_vsqrt insns_per_call={}", t / n as u64);
+    control::bench(overhead);
     finish(debug::EXIT_SUCCESS)
 }
 

@@ -1,0 +1,67 @@
+//! The control step's cost: `Supervisor::step` with a new measurement (PID, cascade, safety
+//! checks, spring timing), the dearest path — large stepping with two springs, the cascade on
+//! the colder region — measured over a simulated run and reported as its worst step
+//! (`control insns=N`; `scripts/bench-m4` holds it to 20 000).
+
+use core::hint::black_box;
+
+use cortex_m_semihosting::hprintln;
+use thermorph::command::{Command, ModeRequest};
+use thermorph::measurement::{Measurement, Quality};
+use thermorph::outputs::SpringMask;
+use thermorph::settings::Settings;
+use thermorph::supervisor::Supervisor;
+use thermorph::units::{Kelvin, Millis};
+
+/// A frame with the colder region at `t2` and the film 25 K above it.
+fn frame(at_ms: u64, seq: u32, t2: f32) -> Measurement {
+    let t1 = t2 + 25.0;
+    Measurement {
+        at: Millis(at_ms),
+        seq,
+        regions: [
+            Kelvin(t1),
+            Kelvin(t2),
+            Kelvin(t2 - 3.0),
+            Kelvin(305.0),
+            Kelvin(298.0),
+        ],
+        tc: Kelvin(t2),
+        cylinder_max: Some(Kelvin(t1 + 1.0)),
+        filled_pixels: 0,
+        quality: Quality::Resolved,
+    }
+}
+
+/// Measure and print the worst and the mean control step.
+pub fn bench(overhead: u64) {
+    let mut sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+    sup.step(
+        Millis(0),
+        None,
+        Some(Command::Mode(
+            ModeRequest::StepLarge,
+            SpringMask::parse("AB"),
+        )),
+    );
+    let (mut worst, mut sum, mut n) = (0u64, 0u64, 0u64);
+    // 60 s at 4 frames a second: the soak, the stepping phases and the hold.
+    for k in 1..=240u32 {
+        let at = k as u64 * 250;
+        let t2 = (340.0 + 0.2 * k as f32).min(358.2);
+        let m = frame(at, k, t2);
+        let (d, insns) = super::measure(|| sup.step(Millis(at), Some(black_box(&m)), None));
+        black_box(&d);
+        let insns = insns.saturating_sub(overhead);
+        worst = worst.max(insns);
+        sum += insns;
+        n += 1;
+    }
+    hprintln!(
+        "control insns={} mean={} steps={} mode={}",
+        worst,
+        sum / n,
+        n,
+        sup.mode().phase_name()
+    );
+}
