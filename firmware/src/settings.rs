@@ -59,6 +59,10 @@ pub struct Settings {
     /// Over-temperature limit of the hotter region and the hottest cylinder pixel (the PI
     /// heater film seen through the lattice), K.
     pub t_heater_max_k: f32,
+    /// Stepping and recovery give up (to standby, with an event) if Tc is not ready by then, s.
+    pub soak_timeout_s: f32,
+    /// Forming gives up (to standby, with an event) if not cool by then, s.
+    pub form_timeout_s: f32,
     /// Length of one stepping phase (springs on), s.
     pub step_s: f32,
     /// Length of one pulsing phase (springs off between steps), s.
@@ -126,6 +130,8 @@ impl Settings {
         heater_cap_k: 393.0,
         heater_cap_band_k: 4.0,
         t_heater_max_k: 403.0,
+        soak_timeout_s: 300.0,
+        form_timeout_s: 300.0,
         step_s: 6.0,
         pulse_s: 2.0,
         large_steps: 4.0,
@@ -372,6 +378,22 @@ pub const PARAMS: &[Param] = &[
         20.0,
         "width of the heater cap",
         |s| s.heater_cap_band_k
+    ),
+    param!(
+        "soak_timeout_s",
+        "s",
+        30.0,
+        1800.0,
+        "stepping/recovery give up heating after",
+        |s| s.soak_timeout_s
+    ),
+    param!(
+        "form_timeout_s",
+        "s",
+        30.0,
+        1800.0,
+        "forming gives up cooling after",
+        |s| s.form_timeout_s
     ),
     param!("step_s", "s", 0.5, 15.0, "stepping phase", |s| s.step_s),
     param!("pulse_s", "s", 0.5, 30.0, "pulsing phase", |s| s.pulse_s),

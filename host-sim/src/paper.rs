@@ -10,6 +10,7 @@
 
 use serde::Serialize;
 use thermorph::supervisor::Supervisor;
+use thermorph::supervisor::events::EventKind;
 
 use crate::run::{Row, run_with};
 use crate::scenario;
@@ -51,36 +52,58 @@ pub const KEYS: [&str; 13] = [
 /// When the stepping command is sent, s (after the standby figures' window).
 pub const STEP_AT_S: f64 = 120.0;
 
-fn scene(duration_s: f64) -> Result<scenario::Scenario, String> {
+/// The experiments' scene: `duration_s` at `ambient_k`, the camera on or off, power-up in
+/// standby (a closed-loop scene whose only line is `mode standby` at 0 s).
+pub fn scene(duration_s: f64, ambient_k: f64, camera: bool) -> Result<scenario::Scenario, String> {
     let text = format!(
         "name = \"paper\"\n\
-         description = \"the thesis's experiments, camera on, real supervisor\"\n\
+         description = \"the thesis's experiments, real supervisor\"\n\
          duration = \"{duration_s} s\"\n\
-         ambient = \"298.15 K\"\n\
+         ambient = \"{ambient_k} K\"\n\
+         initial = \"{ambient_k} K\"\n\
          period = \"0.25 s\"\n\
-         [fidelity]\ncamera = true\n\
+         [fidelity]\ncamera = {camera}\n\
          [camera]\nnoise = \"0.1 K\"\nseed = 1\n\
          [[command]]\nat = \"0 s\"\nline = \"mode standby\"\n"
     );
     scenario::parse(&text, "<paper>", "paper")
 }
 
-/// Run the full cycle with `springs`; returns the rows.
+/// Run the full cycle with `springs` at 298.15 K, camera on; returns the rows.
 pub fn cycle(springs: &str, duration_s: f64) -> Result<Vec<Row>, String> {
-    let sc = scene(duration_s)?;
+    cycle_in(&scene(duration_s, 298.15, true)?, springs)
+}
+
+/// Run the full cycle with `springs` in `sc` (from [`scene`]): power-up in standby,
+/// `mode step-large SPRINGS` at [`STEP_AT_S`], `mode form` once the stepping holds, `mode
+/// recover` once forming has handed back to standby. A mode that ends otherwise (a timeout, a
+/// fault) ends the script there.
+pub fn cycle_in(sc: &scenario::Scenario, springs: &str) -> Result<Vec<Row>, String> {
     let mut stage = 0;
     let mut react = |t: f64, s: &Supervisor| -> Option<String> {
         let (mode, phase) = (s.mode().name(), s.mode().phase_name());
         let line = match stage {
             0 if t >= STEP_AT_S => format!("mode step-large {springs}"),
             1 if mode == "step-large" && phase == "hold" => "mode form".into(),
-            2 if mode == "standby" => "mode recover".into(),
+            2 if mode == "standby"
+                && s.events().iter().last().is_some_and(|e| {
+                    matches!(
+                        e.kind,
+                        EventKind::Mode {
+                            from: "form",
+                            to: "standby"
+                        }
+                    )
+                }) =>
+            {
+                "mode recover".into()
+            }
             _ => return None,
         };
         stage += 1;
         Some(line)
     };
-    Ok(run_with(&sc, &mut |_| {}, &mut react)?.rows)
+    Ok(run_with(sc, &mut |_| {}, &mut react)?.rows)
 }
 
 fn period(rows: &[Row]) -> f64 {

@@ -34,6 +34,14 @@ pub enum EventKind {
     TuneAborted(&'static str),
     /// The large stepping ran its last phase.
     SteppingDone,
+    /// A phase that waits for a temperature gave up (`soak`, `reheat` or `form`) and the mode
+    /// ended in standby; Tc when it did, K.
+    TimedOut {
+        /// Which wait.
+        what: &'static str,
+        /// Tc then, K.
+        tc_k: f32,
+    },
 }
 
 /// One event with its time.

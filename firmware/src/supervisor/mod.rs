@@ -225,6 +225,7 @@ pub struct Decision {
 pub struct Supervisor {
     settings: Settings,
     mode: Mode,
+    mode_since: Millis,
     pid: Pid,
     outer: Pid,
     split: SplitRange,
@@ -284,6 +285,7 @@ impl Supervisor {
             target_k: settings.standby_k,
             settings,
             mode: Mode::Standby,
+            mode_since: now,
             outputs: Outputs::OFF,
             fault: None,
             safety: Safety::new(),
@@ -412,6 +414,7 @@ impl Supervisor {
             let l = LoopState {
                 target_k: self.target_k,
                 tc_k: self.tc_k,
+                film_k: m.t1().k().max(m.t2().k()),
                 heater_duty: self.outputs.heater.fraction(),
                 active: self.loop_active() && !matches!(self.mode, Mode::Autotune(_)),
             };
@@ -495,6 +498,7 @@ impl Supervisor {
         // Bumpless: the loop continues from the output it had (forming hands over its fan).
         let u = self.outputs.heater.fraction() - self.outputs.fan.fraction();
         self.mode = mode;
+        self.mode_since = now;
         self.pid.reset_to(u);
         if from != to {
             self.events.push(now, EventKind::Mode { from, to });
@@ -547,7 +551,16 @@ impl Supervisor {
                     StepPhase::Soak { ready_since } => {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
-                        if go {
+                        if !go && now.seconds_since(self.mode_since) > s.soak_timeout_s {
+                            self.events.push(
+                                now,
+                                EventKind::TimedOut {
+                                    what: "soak",
+                                    tc_k: tc,
+                                },
+                            );
+                            next = Some(Mode::Standby);
+                        } else if go {
                             st.phase = StepPhase::Spring {
                                 index: 0,
                                 left_ms: ms(s.step_s),
@@ -591,6 +604,15 @@ impl Supervisor {
             Mode::Forming { .. } => {
                 if hotter.is_some_and(|h| h <= s.form_end_k) {
                     next = Some(Mode::Standby);
+                } else if now.seconds_since(self.mode_since) > s.form_timeout_s {
+                    self.events.push(
+                        now,
+                        EventKind::TimedOut {
+                            what: "form",
+                            tc_k: tc,
+                        },
+                    );
+                    next = Some(Mode::Standby);
                 }
                 s.standby_k
             }
@@ -599,7 +621,16 @@ impl Supervisor {
                     RecoverPhase::Heat { ready_since } => {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
-                        if go {
+                        if !go && now.seconds_since(self.mode_since) > s.soak_timeout_s {
+                            self.events.push(
+                                now,
+                                EventKind::TimedOut {
+                                    what: "reheat",
+                                    tc_k: tc,
+                                },
+                            );
+                            next = Some(Mode::Standby);
+                        } else if go {
                             *phase = RecoverPhase::Pulse {
                                 left_ms: ms(s.recover_pulse_s),
                             };

@@ -256,6 +256,9 @@ fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
         }
         EventKind::TuneAborted(why) => write!(r, "autotune aborted ({why})"),
         EventKind::SteppingDone => r.write_str("stepping done"),
+        EventKind::TimedOut { what, tc_k } => {
+            write!(r, "{what} timed out at tc={tc_k:.2} K, standby")
+        }
     }
 }
 

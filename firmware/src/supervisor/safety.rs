@@ -5,8 +5,9 @@
 //! owns the latch. Runaway is checked the Marlin/Klipper way, and only where the heater is
 //! supposed to raise or hold the temperature (never in forming, where the fan pulls it down on
 //! purpose, nor while stopped or faulted):
-//! - heating: while the heater runs at ≥ `runaway_duty` and Tc is below `target − hold_band_k`,
-//!   Tc must rise by `runaway_gain_k` within every `runaway_window_s` (Klipper's heating_gain /
+//! - heating: while the heater runs at ≥ `runaway_duty` and the film (the hotter of T1/T2,
+//!   which the heater warms directly) is below `target − hold_band_k`, the film must rise by
+//!   `runaway_gain_k` within every `runaway_window_s` (Klipper's heating_gain /
 //!   check_gain_time, Marlin's WATCH_TEMP);
 //! - holding: once Tc has reached the target band, the error beyond `±hold_band_k` is
 //!   integrated (K·s) and the fault trips above `hold_max_error_ks` (Klipper's max_error);
@@ -131,6 +132,9 @@ pub struct LoopState {
     pub target_k: f32,
     /// The controlled temperature of this measurement, K.
     pub tc_k: f32,
+    /// The hotter of T1/T2 — the film the heater warms directly, whose rise the heating check
+    /// watches (Tc may weigh the colder region, which lags by tens of seconds), K.
+    pub film_k: f32,
     /// The heater duty applied since the last measurement, fraction.
     pub heater_duty: f32,
     /// The mode wants the heater to raise or hold Tc (false in forming, stopped, faulted).
@@ -227,7 +231,7 @@ impl Safety {
 
     /// Run the runaway checks on a new measurement taken `dt_s` after the previous one.
     pub fn runaway(&mut self, now: Millis, dt_s: f32, l: LoopState, s: &Settings) -> Option<Fault> {
-        if !l.active || !l.tc_k.is_finite() {
+        if !l.active || !l.tc_k.is_finite() || !l.film_k.is_finite() {
             self.rearm(l.target_k);
             self.hold_target_k = f32::NAN;
             return None;
@@ -235,20 +239,22 @@ impl Safety {
         if l.target_k != self.hold_target_k {
             self.rearm(l.target_k);
         }
-        let below = l.tc_k < l.target_k - s.hold_band_k;
-        // Heating: a hard-driven heater must show a rise within every window.
+        // Heating: a hard-driven heater whose film is still below the target band must show a
+        // rise within every window (a film already above the target is visibly being heated,
+        // even when the colder region lags).
+        let below = l.film_k < l.target_k - s.hold_band_k;
         if below && l.heater_duty >= s.runaway_duty && !self.hold_met {
             match self.heat_window {
-                None => self.heat_window = Some((now, l.tc_k)),
-                Some((t0, tc0)) if now.seconds_since(t0) >= s.runaway_window_s => {
-                    let rise = l.tc_k - tc0;
+                None => self.heat_window = Some((now, l.film_k)),
+                Some((t0, film0)) if now.seconds_since(t0) >= s.runaway_window_s => {
+                    let rise = l.film_k - film0;
                     if rise < s.runaway_gain_k {
                         return Some(Fault {
                             kind: FaultKind::RunawayHeating,
                             value: rise,
                         });
                     }
-                    self.heat_window = Some((now, l.tc_k));
+                    self.heat_window = Some((now, l.film_k));
                 }
                 Some(_) => {}
             }
@@ -299,6 +305,7 @@ mod tests {
             let l = LoopState {
                 target_k: target,
                 tc_k: tc(t),
+                film_k: tc(t),
                 heater_duty: duty,
                 active: true,
             };
@@ -347,6 +354,7 @@ mod tests {
             let l = LoopState {
                 target_k: 323.0,
                 tc_k: 250.0,
+                film_k: 250.0,
                 heater_duty: 1.0,
                 active: false,
             };

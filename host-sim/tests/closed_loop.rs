@@ -1,0 +1,238 @@
+//! The firmware's supervisor in the loop with the simulated block: scene commands, the thesis's
+//! cycle at three ambients, and the fault scenes of the controller issue, each with its
+//! detection time printed (`cargo test -p host-sim --test closed_loop -- --nocapture`).
+
+use host_sim::paper;
+use host_sim::run::{Row, run};
+use host_sim::scenario;
+
+/// A closed-loop scene: `body` adds commands and faults to a 298.15 K base.
+fn scene(name: &str, duration_s: f64, camera: bool, body: &str) -> scenario::Scenario {
+    let text = format!(
+        "name = \"{name}\"\nduration = \"{duration_s} s\"\nambient = \"298.15 K\"\n\
+         period = \"0.25 s\"\n[fidelity]\ncamera = {camera}\n[camera]\nnoise = \"0.1 K\"\n{body}"
+    );
+    scenario::parse(&text, name, name).unwrap()
+}
+
+fn mode(r: &Row) -> &'static str {
+    r.control.unwrap().mode
+}
+
+fn fault(r: &Row) -> Option<&'static str> {
+    r.control.unwrap().fault
+}
+
+/// First time (end of period) a row satisfies `pred`.
+fn first(rows: &[Row], pred: impl Fn(&Row) -> bool) -> Option<f64> {
+    rows.iter().find(|r| pred(r)).map(|r| r.obs.time_s)
+}
+
+fn safe(r: &Row) -> bool {
+    r.inputs.heater_duty == 0.0 && !r.springs_cmd.iter().any(|s| *s)
+}
+
+#[test]
+fn a_scene_with_commands_may_not_set_duties() {
+    let text = "name = \"x\"\nduration = \"10 s\"\nambient = \"298 K\"\n[[action]]\nat = \"0 s\"\nheater = \"50 %\"\n\
+                [[command]]\nat = \"1 s\"\nline = \"mode standby\"\n";
+    let e = scenario::parse(text, "x.toml", "x").unwrap_err();
+    assert!(
+        e.contains("x.toml") && e.contains("may not set duties"),
+        "{e}"
+    );
+    let text = "name = \"x\"\nduration = \"10 s\"\nambient = \"298 K\"\n[[command]]\nat = \"1 s\"\nline = \"mode fly\"\n";
+    let e = scenario::parse(text, "x.toml", "x").unwrap_err();
+    assert!(
+        e.contains("x.toml:6") && e.contains("command[1].line"),
+        "{e}"
+    );
+}
+
+#[test]
+fn replies_and_faults_go_to_the_summary() {
+    let sc = scene(
+        "replies",
+        20.0,
+        false,
+        "[[command]]\nat = \"1 s\"\nline = \"status\"\n\
+         [[command]]\nat = \"2 s\"\nline = \"set hot_k 999\"\n\
+         [[command]]\nat = \"3 s\"\nline = \"estop\"\n\
+         [[command]]\nat = \"4 s\"\nline = \"mode standby\"\n",
+    );
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let replies = &r.summary.replies;
+    assert_eq!(replies.len(), 4);
+    assert!(replies[0].reply.starts_with("ok mode=standby"));
+    assert!(replies[1].reply.starts_with("err out-of-range"));
+    assert!(replies[3].reply.starts_with("err fault-latched"));
+    assert_eq!(r.summary.faults.len(), 1);
+    assert_eq!(r.summary.faults[0].code, "estop");
+    assert_eq!(r.summary.faults[0].at_s, 3.0);
+    let last = r.rows.last().unwrap();
+    assert_eq!((mode(last), fault(last)), ("fault", Some("estop")));
+    assert!(safe(last) && last.inputs.fan_duty == 0.0);
+}
+
+/// The cycle of the paper, camera off, at an ambient: no fault, and every mode completes or
+/// ends with a reason (a timeout event) — never a false trip.
+fn cycle_at(ambient_k: f64) -> Vec<Row> {
+    let sc = paper::scene(900.0, ambient_k, false).unwrap();
+    let rows = paper::cycle_in(&sc, "AB").unwrap();
+    let trip = rows.iter().find(|r| fault(r).is_some());
+    assert!(
+        trip.is_none(),
+        "{ambient_k} K: {:?} at {:?} s",
+        trip.and_then(fault),
+        trip.map(|r| r.obs.time_s)
+    );
+    for r in &rows {
+        let o = &r.obs;
+        assert!(o.heater_k.is_finite() && o.smp_outer_k.is_finite() && o.bend_deg.is_finite());
+    }
+    rows
+}
+
+#[test]
+fn full_cycle_at_298_k_runs_every_mode_back_to_back() {
+    let rows = cycle_at(298.15);
+    let modes: Vec<&str> = rows.iter().map(mode).fold(Vec::new(), |mut v, m| {
+        if v.last() != Some(&m) {
+            v.push(m);
+        }
+        v
+    });
+    assert_eq!(
+        modes,
+        [
+            "standby",
+            "step-large",
+            "form",
+            "standby",
+            "recover",
+            "standby"
+        ]
+    );
+}
+
+#[test]
+fn cold_and_warm_ambients_never_trip() {
+    for amb in [263.15, 318.15] {
+        let rows = cycle_at(amb);
+        let modes: Vec<&str> = rows.iter().map(mode).collect();
+        println!(
+            "{amb} K: stepping entered {}, forming entered {}, recovery entered {}",
+            modes.contains(&"step-large"),
+            modes.contains(&"form"),
+            modes.contains(&"recover")
+        );
+        assert!(modes.contains(&"step-large"));
+    }
+}
+
+#[test]
+fn heater_open_during_preheat_trips_runaway() {
+    let sc = scene(
+        "heater-open",
+        60.0,
+        false,
+        "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+         [[fault]]\nat = \"2 s\"\nkind = \"heater-open\"\n",
+    );
+    let rows = run(&sc, &mut |_| {}).unwrap().rows;
+    let t = first(&rows, |r| fault(r) == Some("runaway-heating")).expect("runaway trips");
+    println!(
+        "heater open at 2 s: runaway-heating latched at {t:.2} s ({:.2} s after)",
+        t - 2.0
+    );
+    assert!(t - 2.0 <= 21.0, "{t}");
+    assert!(rows.iter().filter(|r| r.obs.time_s >= t).all(safe));
+}
+
+#[test]
+fn sensor_nack_mid_stepping_makes_outputs_safe_within_the_loss_window() {
+    let sc = scene(
+        "nack",
+        200.0,
+        true,
+        "[[command]]\nat = \"0 s\"\nline = \"mode step-large AB\"\n\
+         [[fault]]\nat = \"150 s\"\nkind = \"sensor\"\nsensor = \"nack\"\n",
+    );
+    let rows = run(&sc, &mut |_| {}).unwrap().rows;
+    assert!(
+        first(&rows, |r| fault(r).is_some()).unwrap() > 150.0,
+        "no trip before the NACKs"
+    );
+    let t = first(&rows, |r| fault(r) == Some("sensor-loss")).expect("sensor loss trips");
+    println!(
+        "sensor NACK from 150 s: sensor-loss latched at {t:.2} s ({:.2} s after)",
+        t - 150.0
+    );
+    assert!(
+        t - 150.0 <= 1.25,
+        "{t}: one 1 s window plus one frame interval"
+    );
+    assert!(rows.iter().filter(|r| r.obs.time_s > t).all(safe));
+}
+
+#[test]
+fn glitch_bursts_shorter_than_the_window_do_not_trip() {
+    let mut body = String::from("[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n");
+    for k in 0..10 {
+        let at = 20.0 + 8.0 * k as f64;
+        body += &format!(
+            "[[fault]]\nat = \"{at} s\"\nuntil = \"{} s\"\nkind = \"sensor\"\nsensor = \"nack\"\n",
+            at + 0.5
+        );
+    }
+    let rows = run(&scene("glitches", 120.0, true, &body), &mut |_| {})
+        .unwrap()
+        .rows;
+    assert!(rows.iter().all(|r| fault(r).is_none()));
+}
+
+#[test]
+fn frozen_frames_trip_sensor_loss() {
+    let sc = scene(
+        "frozen",
+        60.0,
+        true,
+        "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+         [[fault]]\nat = \"30 s\"\nkind = \"sensor\"\nsensor = \"frozen\"\n",
+    );
+    let rows = run(&sc, &mut |_| {}).unwrap().rows;
+    let t = first(&rows, |r| fault(r).is_some()).expect("frozen data trips");
+    println!(
+        "frozen frames from 30 s: {} latched at {t:.2} s ({:.2} s after)",
+        fault(rows.iter().find(|r| r.obs.time_s == t).unwrap()).unwrap(),
+        t - 30.0
+    );
+    assert!(t - 30.0 <= 3.0, "{t}");
+}
+
+#[test]
+fn stuck_on_spring_never_makes_the_supervisor_switch_it_or_trip_falsely() {
+    let sc = scene(
+        "stuck",
+        120.0,
+        false,
+        "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+         [[fault]]\nat = \"30 s\"\nkind = \"stuck-spring\"\nspring = \"C\"\nstuck = \"on\"\n",
+    );
+    let rows = run(&sc, &mut |_| {}).unwrap().rows;
+    assert!(
+        rows.iter().all(|r| !r.springs_cmd[2]),
+        "the supervisor never commands C"
+    );
+    assert!(
+        rows.iter()
+            .filter(|r| r.obs.time_s > 30.0)
+            .all(|r| r.inputs.springs_on[2])
+    );
+    let hottest = rows
+        .iter()
+        .map(|r| r.obs.springs_k[2])
+        .fold(f64::MIN, f64::max);
+    println!("spring C stuck on from 30 s: spring C reaches {hottest:.1} K; no sensor sees it");
+    assert!(rows.iter().all(|r| fault(r).is_none()));
+}
