@@ -577,7 +577,7 @@ fn summarise(scenario: &Scenario, rows: &[Row], wall_s: f64, camera: Option<&Cam
         figures: if scenario.commands.is_empty() {
             figures(rows)
         } else {
-            Vec::new()
+            closed_loop_figures(rows)
         },
         replies: Vec::new(),
         faults: Vec::new(),
@@ -697,6 +697,108 @@ pub fn figures(rows: &[Row]) -> Vec<Figure> {
             recovered,
             40.0,
             "from recovery start to within 2° of straight",
+        ),
+    ]
+}
+
+/// The SPEC section 8 figures a closed-loop run shows, measured as `host-sim paper` measures
+/// them ([`crate::paper::measure`]: from the supervisor's modes and phases, Tc, and the
+/// plant's bend and k_b).
+pub fn closed_loop_figures(rows: &[Row]) -> Vec<Figure> {
+    let f = crate::paper::measure(rows);
+    let fig = |name: &str, unit: &str, simulated: Option<f64>, thesis: f64, how: &str| Figure {
+        name: name.into(),
+        unit: unit.into(),
+        simulated,
+        thesis,
+        how: how.into(),
+    };
+    let mean_drop = (!f.pulse_drop_deg.is_empty())
+        .then(|| f.pulse_drop_deg.iter().sum::<f64>() / f.pulse_drop_deg.len() as f64);
+    vec![
+        fig(
+            "standby preheat",
+            "s",
+            f.preheat_time_s,
+            10.0,
+            "power-up until Tc reaches 322.5 K",
+        ),
+        fig(
+            "standby overshoot",
+            "K",
+            f.standby_overshoot_k,
+            1.0,
+            "largest Tc − 323 K (SPEC: < 1 K)",
+        ),
+        fig(
+            "standby hold band",
+            "K",
+            f.standby_hold_band_k,
+            0.5,
+            "largest |Tc − 323 K| over 60 s from 20 s after reaching it",
+        ),
+        fig(
+            "large stepping",
+            "s",
+            f.large_stepping_time_s,
+            30.0,
+            "first spring phase's start to the last one's end",
+        ),
+        fig(
+            "pulse drop, mean",
+            "deg",
+            mean_drop,
+            3.0,
+            "bend at a pulse's start minus at its end (thesis 2–4°)",
+        ),
+        fig(
+            "full loading",
+            "deg",
+            f.full_loading_deg,
+            65.0,
+            "bend at the end of stepping (thesis: 42° one spring, 65° two)",
+        ),
+        fig(
+            "forming",
+            "s",
+            f.forming_time_s,
+            50.0,
+            "forming's start until the supervisor ends it",
+        ),
+        fig(
+            "forming angle loss",
+            "deg",
+            f.forming_angle_loss_deg,
+            5.0,
+            "bend at forming's start minus 20 s later",
+        ),
+        fig(
+            "formed stiffness",
+            "N·mm/rad",
+            f.formed_k_b,
+            1400.0,
+            "k_b when forming ends",
+        ),
+        fig(
+            "stiffness ratio formed/heated",
+            "",
+            f.stiffness_ratio,
+            4.5,
+            "k_b formed over k_b at the end of stepping",
+        ),
+        fig(
+            "recovery",
+            "s",
+            f.recovery_time_s,
+            40.0,
+            "recovery's start until within 2° of straight",
+        ),
+        fig(
+            "cycle",
+            "s",
+            f.cycle_time_s,
+            120.0,
+            "first spring phase until recovery ends",
         ),
     ]
 }
@@ -847,13 +949,19 @@ pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
             f.name, sim, f.thesis, f.unit
         )?;
     }
+    for r in &s.replies {
+        writeln!(out, "{:>8.2} s  > {}  < {}", r.at_s, r.line, r.reply)?;
+    }
+    for f in &s.faults {
+        writeln!(out, "{:>8.2} s  fault {}: {}", f.at_s, f.code, f.reason)?;
+    }
     Ok(())
 }
 
 /// Arguments of `host-sim run`.
 #[derive(clap::Args, Debug, Default, Clone)]
 pub struct RunArgs {
-    /// Scene: a bundled name (cycle, cycle-camera, faults) or a TOML file.
+    /// Scene: a bundled name (cycle, open-loop, faults) or a TOML file.
     #[arg(default_value = "cycle")]
     pub scene: String,
     /// Output folder (default: `runs/<scene name>`).

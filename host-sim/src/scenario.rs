@@ -53,7 +53,7 @@ use crate::virtual_mlx::Fault as SensorFault;
 /// The bundled scenes: (name, TOML text). The first is the default of `host-sim run`.
 pub const BUNDLED: [(&str, &str); 3] = [
     ("cycle", include_str!("../scenes/cycle.toml")),
-    ("cycle-camera", include_str!("../scenes/cycle-camera.toml")),
+    ("open-loop", include_str!("../scenes/open-loop.toml")),
     ("faults", include_str!("../scenes/faults.toml")),
 ];
 
