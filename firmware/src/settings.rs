@@ -26,9 +26,10 @@ pub struct Settings {
     pub hot_k: f32,
     /// Forming ends once the hotter target is at or below this, K.
     pub form_end_k: f32,
-    /// Stepping starts once the colder target is at least `hot_k − ready_band_k`, K.
+    /// Stepping (and recovery's pulse) starts once Tc has reached `hot_k` and has stayed
+    /// within `ready_band_k` below it for `ready_dwell_s`, K.
     pub ready_band_k: f32,
-    /// ...and has stayed there this long, s.
+    /// See `ready_band_k`, s.
     pub ready_dwell_s: f32,
     /// PID gains of the heater/fan loop.
     pub gains: PidGains,
@@ -280,7 +281,7 @@ pub const PARAMS: &[Param] = &[
         "K",
         0.0,
         5.0,
-        "stepping starts within this of hot_k",
+        "ready once Tc reaches hot_k and stays within this",
         |s| s.ready_band_k
     ),
     param!("ready_dwell_s", "s", 0.0, 30.0, "...held this long", |s| s

@@ -532,12 +532,15 @@ impl Supervisor {
         let s = self.settings;
         let hotter = self.last.map(|m| m.t1().k().max(m.t2().k()));
         let tc = self.tc_k;
+        // Ready: Tc has reached hot_k (with the stepping weights, the colder region: the
+        // whole cross-section) and has not fallen more than ready_band_k below it since, for
+        // ready_dwell_s.
         let ready = |since: Option<Millis>| -> (Option<Millis>, bool) {
-            match tc {
-                c if c >= s.hot_k - s.ready_band_k => {
-                    let t0 = since.unwrap_or(now);
+            match since {
+                Some(t0) if tc >= s.hot_k - s.ready_band_k => {
                     (Some(t0), now.seconds_since(t0) >= s.ready_dwell_s)
                 }
+                None if tc >= s.hot_k => (Some(now), s.ready_dwell_s <= 0.0),
                 _ => (None, false),
             }
         };
