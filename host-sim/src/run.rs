@@ -326,6 +326,19 @@ pub struct Figure {
     pub how: String,
 }
 
+impl Figure {
+    /// Make a figure.
+    pub fn new(name: &str, unit: &str, simulated: Option<f64>, thesis: f64, how: &str) -> Figure {
+        Figure {
+            name: name.into(),
+            unit: unit.into(),
+            simulated,
+            thesis,
+            how: how.into(),
+        }
+    }
+}
+
 /// MTTS accuracy over a camera-on run.
 #[derive(Clone, Copy, Debug, Serialize, PartialEq)]
 pub struct CameraStats {
@@ -634,13 +647,7 @@ pub fn figures(rows: &[Row]) -> Vec<Figure> {
     let recovered = recovery_start.and_then(|(i, _)| {
         first_time(rows, i, |r| r.obs.bend_deg <= 2.0).map(|(_, t)| t - start(i))
     });
-    let fig = |name: &str, unit: &str, simulated: Option<f64>, thesis: f64, how: &str| Figure {
-        name: name.into(),
-        unit: unit.into(),
-        simulated,
-        thesis,
-        how: how.into(),
-    };
+    let fig = Figure::new;
     vec![
         fig(
             "standby heat-up",
@@ -706,13 +713,7 @@ pub fn figures(rows: &[Row]) -> Vec<Figure> {
 /// plant's bend and k_b).
 pub fn closed_loop_figures(rows: &[Row]) -> Vec<Figure> {
     let f = crate::paper::measure(rows);
-    let fig = |name: &str, unit: &str, simulated: Option<f64>, thesis: f64, how: &str| Figure {
-        name: name.into(),
-        unit: unit.into(),
-        simulated,
-        thesis,
-        how: how.into(),
-    };
+    let fig = Figure::new;
     let mean_drop = (!f.pulse_drop_deg.is_empty())
         .then(|| f.pulse_drop_deg.iter().sum::<f64>() / f.pulse_drop_deg.len() as f64);
     vec![

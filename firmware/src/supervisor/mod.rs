@@ -192,6 +192,16 @@ impl Mode {
     }
 }
 
+/// What a wait for the ready temperature decided this step.
+enum Soak {
+    /// Keep heating.
+    Wait,
+    /// Ready: go on to the next phase.
+    Go,
+    /// Not ready within `soak_timeout_s`: give up, back to standby.
+    GiveUp,
+}
+
 /// Telemetry: on, and when the next line is due.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Stream {
@@ -535,15 +545,24 @@ impl Supervisor {
         // Ready: Tc has reached hot_k (with the stepping weights, the colder region: the
         // whole cross-section) and has not fallen more than ready_band_k below it since, for
         // ready_dwell_s.
-        let ready = |since: Option<Millis>| -> (Option<Millis>, bool) {
-            match since {
+        // A wait that lasts past soak_timeout_s gives up.
+        let timed_out = now.seconds_since(self.mode_since) > s.soak_timeout_s;
+        let ready = |since: Option<Millis>| -> (Option<Millis>, Soak) {
+            let (since, go) = match since {
                 Some(t0) if tc >= s.hot_k - s.ready_band_k => {
                     (Some(t0), now.seconds_since(t0) >= s.ready_dwell_s)
                 }
                 None if tc >= s.hot_k => (Some(now), s.ready_dwell_s <= 0.0),
                 _ => (None, false),
-            }
+            };
+            let outcome = match (go, timed_out) {
+                (true, _) => Soak::Go,
+                (false, true) => Soak::GiveUp,
+                (false, false) => Soak::Wait,
+            };
+            (since, outcome)
         };
+        let mut gave_up: Option<&'static str> = None;
         let mut springs = SpringMask::NONE;
         let mut next: Option<Mode> = None;
         let target = match &mut self.mode {
@@ -554,20 +573,15 @@ impl Supervisor {
                     StepPhase::Soak { ready_since } => {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
-                        if !go && now.seconds_since(self.mode_since) > s.soak_timeout_s {
-                            self.events.push(
-                                now,
-                                EventKind::TimedOut {
-                                    what: "soak",
-                                    tc_k: tc,
-                                },
-                            );
-                            next = Some(Mode::Standby);
-                        } else if go {
-                            st.phase = StepPhase::Spring {
-                                index: 0,
-                                left_ms: ms(s.step_s),
-                            };
+                        match go {
+                            Soak::Go => {
+                                st.phase = StepPhase::Spring {
+                                    index: 0,
+                                    left_ms: ms(s.step_s),
+                                }
+                            }
+                            Soak::GiveUp => gave_up = Some("soak"),
+                            Soak::Wait => {}
                         }
                     }
                     StepPhase::Spring { index, left_ms } => {
@@ -608,14 +622,7 @@ impl Supervisor {
                 if hotter.is_some_and(|h| h <= s.form_end_k) {
                     next = Some(Mode::Standby);
                 } else if now.seconds_since(self.mode_since) > s.form_timeout_s {
-                    self.events.push(
-                        now,
-                        EventKind::TimedOut {
-                            what: "form",
-                            tc_k: tc,
-                        },
-                    );
-                    next = Some(Mode::Standby);
+                    gave_up = Some("form");
                 }
                 s.standby_k
             }
@@ -624,19 +631,14 @@ impl Supervisor {
                     RecoverPhase::Heat { ready_since } => {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
-                        if !go && now.seconds_since(self.mode_since) > s.soak_timeout_s {
-                            self.events.push(
-                                now,
-                                EventKind::TimedOut {
-                                    what: "reheat",
-                                    tc_k: tc,
-                                },
-                            );
-                            next = Some(Mode::Standby);
-                        } else if go {
-                            *phase = RecoverPhase::Pulse {
-                                left_ms: ms(s.recover_pulse_s),
-                            };
+                        match go {
+                            Soak::Go => {
+                                *phase = RecoverPhase::Pulse {
+                                    left_ms: ms(s.recover_pulse_s),
+                                }
+                            }
+                            Soak::GiveUp => gave_up = Some("reheat"),
+                            Soak::Wait => {}
                         }
                     }
                     RecoverPhase::Pulse { left_ms } => {
@@ -703,6 +705,11 @@ impl Supervisor {
             }
             Mode::Stopped | Mode::Faulted => return self.safe_outputs(),
         };
+        if let Some(what) = gave_up {
+            self.events
+                .push(now, EventKind::TimedOut { what, tc_k: tc });
+            next = Some(Mode::Standby);
+        }
         if let Some(m) = next {
             self.enter(now, m);
             return self.run_mode(now, 0, None, 0.0);
