@@ -5,7 +5,7 @@
 //! recovery. `cargo test -p host-sim --test plant_calibration -- --nocapture --test-threads 1`
 //! prints each figure beside the thesis's (they are quoted in docs/PLANT-API.md).
 
-use host_sim::plant::{Inputs, Observation, Plant, PlantConfig, params, sma};
+use host_sim::plant::{Inputs, ModelOptions, Observation, Plant, PlantConfig, params, sma};
 
 const DT_S: f64 = 0.1;
 const AMBIENT_K: f64 = 298.15;
@@ -146,11 +146,23 @@ fn preheat_s(from_k: f64) -> f64 {
 /// the springs with one timed full-current pulse at the end of the soak, then 4 × 6 s on with
 /// 2 s off between. Returns the plant and the angle at the end of each of the 7 phases.
 fn stepping(on: [bool; 3]) -> (Plant, [f64; 7]) {
-    let mut plant = plant_at(AMBIENT_K);
+    stepping_with(on, ModelOptions::default())
+}
+
+fn stepping_with(on: [bool; 3], options: ModelOptions) -> (Plant, [f64; 7]) {
+    let config = PlantConfig {
+        initial_k: AMBIENT_K,
+        ..PlantConfig::default()
+    };
+    let mut plant = Plant::with_options(&config, options).expect("valid config");
     let mut hold = Hold::new(358.0);
     hold_for(&mut plant, &mut hold, [false; 3], 240.0);
     assert!(plant.observe().smp_coldest_k > 357.0);
     let spring = on.iter().position(|&s| s).expect("a spring");
+    println!(
+        "  after the 240 s soak at 358 K the springs are at {:.1} K (column heat path only)",
+        plant.observe().springs_k[spring]
+    );
     let pre = preheat_s(plant.observe().springs_k[spring]);
     hold_for(&mut plant, &mut hold, on, pre);
     let mut angles = [0.0; 7];
@@ -300,4 +312,19 @@ fn formed_shape_locks_and_recovers_on_reheating() {
     assert!(kept - at(15.0) < at(15.0) - at(30.0), "{trace:?}");
     assert!((30.0..=80.0).contains(&within_2), "{within_2}");
     assert!(plant.observe().bend_deg < 2.0);
+}
+
+#[test]
+fn a_shared_15_a_supply_cannot_step_two_springs_in_30_s() {
+    let options = ModelOptions {
+        shared_spring_supply: true,
+        ..ModelOptions::default()
+    };
+    let (_, shared) = stepping_with([true, true, false], options);
+    let (_, own) = stepping([true, true, false]);
+    println!(
+        "two springs, shared 15 A supply: {:.1}° after 30 s (own channels {:.1}°, thesis ≈65°)",
+        shared[6], own[6]
+    );
+    assert!(shared[6] < 0.5 * own[6], "{shared:?}");
 }
