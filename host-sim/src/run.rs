@@ -1107,6 +1107,11 @@ mod tests {
                     },
                     heater_power_w: 0.0,
                     spring_power_w: [0.0; 3],
+                    spring_current_a: [0.0; 3],
+                    spring_force_n: [0.0; 3],
+                    smp_coldest_k: outer_k,
+                    stored_bend_deg: 0.0,
+                    film_set_deg: 0.0,
                 };
                 let truth_k = camera_temps(&obs).regions();
                 Row {

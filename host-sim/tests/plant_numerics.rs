@@ -118,9 +118,11 @@ fn program(t_s: f64) -> Inputs {
         } else {
             0.0
         },
+        // 30 s of full current (the thesis's stepping): a spring left on at 15 A in still air
+        // would run past 800 K.
         springs_on: [
-            (150.0..350.0).contains(&phase),
-            (150.0..350.0).contains(&phase),
+            (150.0..180.0).contains(&phase),
+            (150.0..180.0).contains(&phase),
             false,
         ],
         heater_open: false,
@@ -131,7 +133,7 @@ fn program(t_s: f64) -> Inputs {
 fn every_step_up_to_the_control_period_is_stable_and_bounded() {
     for integrator in INTEGRATORS {
         for h in [0.01, 0.1, 0.25, 0.5] {
-            for ambient_k in [263.15, 298.15, 323.15] {
+            for ambient_k in [263.15, 298.15, 318.15, 323.15] {
                 let mut plant = Plant::new(&PlantConfig {
                     ambient_k,
                     initial_k: ambient_k,
@@ -155,7 +157,10 @@ fn every_step_up_to_the_control_period_is_stable_and_bounded() {
                         o.springs_k[2],
                     ];
                     for t in temps {
-                        assert!(t.is_finite() && t > ambient_k - 1e-6 && t < 600.0, "{o:?}");
+                        assert!(
+                            t.is_finite() && t > ambient_k - 1e-6 && t < 600.0,
+                            "{ambient_k} {o:?}"
+                        );
                     }
                     for a in o.austenite {
                         assert!((0.0..=1.0).contains(&a));
@@ -191,6 +196,7 @@ fn an_adiabatic_run_conserves_energy() {
             let options = ModelOptions {
                 adiabatic: true,
                 pmma_plates: true,
+                shared_spring_supply: false,
             };
             let mut plant = Plant::with_options(&config, options).expect("valid");
             let e0 = plant.stored_energy_j();

@@ -4,9 +4,10 @@
 //! The state is the bend vector b = θ·(cos ψ, sin ψ) (θ the bending angle, ψ the plane from
 //! spring A). Spring i (direction c_i) has length ℓ_i = (L − r·c_i·b)·sinc(θ/2): the chord of an
 //! arc at offset r·c_i·b/θ from the neutral axis. The equilibrium minimises
-//! U(b) = ½K_t|b|² + ½K(T)|b − b_s|² + ½K₁'|b − q|² + Σ ½k_i·max(0, ℓ_i − ℓ0_i)²
-//! (tube, relaxed SMP about its stored bend, Maxwell branch, tension-only springs): the moment
-//! balance ∇U = 0. The chords' sinc term is the springs' axial load acting on the bent column
+//! U(b) = ½K_f|b − p|² + ½K(T)|b − b_s|² + ½K₁'|b − q|² + Σ ½k_i·max(0, ℓ_i − ℓ0_i)²
+//! (PI film about its plastic set p, relaxed SMP about its stored bend, Maxwell branch,
+//! tension-only springs): the moment balance ∇U = 0. The film is elastic–perfectly plastic:
+//! after a solve, `yield_film` moves p so that |b − p| ≤ θ_y (its 3 % yield strain). The chords' sinc term is the springs' axial load acting on the bent column
 //! (its P-δ softening), which is what lets two springs bend further than one.
 
 use super::params as p;
@@ -15,8 +16,10 @@ use super::sma;
 /// The elastic parts the balance needs, frozen over one solve.
 #[derive(Clone, Copy, Debug)]
 pub struct Balance {
-    /// Column stiffness about the origin (the PI tube), N·mm/rad.
-    pub tube_nmm_per_rad: f64,
+    /// PI heater film's elastic stiffness, N·mm/rad, about `film_set_rad`.
+    pub film_nmm_per_rad: f64,
+    /// PI heater film's plastic set, rad.
+    pub film_set_rad: [f64; 2],
     /// SMP relaxed stiffness, N·mm/rad, about `stored_rad`.
     pub smp_nmm_per_rad: f64,
     /// SMP stored bend, rad.
@@ -61,7 +64,7 @@ impl Balance {
     /// Total elastic energy U(b), N·mm.
     pub fn energy(&self, b: [f64; 2]) -> f64 {
         let sq = |x: [f64; 2], y: [f64; 2]| (x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2);
-        let mut u = 0.5 * self.tube_nmm_per_rad * sq(b, [0.0; 2])
+        let mut u = 0.5 * self.film_nmm_per_rad * sq(b, self.film_set_rad)
             + 0.5 * self.smp_nmm_per_rad * sq(b, self.stored_rad)
             + 0.5 * self.branch_nmm_per_rad * sq(b, self.branch_rad);
         for i in 0..3 {
@@ -75,7 +78,7 @@ impl Balance {
     pub fn gradient(&self, b: [f64; 2]) -> [f64; 2] {
         let mut g = [0.0; 2];
         for k in 0..2 {
-            g[k] = self.tube_nmm_per_rad * b[k]
+            g[k] = self.film_nmm_per_rad * (b[k] - self.film_set_rad[k])
                 + self.smp_nmm_per_rad * (b[k] - self.stored_rad[k])
                 + self.branch_nmm_per_rad * (b[k] - self.branch_rad[k]);
         }
@@ -99,7 +102,7 @@ impl Balance {
     /// Hessian and a backtracking line search), rad.
     pub fn solve(&self, start: [f64; 2]) -> [f64; 2] {
         let mut b = start;
-        let scale = self.tube_nmm_per_rad + self.smp_nmm_per_rad + self.branch_nmm_per_rad;
+        let scale = self.film_nmm_per_rad + self.smp_nmm_per_rad + self.branch_nmm_per_rad;
         let mut u = self.energy(b);
         for _ in 0..50 {
             let g = self.gradient(b);
@@ -166,6 +169,24 @@ impl Balance {
     }
 }
 
+/// Tension of each spring at bend `b`, N.
+pub fn spring_forces_n(b: [f64; 2], k: [f64; 3], free_mm: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|i| k[i] * (spring_length_mm(i, b) - free_mm[i]).max(0.0))
+}
+
+/// The film's plastic set after the column reached `b`: p moves with b once |b − p| exceeds
+/// the yield bend `yield_rad` (radial return), else it stays.
+pub fn yield_film(set: [f64; 2], b: [f64; 2], yield_rad: f64) -> [f64; 2] {
+    let d = [b[0] - set[0], b[1] - set[1]];
+    let n = d[0].hypot(d[1]);
+    if n <= yield_rad {
+        set
+    } else {
+        let f = 1.0 - yield_rad / n;
+        [set[0] + f * d[0], set[1] + f * d[1]]
+    }
+}
+
 /// Spring rates and natural lengths for martensite fractions `xi`.
 pub fn spring_state(xi: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     let mut k = [0.0; 3];
@@ -184,14 +205,27 @@ mod tests {
     fn hot_column(xi: [f64; 3]) -> Balance {
         let (k, l) = spring_state(xi);
         Balance {
-            tube_nmm_per_rad: 300.0,
-            smp_nmm_per_rad: 5.0,
+            film_nmm_per_rad: 20.0,
+            film_set_rad: [0.0; 2],
+            smp_nmm_per_rad: 290.0,
             stored_rad: [0.0; 2],
             branch_nmm_per_rad: 0.0,
             branch_rad: [0.0; 2],
             spring_k_n_per_mm: k,
             spring_free_mm: l,
         }
+    }
+
+    #[test]
+    fn the_film_yields_past_its_yield_bend_and_keeps_the_set() {
+        let p = yield_film([0.0; 2], [0.2, 0.0], 0.34);
+        assert_eq!(p, [0.0; 2]);
+        let p = yield_film([0.0; 2], [1.0, 0.0], 0.34);
+        assert!((p[0] - 0.66).abs() < 1e-12 && p[1] == 0.0);
+        // Back towards straight: elastic until the reverse yield.
+        assert_eq!(yield_film(p, [0.4, 0.0], 0.34), p);
+        let back = yield_film(p, [0.0, 0.0], 0.34);
+        assert!((back[0] - 0.34).abs() < 1e-12);
     }
 
     #[test]

@@ -9,9 +9,11 @@
 //!
 //! Each [`Plant::step`] call sub-steps at most [`PlantConfig::max_step_s`]; per sub-step, with
 //! the inputs held (duty-averaged power): the cylinder network and the spring nodes advance with
-//! the chosen [`Integrator`], the springs settle their phase on their enthalpy, the SMP's frozen
-//! fraction moves (storing or releasing bend), and the column's moment balance is solved with
-//! the Maxwell branch updated exactly. See `docs/PLANT-API.md`.
+//! the chosen [`Integrator`] (the springs exchange a little heat with the column's outer
+//! surface, taken from that node), the springs settle their phase on their enthalpy with their
+//! transformation temperatures shifted by their last force, the SMP's frozen fraction moves
+//! (storing or releasing bend), and the column's moment balance is solved with the Maxwell
+//! branch updated exactly and the PI film yielding past its yield bend. See `docs/PLANT-API.md`.
 
 pub mod linalg;
 pub mod mechanics;
@@ -159,25 +161,42 @@ pub struct Observation {
     pub k_b_nmm_per_rad: f64,
     /// Heater electrical power, W.
     pub heater_power_w: f64,
-    /// Electrical power per spring, W.
+    /// Joule heat in each spring's wire (I²·R_wire; the leads' loss excluded), W.
     pub spring_power_w: [f64; 3],
+    /// Current through each spring, A.
+    pub spring_current_a: [f64; 3],
+    /// Tension of each spring, N.
+    pub spring_force_n: [f64; 3],
+    /// The coldest SMP layer (the lower of inner and outer), K: stepping stores only bend added
+    /// while this is soft, so a controller should start stepping once it is ≥ 358 K.
+    pub smp_coldest_k: f64,
+    /// Bend stored by the SMP's frozen fraction (the shape it is locked in), degrees.
+    pub stored_bend_deg: f64,
+    /// The PI film's plastic set (the bend it has yielded to), degrees.
+    pub film_set_deg: f64,
 }
 
-/// Model options beyond the contract's [`PlantConfig`] (defaults: no plates, not adiabatic).
+/// Model options beyond the contract's [`PlantConfig`] (defaults: no plates, not adiabatic, one
+/// supply channel per spring).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ModelOptions {
     /// Add the two PMMA end plates as a thermal node (Full thermal fidelity only).
     pub pmma_plates: bool,
     /// Cut every path to ambient (cylinder and springs): for energy-conservation checks.
     pub adiabatic: bool,
+    /// One 5 V / 15 A supply shared by the three springs instead of one channel each (the cost:
+    /// two springs get 7.5 A each and heat ≈4× slower; see `docs/PLANT-API.md`).
+    pub shared_spring_supply: bool,
 }
 
 /// One spring's thermal and phase state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct SpringState {
     t_k: f64,
-    /// Martensite fraction.
-    xi: f64,
+    /// Martensite fractions of the two bands.
+    phase: sma::Phase,
+    /// Tension at the last balance, N (sets the stress shift).
+    force_n: f64,
 }
 
 /// The plant.
@@ -191,10 +210,12 @@ pub struct Plant {
     springs: [SpringState; 3],
     smp: SmpState,
     bend_rad: [f64; 2],
+    film_set_rad: [f64; 2],
     k_b_nmm_per_rad: f64,
     heater_power_w: f64,
-    spring_power_w: [f64; 3],
+    supply: sma::Supply,
     electrical_energy_j: f64,
+    lead_energy_j: f64,
     /// Network matrices for the last fan duty (key, A, network).
     net_cache: Option<(u64, linalg::Mat, Network)>,
     zoh_cache: Option<ZohCache>,
@@ -235,7 +256,12 @@ impl Plant {
         let plates = options.pmma_plates && config.fidelity.thermal == ThermalFidelity::Full;
         let net = Network::new(config.fidelity.thermal, 0.0, plates, options.adiabatic);
         let t0 = config.initial_k;
-        let xi0 = sma::kinetics(config.fidelity.sma, t0, 1.0);
+        let phase0 = sma::kinetics(
+            config.fidelity.sma,
+            t0,
+            sma::Phase::uniform(1.0),
+            sma::Shift::default(),
+        );
         let phi0 = match config.fidelity.smp {
             SmpFidelity::Viscoelastic | SmpFidelity::Elastic => smp::frozen_fraction(t0),
         };
@@ -248,13 +274,19 @@ impl Plant {
             time_s: 0.0,
             nodes_k: [t0; linalg::N],
             n_nodes: net.n,
-            springs: [SpringState { t_k: t0, xi: xi0 }; 3],
+            springs: [SpringState {
+                t_k: t0,
+                phase: phase0,
+                force_n: 0.0,
+            }; 3],
             smp: SmpState::relaxed(phi0, [0.0; 2]),
             bend_rad: [0.0; 2],
+            film_set_rad: [0.0; 2],
             k_b_nmm_per_rad: 0.0,
             heater_power_w: 0.0,
-            spring_power_w: [0.0; 3],
+            supply: sma::Supply::default(),
             electrical_energy_j: 0.0,
+            lead_energy_j: 0.0,
             net_cache: None,
             zoh_cache: None,
         };
@@ -289,13 +321,20 @@ impl Plant {
             duct_air_k: air,
             ambient_k: self.config.ambient_k,
             springs_k: self.springs.map(|s| s.t_k),
-            austenite: self.springs.map(|s| 1.0 - s.xi),
+            austenite: self.springs.map(|s| 1.0 - s.phase.xi()),
             frozen_fraction: self.smp.phi,
             bend_deg: self.bend_deg(),
             bend_plane_deg: self.bend_plane_deg(),
             k_b_nmm_per_rad: self.k_b_nmm_per_rad,
             heater_power_w: self.heater_power_w,
-            spring_power_w: self.spring_power_w,
+            spring_power_w: self.supply.wire_w,
+            spring_current_a: self.supply.current_a,
+            spring_force_n: self.springs.map(|s| s.force_n),
+            smp_coldest_k: inner.min(outer),
+            stored_bend_deg: self.stored_bend_deg(),
+            film_set_deg: self.film_set_rad[0]
+                .hypot(self.film_set_rad[1])
+                .to_degrees(),
         }
     }
 
@@ -327,13 +366,19 @@ impl Plant {
             + self
                 .springs
                 .iter()
-                .map(|s| sma::enthalpy_j(self.config.fidelity.sma, s.t_k, s.xi))
+                .map(|s| sma::enthalpy_j(self.config.fidelity.sma, s.t_k, s.phase.xi()))
                 .sum::<f64>()
     }
 
-    /// Electrical energy delivered to the heater and the springs since the start, J.
+    /// Electrical energy turned into heat in the heater and the spring wires since the start,
+    /// J (the spring leads' loss is [`Plant::lead_energy_j`]).
     pub fn electrical_energy_j(&self) -> f64 {
         self.electrical_energy_j
+    }
+
+    /// Energy lost in the spring leads and MOSFETs since the start (not heat in the plant), J.
+    pub fn lead_energy_j(&self) -> f64 {
+        self.lead_energy_j
     }
 
     /// PMMA plate temperature, K, if the plates are modelled.
@@ -396,9 +441,9 @@ impl Plant {
                 * smp::bending_nmm_per_rad(smp::frozen_fraction(outer))
     }
 
-    /// k_b = M/θ of the column (PI tube + relaxed SMP) for a small probe moment, N·mm/rad.
+    /// k_b = M/θ of the column (PI film + relaxed SMP) for a small probe moment, N·mm/rad.
     fn column_k_b(&self) -> f64 {
-        params::TUBE_BENDING_NMM_PER_RAD + self.smp_stiffness()
+        params::FILM_BENDING_NMM_PER_RAD + self.smp_stiffness()
     }
 
     fn substep(&mut self, inputs: &Inputs, h: f64) {
@@ -415,11 +460,25 @@ impl Plant {
                 .min(params::HEATER_SUPPLY_LIMIT_A);
             heater_duty * full * full * params::HEATER_RESISTANCE_OHM
         };
-        let xi = self.springs.map(|s| s.xi);
-        let spring_w = sma::powers_w(inputs.springs_on, xi);
+        let xi = self.springs.map(|s| s.phase.xi());
+        let supply = sma::supply(inputs.springs_on, xi, self.options.shared_spring_supply);
+        let spring_w = supply.wire_w;
         self.heater_power_w = heater_w;
-        self.spring_power_w = spring_w;
+        self.supply = supply;
         self.electrical_energy_j += h * (heater_w + spring_w.iter().sum::<f64>());
+        self.lead_energy_j += h * supply.lead_w.iter().sum::<f64>();
+        // Heat from the column's outer surface to each spring, held over the step and taken
+        // from that node, so the exchange conserves energy exactly.
+        // (Full thermal fidelity only: the Lumped level keeps its one-node analytic response.)
+        let surface = thermal::OUTER;
+        let exchange_w = match fid.thermal {
+            ThermalFidelity::Lumped => [0.0; 3],
+            ThermalFidelity::Full => {
+                let t_surface = self.nodes_k[surface];
+                self.springs
+                    .map(|s| params::G_COLUMN_SPRING_W_PER_K * (t_surface - s.t_k))
+            }
+        };
 
         // Cylinder network.
         let key = fan.to_bits();
@@ -436,6 +495,9 @@ impl Plant {
         let (_, a, net) = self.net_cache.as_ref().expect("filled above");
         let mut power = [0.0; linalg::N];
         power[thermal::HEATER] = heater_w;
+        if fid.thermal == ThermalFidelity::Full {
+            power[surface] -= exchange_w.iter().sum::<f64>();
+        }
         let u = net.forcing(&power, amb);
         let sys = thermal::System {
             a,
@@ -450,14 +512,20 @@ impl Plant {
         let g = if self.options.adiabatic {
             0.0
         } else {
-            sma::ambient_w_per_k(fan)
+            sma::ambient_w_per_k()
         };
         for (i, s) in self.springs.iter_mut().enumerate() {
-            let t_sens =
-                thermal::advance_scalar(integrator, g / c, (spring_w[i] + g * amb) / c, s.t_k, h);
-            let enthalpy = sma::enthalpy_j(fid.sma, t_sens, s.xi);
-            let (t, x) = sma::settle(fid.sma, enthalpy, s.xi);
-            *s = SpringState { t_k: t, xi: x };
+            let source = spring_w[i] + exchange_w[i];
+            let t_sens = if g > 0.0 {
+                thermal::advance_scalar(integrator, g / c, (source + g * amb) / c, s.t_k, h)
+            } else {
+                s.t_k + h * source / c
+            };
+            let enthalpy = sma::enthalpy_j(fid.sma, t_sens, s.phase.xi());
+            let shift = sma::Shift::for_force(s.force_n);
+            let (t, phase) = sma::settle(fid.sma, enthalpy, s.phase, shift);
+            s.t_k = t;
+            s.phase = phase;
         }
 
         // SMP: frozen fraction (store or release bend), stiffness.
@@ -479,7 +547,7 @@ impl Plant {
     /// Solve the moment balance at the end of a step of `h` (0: instantaneous) and relax the
     /// Maxwell branch exactly over it.
     fn solve_bend(&mut self, h: f64) {
-        let (k, l) = mechanics::spring_state(self.springs.map(|s| s.xi));
+        let (k, l) = mechanics::spring_state(self.springs.map(|s| s.phase.xi()));
         let visco = self.config.fidelity.smp == SmpFidelity::Viscoelastic;
         let (_, inner, outer, _) = self.region_temps();
         let t_wall = params::INNER_LAYER_SHARE * inner + (1.0 - params::INNER_LAYER_SHARE) * outer;
@@ -488,8 +556,9 @@ impl Plant {
         } else {
             0.0
         };
-        let bal = Balance {
-            tube_nmm_per_rad: params::TUBE_BENDING_NMM_PER_RAD,
+        let mut bal = Balance {
+            film_nmm_per_rad: params::FILM_BENDING_NMM_PER_RAD,
+            film_set_rad: self.film_set_rad,
             smp_nmm_per_rad: self.smp_stiffness(),
             stored_rad: self.smp.stored_rad,
             branch_nmm_per_rad: smp::branch_nmm_per_rad() * decay,
@@ -497,7 +566,21 @@ impl Plant {
             spring_k_n_per_mm: k,
             spring_free_mm: l,
         };
-        let b = bal.solve(self.bend_rad);
+        let mut b = bal.solve(self.bend_rad);
+        // The film yields: move its set and re-balance until the set stops moving.
+        for _ in 0..20 {
+            let set = mechanics::yield_film(bal.film_set_rad, b, params::FILM_YIELD_BEND_RAD);
+            if (set[0] - bal.film_set_rad[0]).hypot(set[1] - bal.film_set_rad[1]) < 1e-12 {
+                break;
+            }
+            bal.film_set_rad = set;
+            b = bal.solve(b);
+        }
+        self.film_set_rad = bal.film_set_rad;
+        let forces = mechanics::spring_forces_n(b, k, l);
+        for (s, f) in self.springs.iter_mut().zip(forces) {
+            s.force_n = f;
+        }
         if visco {
             for j in 0..2 {
                 self.smp.branch_rad[j] = b[j] + (self.smp.branch_rad[j] - b[j]) * decay;

@@ -47,15 +47,18 @@ pub const HEATER_SUPPLY_LIMIT_A: f64 = 10.0;
 /// heater surface from 298 K to 323 K in ≈10 s [T 6.4.2] and reheats to 358 K in ≈25 s
 /// [T 6.4.3].
 pub const HEATER_RESISTANCE_OHM: f64 = 7.89;
-/// Spring supply voltage, V [T 6.3.2: 5.0 V, 15.0 A].
+/// Spring supply voltage, V [T 6.3.2: "each SMA spring is connected to a single power supply,
+/// with a maximum output of 5.0 V and 15.0 A"; SPEC section 2: one channel per spring].
 pub const SPRING_SUPPLY_V: f64 = 5.0;
-/// Spring supply current limit (shared by the three springs), A [T 6.3.2].
+/// Spring supply current limit, A, per channel (or for all three with
+/// `ModelOptions::shared_spring_supply`) [T 6.3.2].
 pub const SPRING_SUPPLY_LIMIT_A: f64 = 15.0;
 /// NiTi resistivity, martensite, Ω·m [S Dynalloy: 76–80 µΩ·cm].
 pub const NITI_RESISTIVITY_M_OHM_M: f64 = 80e-8;
 /// NiTi resistivity, austenite, Ω·m [S Dynalloy: 82–100 µΩ·cm].
 pub const NITI_RESISTIVITY_A_OHM_M: f64 = 90e-8;
-/// Wiring and MOSFET resistance per spring, Ω [E PLANT-REFERENCE: 20–50 mΩ].
+/// Wiring and MOSFET resistance per spring, Ω [E PLANT-REFERENCE: 20–50 mΩ]. It limits the
+/// current but its I²R is not heat in the wire.
 pub const SPRING_LEAD_RESISTANCE_OHM: f64 = 0.03;
 
 // ---------------------------------------------------------------- thermal network
@@ -122,28 +125,54 @@ pub const SMA_E_A_MPA: f64 = 75_000.0;
 pub const SMA_POISSON: f64 = 0.33;
 /// Wire diameter, mm [T 6.3.2].
 pub const WIRE_DIAMETER_MM: f64 = 2.3;
-/// Mean coil diameter, mm [F: sets k_A so that one spring bends the hot column ≈42°].
-pub const COIL_DIAMETER_MM: f64 = 38.0;
-/// Active coils [F, with the coil diameter].
-pub const COIL_COUNT: f64 = 24.0;
-/// Natural length cold (martensite), mm [T 6.3.2].
+/// Mean coil diameter, mm [E; the thesis is silent]: spring index D/d ≈ 7.8 (SMA springs are
+/// wound at 6–10); the coil (Ø 20.3 mm outside) fits between the column (r 20 mm) and the
+/// plate's rim (r 53 mm) on the 45 mm spring circle.
+pub const COIL_DIAMETER_MM: f64 = 18.0;
+/// Active coils [E; the thesis is silent]: 25 coils make 1.41 m of wire, 0.27–0.31 Ω, so one
+/// 5 V channel with 0.03 Ω of leads is held at its 15 A limit in both phases (a longer wire
+/// would draw less than 15 A and heat slower per metre); solid length 58 mm < 100 mm.
+pub const COIL_COUNT: f64 = 25.0;
+/// Natural length cold (martensite), mm [T 6.3.2: "extend to 200 mm upon cooling"]: the
+/// plates' spacing, so a cold spring is just slack on the straight column.
 pub const SPRING_LENGTH_COLD_MM: f64 = 200.0;
-/// Natural length hot (austenite), mm [T 6.3.2].
-pub const SPRING_LENGTH_HOT_MM: f64 = 100.0;
+/// Natural length hot (austenite) under the column's load, mm [F: one spring bends the hot
+/// column ≈42°, two ≈65°, T 6.4.1]. The thesis's "contract to 100 mm when heated" is the
+/// spring's unloaded training target; with the coil above (k_A ≈ 0.68 N/mm) a 100 mm natural
+/// length would pull ≈40 N and fold the column, so the two-way stroke that acts here is the
+/// 200 → 155 mm one (a trained two-way strain is well below the one-way strain).
+pub const SPRING_LENGTH_HOT_MM: f64 = 155.0;
 /// NiTi density, kg/m³ [S Dynalloy].
 pub const NITI_DENSITY_KG_PER_M3: f64 = 6450.0;
-/// NiTi specific heat, J/(kg·K) [S Dynalloy].
-pub const NITI_CP_J_PER_KGK: f64 = 837.0;
-/// NiTi latent heat of transformation, J/kg [S Dynalloy; Resnina 2015: 24 J/g].
-pub const NITI_LATENT_J_PER_KG: f64 = 24_000.0;
-/// Spring wire → ambient (natural convection with coil self-shielding + radiation at ε≈0.3),
-/// W/(m²·K) [S/E PLANT-REFERENCE: 8–15 + 2–5].
+/// NiTi specific heat, J/(kg·K) [S DSC: 450–550 (Dulong–Petit ≈470), PLANT-REFERENCE; not
+/// Dynalloy's catalogue 837].
+pub const NITI_CP_J_PER_KGK: f64 = 480.0;
+/// NiTi latent heat of transformation of a trained two-way spring, J/kg [S: Resnina 2015
+/// reports 15–35 J/g, the low end for trained/cycled wire; PLANT-REFERENCE ≈15 J/g].
+pub const NITI_LATENT_J_PER_KG: f64 = 22_000.0;
+/// Spring wire → still air (natural convection with coil self-shielding + radiation at
+/// ε≈0.3), W/(m²·K) [S/E PLANT-REFERENCE: 8–15 + 2–5]. The fan's air stays in the duct
+/// [T 6.3.2: "minimizes any cooling interference between the SMP and SMA"], so the fan duty
+/// does not cool the springs.
 pub const H_SPRING_W_PER_M2K: f64 = 12.0;
-/// Extra spring wire → air coefficient at full fan duty (linear in duty), W/(m²·K) [E
-/// PLANT-REFERENCE: a spring's time constant is 150–240 s in still air and 20–30 s in fan air
-/// where the fan's outer annulus reaches it; 110 W/m²K more gives ≈ 26 s, so springs switched
-/// off at the start of forming are martensitic again by its end].
-pub const H_SPRING_FAN_FULL_W_PER_M2K: f64 = 110.0;
+/// Heat path from the hot column's outer surface to each spring (radiation at view factor
+/// ≈0.2 and ε≈0.3, ≈0.005 W/K, plus the warm edge of the column's natural-convection
+/// boundary layer, ≤ 10 % of the spring's still-air conductance, ≈0.012 W/K), W/K [E bound].
+/// A 300 s soak at 358 K warms a spring by only ≈6 K: the springs start stepping cold unless
+/// they are pre-warmed electrically (see `docs/PLANT-API.md`).
+pub const G_COLUMN_SPRING_W_PER_K: f64 = 0.017;
+/// Share of the transformation (of the spring's stroke) in a narrow, nearly reversible
+/// R-phase-like band [S: R-phase strain 0.5–1 % against a trained two-way strain of 2–4 %,
+/// Otsuka & Ren 2005, Prog. Mater. Sci. 50:511 → 0.15–0.35].
+pub const SMA_NARROW_SHARE: f64 = 0.25;
+/// Hysteresis of the narrow band, K [S: B2↔R hysteresis 1–5 K, Otsuka & Ren 2005].
+pub const SMA_NARROW_HYSTERESIS_K: f64 = 2.0;
+/// Clausius–Clapeyron slope of the martensite temperatures (tension), MPa/K [S Brinson 1993,
+/// J. Intell. Mater. Syst. Struct. 4:229: C_M = 8].
+pub const SMA_CM_MPA_PER_K: f64 = 8.0;
+/// Clausius–Clapeyron slope of the austenite temperatures (tension), MPa/K [S Brinson 1993:
+/// C_A = 13.8].
+pub const SMA_CA_MPA_PER_K: f64 = 13.8;
 
 /// Shear modulus from E and ν, MPa [D].
 pub const fn shear_mpa(e_mpa: f64) -> f64 {
@@ -155,6 +184,16 @@ pub const WIRE_AREA_MM2: f64 = std::f64::consts::PI / 4.0 * WIRE_DIAMETER_MM * W
 pub const WIRE_LENGTH_MM: f64 = std::f64::consts::PI * COIL_DIAMETER_MM * COIL_COUNT;
 /// Wire mass of one spring, kg [D].
 pub const SPRING_MASS_KG: f64 = WIRE_AREA_MM2 * WIRE_LENGTH_MM * 1e-9 * NITI_DENSITY_KG_PER_M3;
+/// Wahl correction of the coil's shear stress, (4C − 1)/(4C − 4) + 0.615/C with C = D/d [D].
+pub const WAHL_FACTOR: f64 = {
+    let c = COIL_DIAMETER_MM / WIRE_DIAMETER_MM;
+    (4.0 * c - 1.0) / (4.0 * c - 4.0) + 0.615 / c
+};
+/// Equivalent tensile stress (√3·τ, von Mises) per newton of spring force, MPa/N [D]:
+/// τ = 8·F·D·K_w/(π·d³).
+pub const SPRING_STRESS_MPA_PER_N: f64 =
+    1.732_050_807_568_877_2 * 8.0 * COIL_DIAMETER_MM * WAHL_FACTOR
+        / (std::f64::consts::PI * WIRE_DIAMETER_MM * WIRE_DIAMETER_MM * WIRE_DIAMETER_MM);
 /// Wire surface area of one spring, m² [D].
 pub const SPRING_AREA_M2: f64 = std::f64::consts::PI * WIRE_DIAMETER_MM * WIRE_LENGTH_MM * 1e-6;
 /// Spring rate k = G·d⁴/(8·D³·n), N/mm [D, S Wahl] for shear modulus `g_mpa`.
@@ -163,9 +202,9 @@ pub const fn spring_rate_n_per_mm(g_mpa: f64) -> f64 {
     let c3 = COIL_DIAMETER_MM * COIL_DIAMETER_MM * COIL_DIAMETER_MM;
     g_mpa * d2 * d2 / (8.0 * c3 * COIL_COUNT)
 }
-/// Spring rate, austenite, N/mm [D] (≈0.0749).
+/// Spring rate, austenite, N/mm [D] (≈0.68).
 pub const SPRING_K_A_N_PER_MM: f64 = spring_rate_n_per_mm(shear_mpa(SMA_E_A_MPA));
-/// Spring rate, martensite, N/mm [D] (≈0.0280).
+/// Spring rate, martensite, N/mm [D] (≈0.25).
 pub const SPRING_K_M_N_PER_MM: f64 = spring_rate_n_per_mm(shear_mpa(SMA_E_M_MPA));
 
 // ---------------------------------------------------------------- SMP (PLA lattice)
@@ -180,23 +219,37 @@ pub const WLF_C2_K: f64 = 293.0;
 pub const WLF_LOG10_LIMIT: f64 = 8.0;
 /// Glassy (frozen phase) modulus, MPa [T 6.3.1: 1000 MPa at 298 K].
 pub const SMP_E_GLASSY_MPA: f64 = 1000.0;
-/// Rubbery (active phase) modulus, MPa [S/E: PLA rubbery plateau 2–5 MPa; with the logistic
-/// below it reproduces E(Tg) = 400 MPa, T 6.3.1].
-pub const SMP_E_RUBBERY_MPA: f64 = 3.0;
+/// Rubbery (active phase) modulus of the printed lattice above its transition, MPa [F: with
+/// the logistic below, the hot column's k_b ≈ 311 N·mm/rad (T 6.4.3) comes from the lattice,
+/// not from the heater film (see `FILM_BENDING_NMM_PER_RAD`)].
+pub const SMP_E_RUBBERY_MPA: f64 = 150.0;
 /// Width of the logistic frozen fraction φ_f = 1/(1 + e^{(T − T_c)/w}), K [F: with the centre,
-/// the stiffness contrast k_b(323)/k_b(358) ≈ 4.5 and the recovery time, T 6.4.3].
-pub const SMP_PHI_WIDTH_K: f64 = 3.391;
-/// Centre of the logistic frozen fraction, K [D]: placed so that Liu's series law
-/// 1/E = φ_f/E_g + (1 − φ_f)/E_r gives E(Tg) = 400 MPa (−60 %, T 6.3.1).
-pub const SMP_PHI_CENTRE_K: f64 = SMP_TG_K + 5.396_2 * SMP_PHI_WIDTH_K;
+/// the stiffness contrast k_b(323)/k_b(358) ≈ 4.5 and φ_f(358 K) ≈ 0.03, so a 358 K lattice
+/// keeps almost no stored bend].
+pub const SMP_PHI_WIDTH_K: f64 = 5.5;
+/// Centre of the logistic frozen fraction, K [D]: T_g − w·ln(1/φ_g − 1) with
+/// φ_g = (1/400 − 1/E_r)/(1/E_g − 1/E_r), so that Liu's series law
+/// 1/E = φ_f/E_g + (1 − φ_f)/E_r gives E(Tg) = 400 MPa (−60 %, T 6.3.1); checked by a test.
+pub const SMP_PHI_CENTRE_K: f64 = 339.619_1;
 /// Bending stiffness of the lattice per MPa of modulus (open-lattice I_eff/L), N·mm/(rad·MPa)
 /// [F: k_b(323 K) ≈ 1400 N·mm/rad, T 6.4.3; a solid tube would give ≈260, PLANT-REFERENCE].
-pub const SMP_BENDING_PER_MPA_NMM_PER_RAD: f64 = 1.158;
-/// Bending stiffness of the PI heater tube (temperature-independent), N·mm/rad [F: the hot
-/// column's k_b ≈ 1400/4.5 ≈ 311 "is primarily determined by the PI heater", T 6.4.3].
-pub const TUBE_BENDING_NMM_PER_RAD: f64 = 306.9;
+pub const SMP_BENDING_PER_MPA_NMM_PER_RAD: f64 = 1.75;
+/// Elastic bending stiffness of the PI heater film group, N·mm/rad [E: T 6.3.2 "very low
+/// stiffness ... negligible impact on the structure's bending motion"]. As a bonded closed tube
+/// (≈0.1 mm, 2.5 GPa, r 17.5 mm) it would give EI/L ≈ 2·10⁴ N·mm/rad, so the pads cannot carry
+/// axial strain that way (separate pads, wrinkling on the compression side); and any elastic
+/// share must yield (below) and would then hold the column bent against recovery, which the
+/// thesis shows complete. The heated k_b is therefore the lattice's; the film keeps a small
+/// share.
+pub const FILM_BENDING_NMM_PER_RAD: f64 = 10.0;
+/// Yield strain of the polyimide film [S DuPont Kapton HN: yield at ≈3 % (69 MPa at 23 °C,
+/// lower at 85 °C)].
+pub const FILM_YIELD_STRAIN: f64 = 0.03;
+/// Bend at which the film's outer fibre (r = d_i/2) reaches its yield strain, rad [D]:
+/// ε = r·θ/L → θ_y = ε_y·L/r (≈0.34 rad ≈ 20°; at 65° the film would be strained ≈10 %).
+pub const FILM_YIELD_BEND_RAD: f64 = FILM_YIELD_STRAIN * LENGTH_MM / (0.5 * INNER_DIAMETER_MM);
 /// Maxwell branch modulus (generalised Maxwell, eq. 6.7), MPa [F: the recovery lag, T 6.4.3].
-pub const SMP_BRANCH_E_MPA: f64 = 500.0;
+pub const SMP_BRANCH_E_MPA: f64 = 100.0;
 /// Maxwell branch relaxation time at Tg, s [F: the recovery lag, T 6.4.3].
 pub const SMP_BRANCH_TAU_S: f64 = 10.0;
 

@@ -1,13 +1,17 @@
-//! The SMA springs: phase kinetics, latent heat as an enthalpy state, electrical supply and the
-//! two-way spring's force law.
+//! The SMA springs: phase kinetics (a wide martensite band and a narrow R-phase-like band, both
+//! shifted by the spring's stress), latent heat as an enthalpy state, the electrical supply and
+//! the two-way spring's force law.
 //!
-//! Kinetics (`Hysteretic`): Liang & Rogers (1990) cosine branches — the cooling branch
-//! ξ_M(T) = ½[1 − cos(π(Ms − T)/(Ms − Mf))] on (Mf, Ms) and the heating branch
+//! Kinetics (`Hysteretic`): Liang & Rogers (1990) cosine branches — cooling
+//! ξ_M(T) = ½[1 − cos(π(Ms − T)/(Ms − Mf))] on (Mf, Ms), heating
 //! ξ_A(T) = ½[1 + cos(π(T − As)/(Af − As))] on (As, Af), ξ the martensite fraction — with
 //! partial cycles by the clamp between branches, ξ ← min(ξ_A(T), max(ξ_M(T), ξ)): inner loops
-//! are flat until they meet the major loop, there is no sign(dT/dt) detection and no chatter.
-//! The transformation temperatures are taken at the springs' operating load (no C_M, C_A stress
-//! shift). `Switch`: austenite above (Ms + As)/2, martensite below, no latent heat.
+//! are flat, no sign(dT/dt) detection, no chatter. A share β of the stroke (the R-phase-like
+//! band) has the same heating branch but a cooling branch only h_R below it (B2↔R hysteresis
+//! of a few K): it is what a spring gives back first when it cools from its turning point.
+//! Clausius–Clapeyron: the spring's equivalent tensile stress σ (from its last force) raises
+//! As, Af by σ/C_A and Ms, Mf by σ/C_M (Brinson 1993 slopes). `Switch`: austenite above
+//! (Ms + As)/2, martensite below, no latent heat, no stress shift.
 //!
 //! Energy: the node's enthalpy H = m·c·T + m·ΔH·(1 − ξ) (austenite formation absorbs ΔH); a step
 //! advances the sensible temperature, then settles (T, ξ) on the same H, so energy is conserved
@@ -16,7 +20,7 @@
 use super::SmaFidelity;
 use super::params as p;
 
-/// Martensite fraction on the cooling (forward) branch at `t_k`.
+/// Martensite fraction on the cooling (forward) branch at `t_k` (unshifted temperatures).
 pub fn xi_cooling_branch(t_k: f64) -> f64 {
     if t_k >= p::SMA_MS_K {
         0.0
@@ -28,7 +32,7 @@ pub fn xi_cooling_branch(t_k: f64) -> f64 {
     }
 }
 
-/// Martensite fraction on the heating (reverse) branch at `t_k`.
+/// Martensite fraction on the heating (reverse) branch at `t_k` (unshifted temperatures).
 pub fn xi_heating_branch(t_k: f64) -> f64 {
     if t_k <= p::SMA_AS_K {
         1.0
@@ -40,20 +44,66 @@ pub fn xi_heating_branch(t_k: f64) -> f64 {
     }
 }
 
-/// The martensite fraction reached at `t_k` from `xi` (the clamp between branches), in [0, 1].
-pub fn kinetics(fidelity: SmaFidelity, t_k: f64, xi: f64) -> f64 {
-    match fidelity {
-        SmaFidelity::Hysteretic => xi
-            .max(xi_cooling_branch(t_k))
-            .min(xi_heating_branch(t_k))
-            .clamp(0.0, 1.0),
-        SmaFidelity::Switch => {
-            if t_k >= p::SMA_SWITCH_K {
-                0.0
-            } else {
-                1.0
-            }
+/// Martensite fractions of a spring's two bands, each 0…1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Phase {
+    /// The wide-hysteresis (B19′ martensite) band's fraction.
+    pub wide: f64,
+    /// The narrow (R-phase-like) band's fraction.
+    pub narrow: f64,
+}
+
+impl Phase {
+    /// Fully martensite (1) or fully austenite (0) in both bands.
+    pub fn uniform(xi: f64) -> Self {
+        Phase {
+            wide: xi,
+            narrow: xi,
         }
+    }
+
+    /// The spring's martensite fraction ξ (the bands weighted by their share of the stroke).
+    pub fn xi(&self) -> f64 {
+        (1.0 - p::SMA_NARROW_SHARE) * self.wide + p::SMA_NARROW_SHARE * self.narrow
+    }
+}
+
+/// Stress shift of the transformation temperatures, K.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Shift {
+    /// Added to As and Af.
+    pub austenite_k: f64,
+    /// Added to Ms and Mf.
+    pub martensite_k: f64,
+}
+
+impl Shift {
+    /// The Clausius–Clapeyron shift for a spring pulling `force_n` (tension ≥ 0).
+    pub fn for_force(force_n: f64) -> Self {
+        let sigma = p::SPRING_STRESS_MPA_PER_N * force_n.max(0.0);
+        Shift {
+            austenite_k: sigma / p::SMA_CA_MPA_PER_K,
+            martensite_k: sigma / p::SMA_CM_MPA_PER_K,
+        }
+    }
+}
+
+/// The phase reached at `t_k` from `old` (the clamp between branches), each band in [0, 1].
+pub fn kinetics(fidelity: SmaFidelity, t_k: f64, old: Phase, shift: Shift) -> Phase {
+    match fidelity {
+        SmaFidelity::Hysteretic => {
+            let heat = xi_heating_branch(t_k - shift.austenite_k);
+            let wide = old
+                .wide
+                .max(xi_cooling_branch(t_k - shift.martensite_k))
+                .min(heat)
+                .clamp(0.0, 1.0);
+            let narrow_cool =
+                xi_heating_branch(t_k - shift.austenite_k + p::SMA_NARROW_HYSTERESIS_K);
+            let narrow = old.narrow.max(narrow_cool).min(heat).clamp(0.0, 1.0);
+            Phase { wide, narrow }
+        }
+        SmaFidelity::Switch => Phase::uniform(if t_k >= p::SMA_SWITCH_K { 0.0 } else { 1.0 }),
     }
 }
 
@@ -70,9 +120,9 @@ pub fn latent_j(fidelity: SmaFidelity) -> f64 {
     }
 }
 
-/// Conductance of one spring to ambient at fan duty `fan` (0…1), W/K.
-pub fn ambient_w_per_k(fan: f64) -> f64 {
-    (p::H_SPRING_W_PER_M2K + fan * p::H_SPRING_FAN_FULL_W_PER_M2K) * p::SPRING_AREA_M2
+/// Conductance of one spring to the still ambient air, W/K.
+pub fn ambient_w_per_k() -> f64 {
+    p::H_SPRING_W_PER_M2K * p::SPRING_AREA_M2
 }
 
 /// Enthalpy of one spring, J (from 0 K, martensite).
@@ -80,18 +130,18 @@ pub fn enthalpy_j(fidelity: SmaFidelity, t_k: f64, xi: f64) -> f64 {
     capacity_j_per_k() * t_k + latent_j(fidelity) * (1.0 - xi)
 }
 
-/// Settle a spring on enthalpy `h_j` from its previous fraction `xi_old`: the (T, ξ) with
-/// `enthalpy_j(T, ξ) = h_j` and ξ = kinetics(T, ξ_old). The enthalpy is strictly increasing in T
-/// along the kinetics, so bisection finds the unique root.
-pub fn settle(fidelity: SmaFidelity, h_j: f64, xi_old: f64) -> (f64, f64) {
+/// Settle a spring on enthalpy `h_j` from its previous phase `old`: the (T, phase) with
+/// `enthalpy_j(T, ξ) = h_j` and phase = kinetics(T, old). The enthalpy is strictly increasing
+/// in T along the kinetics, so bisection finds the unique root.
+pub fn settle(fidelity: SmaFidelity, h_j: f64, old: Phase, shift: Shift) -> (f64, Phase) {
     let c = capacity_j_per_k();
     let l = latent_j(fidelity);
-    let t_frozen = (h_j - l * (1.0 - xi_old)) / c;
-    let xi_frozen = kinetics(fidelity, t_frozen, xi_old);
-    if l == 0.0 || xi_frozen == xi_old {
-        return (t_frozen, xi_frozen);
+    let t_frozen = (h_j - l * (1.0 - old.xi())) / c;
+    let frozen = kinetics(fidelity, t_frozen, old, shift);
+    if l == 0.0 || frozen == old {
+        return (t_frozen, frozen);
     }
-    let f = |t: f64| c * t + l * (1.0 - kinetics(fidelity, t, xi_old)) - h_j;
+    let f = |t: f64| c * t + l * (1.0 - kinetics(fidelity, t, old, shift).xi()) - h_j;
     let span = l / c;
     let (mut lo, mut hi) = (t_frozen - span - 1.0, t_frozen + span + 1.0);
     for _ in 0..60 {
@@ -106,36 +156,49 @@ pub fn settle(fidelity: SmaFidelity, h_j: f64, xi_old: f64) -> (f64, f64) {
         }
     }
     let t = 0.5 * (lo + hi);
-    let xi = kinetics(fidelity, t, xi_old);
+    let phase = kinetics(fidelity, t, old, shift);
     // Put the bisection's residual into T so the enthalpy is kept to rounding.
-    ((h_j - l * (1.0 - xi)) / c, xi)
+    ((h_j - l * (1.0 - phase.xi())) / c, phase)
 }
 
-/// Electrical resistance of one spring (wire plus leads) at martensite fraction `xi`, Ω.
-pub fn resistance_ohm(xi: f64) -> f64 {
+/// Electrical resistance of one spring's wire (leads excluded) at martensite fraction `xi`, Ω.
+pub fn wire_resistance_ohm(xi: f64) -> f64 {
     let rho = xi * p::NITI_RESISTIVITY_M_OHM_M + (1.0 - xi) * p::NITI_RESISTIVITY_A_OHM_M;
-    rho * (p::WIRE_LENGTH_MM * 1e-3) / (p::WIRE_AREA_MM2 * 1e-6) + p::SPRING_LEAD_RESISTANCE_OHM
+    rho * (p::WIRE_LENGTH_MM * 1e-3) / (p::WIRE_AREA_MM2 * 1e-6)
 }
 
-/// Power into each spring's wire, W, for the switched-on set and their fractions: the 5 V
-/// supply feeds them in parallel and folds back to its 15 A limit when they draw more.
-pub fn powers_w(on: [bool; 3], xi: [f64; 3]) -> [f64; 3] {
-    let mut r = [0.0; 3];
-    let mut g_total = 0.0;
-    for i in 0..3 {
-        r[i] = resistance_ohm(xi[i]);
-        if on[i] {
-            g_total += 1.0 / r[i];
+/// What the spring supply delivers for one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Supply {
+    /// Current through each spring, A.
+    pub current_a: [f64; 3],
+    /// Joule heat in each spring's wire (I²·R_wire), W.
+    pub wire_w: [f64; 3],
+    /// Loss in each spring's leads and MOSFET (I²·R_lead), W: not heat in the wire.
+    pub lead_w: [f64; 3],
+}
+
+/// The supply for the switched-on set and their fractions. Default (`shared` false): one 5 V /
+/// 15 A channel per spring, I = min(V/(R_wire + R_lead), 15 A). `shared`: one 5 V supply feeds
+/// the switched-on springs in parallel and folds back to its 15 A limit when they draw more.
+pub fn supply(on: [bool; 3], xi: [f64; 3], shared: bool) -> Supply {
+    let r = [0, 1, 2].map(|i| wire_resistance_ohm(xi[i]) + p::SPRING_LEAD_RESISTANCE_OHM);
+    let mut out = Supply::default();
+    let v = if shared {
+        let g_total: f64 = (0..3).filter(|&i| on[i]).map(|i| 1.0 / r[i]).sum();
+        if g_total == 0.0 {
+            return out;
         }
-    }
-    if g_total == 0.0 {
-        return [0.0; 3];
-    }
-    let v = p::SPRING_SUPPLY_V.min(p::SPRING_SUPPLY_LIMIT_A / g_total);
-    let mut out = [0.0; 3];
+        p::SPRING_SUPPLY_V.min(p::SPRING_SUPPLY_LIMIT_A / g_total)
+    } else {
+        p::SPRING_SUPPLY_V
+    };
     for i in 0..3 {
         if on[i] {
-            out[i] = v * v / r[i];
+            let amps = (v / r[i]).min(p::SPRING_SUPPLY_LIMIT_A);
+            out.current_a[i] = amps;
+            out.wire_w[i] = amps * amps * wire_resistance_ohm(xi[i]);
+            out.lead_w[i] = amps * amps * p::SPRING_LEAD_RESISTANCE_OHM;
         }
     }
     out
@@ -155,6 +218,11 @@ pub fn rate_n_per_mm(xi: f64) -> f64 {
 mod tests {
     use super::*;
 
+    const NO: Shift = Shift {
+        austenite_k: 0.0,
+        martensite_k: 0.0,
+    };
+
     #[test]
     fn branches_meet_the_transformation_temperatures() {
         assert_eq!(xi_cooling_branch(p::SMA_MS_K), 0.0);
@@ -165,34 +233,58 @@ mod tests {
     }
 
     #[test]
-    fn a_partial_cycle_stays_flat_inside_the_loop() {
+    fn a_partial_cycle_stays_flat_except_for_the_narrow_band() {
         let f = SmaFidelity::Hysteretic;
-        // Heat half way, then cool to 335 K (between Ms and As): the fraction holds.
-        let xi = kinetics(f, 346.0, 1.0);
-        assert!((xi - 0.5).abs() < 1e-12);
-        assert_eq!(kinetics(f, 335.0, xi), xi);
-        // Further cooling joins the cooling branch only once it is reached.
-        assert_eq!(kinetics(f, 321.0, xi), xi);
-        assert!(kinetics(f, 318.0, xi) > xi);
+        // Heat half way, then cool: the narrow band gives back once h_R below the turning
+        // point, the wide band holds until the cooling branch.
+        let half = kinetics(f, 346.0, Phase::uniform(1.0), NO);
+        assert!((half.xi() - 0.5).abs() < 1e-12);
+        assert_eq!(
+            kinetics(f, 346.0 - 0.5 * p::SMA_NARROW_HYSTERESIS_K, half, NO),
+            half
+        );
+        let cooled = kinetics(f, 340.0, half, NO);
+        assert_eq!(cooled.wide, half.wide);
+        assert!(cooled.narrow > half.narrow && cooled.narrow <= 1.0);
+        assert_eq!(kinetics(f, 321.0, cooled, NO).wide, half.wide);
+        assert!(kinetics(f, 318.0, cooled, NO).wide > half.wide);
+    }
+
+    #[test]
+    fn stress_raises_the_transformation_temperatures() {
+        let f = SmaFidelity::Hysteretic;
+        let s = Shift::for_force(10.0);
+        // 10 N in this coil: ≈80 MPa equivalent, +5.8 K on As (Brinson's C_A).
+        assert!((s.austenite_k - 80.0 / 13.8).abs() < 1.0, "{s:?}");
+        let mid = 0.5 * (p::SMA_AS_K + p::SMA_AF_K);
+        let free = kinetics(f, mid, Phase::uniform(1.0), NO).xi();
+        let loaded = kinetics(f, mid, Phase::uniform(1.0), s).xi();
+        assert!(loaded > free);
+        assert!(
+            (kinetics(f, mid + s.austenite_k, Phase::uniform(1.0), s).xi() - free).abs() < 1e-12
+        );
     }
 
     #[test]
     fn settle_keeps_the_enthalpy() {
         let f = SmaFidelity::Hysteretic;
         let h = enthalpy_j(f, 345.0, 1.0);
-        let (t, xi) = settle(f, h, 1.0);
-        assert!(xi < 1.0 && xi > 0.0);
+        let (t, ph) = settle(f, h, Phase::uniform(1.0), NO);
+        assert!(ph.xi() < 1.0 && ph.xi() > 0.0);
         assert!(t < 345.0 && t > p::SMA_AS_K);
-        assert!((enthalpy_j(f, t, xi) - h).abs() < 1e-9 * h);
+        assert!((enthalpy_j(f, t, ph.xi()) - h).abs() < 1e-9 * h);
     }
 
     #[test]
-    fn two_springs_share_the_current_limit() {
-        let one = powers_w([true, false, false], [1.0; 3]);
-        let two = powers_w([true, true, false], [1.0; 3]);
-        let r = resistance_ohm(1.0);
-        assert!((one[0] - 25.0 / r).abs() < 1e-9);
-        let i_each = (two[0] / r).sqrt();
-        assert!((2.0 * i_each - p::SPRING_SUPPLY_LIMIT_A).abs() < 1e-9);
+    fn each_spring_has_its_own_channel_and_shared_is_an_option() {
+        let one = supply([true, false, false], [1.0; 3], false);
+        let two = supply([true, true, false], [1.0; 3], false);
+        assert_eq!(one.current_a[0], two.current_a[1]);
+        assert!((one.current_a[0] - p::SPRING_SUPPLY_LIMIT_A).abs() < 1e-12);
+        let r = wire_resistance_ohm(1.0);
+        assert!((one.wire_w[0] - 225.0 * r).abs() < 1e-9);
+        assert!((one.lead_w[0] - 225.0 * p::SPRING_LEAD_RESISTANCE_OHM).abs() < 1e-9);
+        let shared = supply([true, true, false], [1.0; 3], true);
+        assert!((shared.current_a[0] + shared.current_a[1] - 15.0).abs() < 1e-9);
     }
 }
