@@ -64,6 +64,10 @@ pub struct Settings {
     pub soak_timeout_s: f32,
     /// Forming gives up (to standby, with an event) if not cool by then, s.
     pub form_timeout_s: f32,
+    /// Stepping: the springs' pre-warm pulse once the soak is done (0: none), s.
+    pub prewarm_s: f32,
+    /// Stepping: springs off after the pre-warm, before the first stepping phase, s.
+    pub prewarm_gap_s: f32,
     /// Length of one stepping phase (springs on), s.
     pub step_s: f32,
     /// Length of one pulsing phase (springs off between steps), s.
@@ -133,6 +137,8 @@ impl Settings {
         t_heater_max_k: 403.0,
         soak_timeout_s: 300.0,
         form_timeout_s: 300.0,
+        prewarm_s: 7.0,
+        prewarm_gap_s: 1.0,
         step_s: 6.0,
         pulse_s: 2.0,
         large_steps: 4.0,
@@ -172,8 +178,11 @@ impl Settings {
         if self.tune_k + 5.0 > self.t_max_k {
             return Err("tune_k must be at least 5 K below t_max_k");
         }
-        if self.step_s > self.spring_on_max_s || self.recover_pulse_s > self.spring_on_max_s {
-            return Err("step_s and recover_pulse_s must not exceed spring_on_max_s");
+        if self.step_s > self.spring_on_max_s
+            || self.recover_pulse_s > self.spring_on_max_s
+            || self.prewarm_s > self.spring_on_max_s
+        {
+            return Err("step_s, prewarm_s and recover_pulse_s must not exceed spring_on_max_s");
         }
         if self.heater_cap_k + 2.0 > self.t_heater_max_k {
             return Err("heater_cap_k must be at least 2 K below t_heater_max_k");
@@ -395,6 +404,22 @@ pub const PARAMS: &[Param] = &[
         1800.0,
         "forming gives up cooling after",
         |s| s.form_timeout_s
+    ),
+    param!(
+        "prewarm_s",
+        "s",
+        0.0,
+        15.0,
+        "springs' pre-warm before stepping",
+        |s| s.prewarm_s
+    ),
+    param!(
+        "prewarm_gap_s",
+        "s",
+        0.0,
+        10.0,
+        "off after the pre-warm",
+        |s| s.prewarm_gap_s
     ),
     param!("step_s", "s", 0.5, 15.0, "stepping phase", |s| s.step_s),
     param!("pulse_s", "s", 0.5, 30.0, "pulsing phase", |s| s.pulse_s),

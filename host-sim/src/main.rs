@@ -90,6 +90,13 @@ enum Command {
         /// Print one JSON object keyed by figure instead of the table.
         #[arg(long)]
         json: bool,
+        /// Skip the camera: the supervisor sees the true temperatures (a quick look; the
+        /// figures are defined with the camera on).
+        #[arg(long)]
+        no_camera: bool,
+        /// Also write each experiment's time series (CSV) into this folder.
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
 }
 
@@ -139,7 +146,11 @@ fn main() -> ExitCode {
         }
         Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
         Command::MttsWp(args) => host_sim::mtts_wp::run(&args),
-        Command::Paper { json } => host_sim::paper::cli(json),
+        Command::Paper {
+            json,
+            no_camera,
+            out,
+        } => host_sim::paper::cli(json, !no_camera, out.as_deref()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -69,9 +69,9 @@ pub fn scene(duration_s: f64, ambient_k: f64, camera: bool) -> Result<scenario::
     scenario::parse(&text, "<paper>", "paper")
 }
 
-/// Run the full cycle with `springs` at 298.15 K, camera on; returns the rows.
-pub fn cycle(springs: &str, duration_s: f64) -> Result<Vec<Row>, String> {
-    cycle_in(&scene(duration_s, 298.15, true)?, springs)
+/// Run the full cycle with `springs` at 298.15 K, the camera on or off; returns the rows.
+pub fn cycle(springs: &str, duration_s: f64, camera: bool) -> Result<Vec<Row>, String> {
+    cycle_in(&scene(duration_s, 298.15, camera)?, springs)
 }
 
 /// Run the full cycle with `springs` in `sc` (from [`scene`]): power-up in standby,
@@ -233,10 +233,28 @@ fn within(v: Option<f64>, lo: f64, hi: f64) -> bool {
     v.is_some_and(|x| (lo..=hi).contains(&x))
 }
 
-/// Run both cycles and build the table (keys in [`KEYS`] order).
-pub fn figures() -> Result<Vec<(&'static str, Figure)>, String> {
-    let two = measure(&cycle("AB", 700.0)?);
-    let one = measure(&cycle("A", 400.0)?);
+/// Run both cycles (camera on, or off for a quick look with true temperatures) and build the
+/// table (keys in [`KEYS`] order).
+pub fn figures(
+    camera: bool,
+    out: Option<&std::path::Path>,
+) -> Result<Vec<(&'static str, Figure)>, String> {
+    let two_rows = cycle("AB", 700.0, camera)?;
+    let one_rows = cycle("A", 400.0, camera)?;
+    if let Some(dir) = out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        for (name, rows) in [
+            ("two-springs.csv", &two_rows),
+            ("one-spring.csv", &one_rows),
+        ] {
+            let path = dir.join(name);
+            let mut buf = Vec::new();
+            crate::run::write_csv(rows, &mut buf).map_err(|e| e.to_string())?;
+            std::fs::write(&path, buf).map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+    }
+    let two = measure(&two_rows);
+    let one = measure(&one_rows);
     let fig = |thesis: serde_json::Value, sim: Option<f64>, lo: f64, hi: f64, tol: &str| Figure {
         thesis,
         sim: num(sim),
@@ -314,10 +332,11 @@ pub fn figures() -> Result<Vec<(&'static str, Figure)>, String> {
     ])
 }
 
-/// `host-sim paper [--json]`: print the table (or the JSON object); exit status 0 either way
-/// (the tests assert the passes).
-pub fn cli(json: bool) -> Result<(), String> {
-    let table = figures()?;
+/// `host-sim paper [--json] [--no-camera] [--out DIR]`: print the table (or the JSON object),
+/// and with `--out` write both experiments' time series (`two-springs.csv`, `one-spring.csv`);
+/// exit status 0 either way (the tests assert the passes).
+pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> Result<(), String> {
+    let table = figures(camera, out)?;
     if json {
         let map: serde_json::Map<String, serde_json::Value> = table
             .iter()

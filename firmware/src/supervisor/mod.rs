@@ -15,8 +15,11 @@
 //!   |    mode step-small|step-large [SPRINGS]                       |
 //!   |                    v                                          |
 //!   |            [ Stepping: Soak ]  heat until the colder target   |
-//!   |                    |           ≥ hot_k − ready_band_k for     |
+//!   |                    |           reaches hot_k and holds it     |
 //!   |                    v           ready_dwell_s                  |
+//!   |            [ Stepping: Prewarm ] springs on prewarm_s, then   |
+//!   |                    |             off prewarm_gap_s            |
+//!   |                    v                                          |
 //!   |   +--> [ Stepping: Spring i ] springs on for step_s           |
 //!   |   |                |  (pause: springs off, timers held;       |
 //!   |   |                v   resume: carry on)                      |
@@ -85,6 +88,15 @@ pub enum StepPhase {
     Soak {
         /// The first time the colder target was within the ready band, if it still is.
         ready_since: Option<Millis>,
+    },
+    /// The springs' pre-warm: on for `prewarm_s` (from room temperature to just below their
+    /// transformation, so the first stepping phase loads at once), then off for
+    /// `prewarm_gap_s` (which also ends the continuous on-time).
+    Prewarm {
+        /// Springs on (the pulse) or off (the gap).
+        on: bool,
+        /// Time left, ms.
+        left_ms: u32,
     },
     /// Springs on: phase `index` (0-based), `left_ms` to go.
     Spring {
@@ -180,6 +192,7 @@ impl Mode {
             Mode::Stepping(s) if s.paused => "paused",
             Mode::Stepping(s) => match s.phase {
                 StepPhase::Soak { .. } => "soak",
+                StepPhase::Prewarm { .. } => "prewarm",
                 StepPhase::Spring { .. } => "spring",
                 StepPhase::Pulse { .. } => "pulse",
                 StepPhase::Hold => "hold",
@@ -574,6 +587,12 @@ impl Supervisor {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
                         match go {
+                            Soak::Go if s.prewarm_s > 0.0 => {
+                                st.phase = StepPhase::Prewarm {
+                                    on: true,
+                                    left_ms: ms(s.prewarm_s),
+                                }
+                            }
                             Soak::Go => {
                                 st.phase = StepPhase::Spring {
                                     index: 0,
@@ -582,6 +601,22 @@ impl Supervisor {
                             }
                             Soak::GiveUp => gave_up = Some("soak"),
                             Soak::Wait => {}
+                        }
+                    }
+                    StepPhase::Prewarm { on, left_ms } => {
+                        *left_ms = left_ms.saturating_sub(run_ms);
+                        if *left_ms == 0 {
+                            st.phase = if *on {
+                                StepPhase::Prewarm {
+                                    on: false,
+                                    left_ms: ms(s.prewarm_gap_s).max(1),
+                                }
+                            } else {
+                                StepPhase::Spring {
+                                    index: 0,
+                                    left_ms: ms(s.step_s),
+                                }
+                            };
                         }
                     }
                     StepPhase::Spring { index, left_ms } => {
@@ -613,7 +648,11 @@ impl Supervisor {
                     }
                     StepPhase::Hold => {}
                 }
-                if matches!(st.phase, StepPhase::Spring { .. }) && !st.paused {
+                let on = matches!(
+                    st.phase,
+                    StepPhase::Spring { .. } | StepPhase::Prewarm { on: true, .. }
+                );
+                if on && !st.paused {
                     springs = st.springs;
                 }
                 s.hot_k
