@@ -126,7 +126,10 @@ fn large_stepping_runs_four_steps_and_three_pulses_in_30_s() {
         .filter(|w| w[0].1.springs.is_empty() != w[1].1.springs.is_empty())
         .map(|w| w[1].0)
         .collect();
-    assert_eq!(on.len(), 8, "{on:?}");
+    assert_eq!(on.len(), 10, "{on:?}");
+    assert_eq!(on[1] - on[0], 7_000, "the pre-warm pulse");
+    assert_eq!(on[2] - on[1], 1_000, "the gap after it");
+    let on = &on[2..];
     assert_eq!(on[7] - on[0], 30_000, "first spring on to last off");
     for w in on.chunks(2) {
         assert_eq!(w[1] - w[0], 6_000);
@@ -142,6 +145,7 @@ fn large_stepping_runs_four_steps_and_three_pulses_in_30_s() {
 fn pause_holds_the_timer_and_resume_finishes_it() {
     let mut r = Rig::new();
     r.run(60.0);
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
     r.line("mode step-small C");
     while r.sup.mode().phase_name() != "spring" {
         r.run(0.25);
