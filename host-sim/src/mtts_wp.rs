@@ -43,6 +43,12 @@ pub struct WpArgs {
     /// Noise seeds per scene, and method seeds per image (≥ 2 for a spread).
     #[arg(long, default_value_t = 5)]
     pub seeds: u64,
+    /// Scene-family members per seed range (tuning seeds, unseen seeds); the full run: 3000.
+    #[arg(long, default_value_t = 300)]
+    pub family: u64,
+    /// Print only the scene-family section (no standard scenes, no sensor data needed).
+    #[arg(long)]
+    pub family_only: bool,
 }
 
 /// What to measure.
@@ -770,6 +776,18 @@ fn default_verdict(rows: &[Row], front: &[bool], cost_name: &str) -> String {
 
 /// Run `host-sim mtts-wp`.
 pub fn run(args: &WpArgs) -> Result<(), String> {
+    if args.family_only {
+        let md = family_section(args.family);
+        return match &args.out {
+            Some(p) => {
+                std::fs::write(p, md).map_err(|e| format!("{}: cannot write: {e}", p.display()))
+            }
+            None => {
+                print!("{md}");
+                Ok(())
+            }
+        };
+    }
     if args.seeds < 2 {
         return Err("--seeds must be at least 2 (the spread needs two method seeds)".into());
     }
@@ -791,7 +809,7 @@ pub fn run(args: &WpArgs) -> Result<(), String> {
         m4.fill(&mut rows, &mut roots)
             .map_err(|e| format!("{}: {e}", args.m4.as_ref().unwrap().display()))?;
     }
-    let md = markdown(&cfg, &rows, &roots);
+    let md = markdown(&cfg, &rows, &roots) + "\n" + &family_section(args.family);
     match &args.out {
         Some(p) => std::fs::write(p, md).map_err(|e| format!("{}: cannot write: {e}", p.display())),
         None => {
@@ -949,4 +967,44 @@ pub fn family_headline(outs: &[FamilyOutcome]) -> (f64, f64, usize, f64) {
             .filter_map(|o| o.merged_err_k)
             .fold(0.0, f64::max),
     )
+}
+
+/// The scene-family section of the table: `count` members from the tuning seeds and `count`
+/// unseen ones, with the mode's prior; then the unseen ones without a prior.
+pub fn family_section(count: u64) -> String {
+    use crate::scene_family::{SEEN, UNSEEN};
+    let seen = family_outcomes(SEEN, count, true);
+    let unseen = family_outcomes(UNSEEN, count, true);
+    let blind = family_outcomes(UNSEEN, count, false);
+    let mut s = String::new();
+    let _ = writeln!(s, "## Scene family: seen and unseen seeds\n");
+    let _ = writeln!(
+        s,
+        "`host-sim mtts-wp --family-only --family {count}` (the full run: `--family 3000`). \
+         Members of `host_sim::scene_family` (period 3–8 px, width 6–20 px, exposed fraction \
+         0.3–0.8, tilt ±15°, shifts, 50–100 mm, footprint ⊗ Gaussian PSF σ 0.25–0.45 px, noise \
+         0–0.5 K, T1 − T2 within ±20 K), first frames of the default MTTS (s = 4, exact, K = 5) \
+         with the mode's prior (heating modes: heater hotter; forming: surface hotter). Seen: \
+         seeds {}…, the range the constants of `mtts::lattice` were tuned on; unseen: seeds {}…, \
+         never used while tuning. Errors are over every frame of a cell, whatever its quality \
+         (a merged frame's T1 and T2 are the area-weighted mean); *merged−mean* is a merged \
+         frame's distance to the true area-weighted mean; a swap is a resolved frame whose \
+         T1 − T2 has the wrong sign (|gap| ≥ 1 K). A cell is *unresolvable* when fewer than half \
+         its frames resolve. The last columns: the clustering alone (the thesis method).\n",
+        SEEN.start, UNSEEN.start
+    );
+    s += &family_markdown(&[("seen", &seen), ("unseen", &unseen)]);
+    for (name, outs) in [
+        ("seen, prior", &seen),
+        ("unseen, prior", &unseen),
+        ("unseen, no prior", &blind),
+    ] {
+        let (e1, e2, swaps, merged) = family_headline(outs);
+        let _ = writeln!(
+            s,
+            "\n- {name}: periods ≥ 4 px, gaps ≥ 3 K: mean abs T1 error {e1:.2} K, T2 {e2:.2} K; \
+             swaps {swaps} (all cells); largest merged−mean {merged:.2} K."
+        );
+    }
+    s
 }

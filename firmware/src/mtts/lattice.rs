@@ -33,7 +33,7 @@
 //! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
 
 use super::regions::{CORE_U, Coords, Geometry};
-use super::{IMG_PIXELS, Prior};
+use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
 use crate::measurement::Quality;
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
@@ -66,11 +66,11 @@ const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
-const FREQ_STEP: f32 = 0.01;
+const FREQ_STEP: f32 = 0.012;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
 const H_FIRST: f32 = 0.2;
-const H_STEP: f32 = 0.02;
-const H_COUNT: usize = 31;
+const H_STEP: f32 = 0.025;
+const H_COUNT: usize = 25;
 
 /// Result of one frame's separation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -135,110 +135,149 @@ pub fn lattice_core_u(half_width_px: f32) -> f32 {
     (CORE_U - 0.75 / w).max(0.6 / w).min(CORE_U)
 }
 
-/// The core's axial profile (1 px bins) for the period search.
-struct Profile {
-    sum: [f32; BINS],
-    cnt: [f32; BINS],
-    used: usize,
-    t0: f32,
-    total: f32,
-    mean_dev: f32,
-}
-
-/// The core's pixels: reference value (first core pixel), count, mean, range.
+/// The core's reference value, mean and range, K.
 struct Core {
     reference: f32,
-    n: f32,
     mean: f32,
     lo: f32,
     hi: f32,
 }
 
-fn core_stats(img: &[f32; IMG_PIXELS], xy: &Coords, u_core: f32) -> Option<Core> {
-    let mut c = Core {
-        reference: 0.0,
-        n: 0.0,
-        mean: 0.0,
-        lo: f32::INFINITY,
-        hi: f32::NEG_INFINITY,
-    };
-    let mut s = 0f32;
-    for (&u, &v) in xy.u.iter().zip(img.iter()) {
-        if u < u_core {
-            if c.n == 0.0 {
-                c.reference = v;
-            }
-            c.n += 1.0;
-            s += v - c.reference;
-            if v < c.lo {
-                c.lo = v;
-            }
-            if v > c.hi {
-                c.hi = v;
+/// Fine bins per pixel of axial length.
+const FINE: usize = 4;
+/// Fine bins of the core's axial profile.
+const FINE_BINS: usize = FINE * BINS;
+
+/// The core's pixels binned along the axis (one pass over the image): per fine bin (¼ px) the
+/// sum of values less the reference, the count and the sum of axial positions; with the core's
+/// count, mean and range.
+struct Profile {
+    sum: [f32; FINE_BINS],
+    cnt: [f32; FINE_BINS],
+    tsum: [f32; FINE_BINS],
+    /// Fine bins in use (the last non-empty one + 1).
+    used: usize,
+    /// Axial position of bin 0's start, pixels.
+    t0: f32,
+    reference: f32,
+    total: f32,
+    mean_dev: f32,
+    lo: f32,
+    hi: f32,
+}
+
+impl Profile {
+    fn of(img: &[f32; IMG_PIXELS], xy: &Coords, u_core: f32) -> Option<Profile> {
+        // The smallest axial coordinate in the image is at a corner.
+        let corners = [0, IMG_COLS - 1, (IMG_ROWS - 1) * IMG_COLS, IMG_PIXELS - 1];
+        let mut tmin = f32::INFINITY;
+        for p in corners {
+            if xy.t[p] < tmin {
+                tmin = xy.t[p];
             }
         }
+        let t0 = floor(tmin);
+        let mut p = Profile {
+            sum: [0.0; FINE_BINS],
+            cnt: [0.0; FINE_BINS],
+            tsum: [0.0; FINE_BINS],
+            used: 0,
+            t0,
+            reference: 0.0,
+            total: 0.0,
+            mean_dev: 0.0,
+            lo: f32::INFINITY,
+            hi: f32::NEG_INFINITY,
+        };
+        let mut s = 0f32;
+        for ((&u, &t), &v) in xy.u.iter().zip(xy.t.iter()).zip(img.iter()) {
+            if u < u_core {
+                if p.total == 0.0 {
+                    p.reference = v;
+                }
+                let dt = t - t0;
+                let b = ((dt * FINE as f32) as usize).min(FINE_BINS - 1);
+                let y = v - p.reference;
+                p.sum[b] += y;
+                p.cnt[b] += 1.0;
+                p.tsum[b] += t;
+                p.total += 1.0;
+                s += y;
+                if b >= p.used {
+                    p.used = b + 1;
+                }
+                if v < p.lo {
+                    p.lo = v;
+                }
+                if v > p.hi {
+                    p.hi = v;
+                }
+            }
+        }
+        (p.total > 0.0).then(|| {
+            p.mean_dev = s / p.total;
+            p
+        })
     }
-    (c.n > 0.0).then(|| {
-        c.mean = c.reference + s / c.n;
+
+    /// Pixels of axial length covered (1 px bins).
+    fn length(&self) -> usize {
+        self.used.div_ceil(FINE)
+    }
+}
+
+/// The profile on 1 px bins, mean removed (bin b centred at t0 + b + ½), for the periodogram.
+struct Coarse {
+    y: [f32; BINS],
+    used: usize,
+    t0: f32,
+    total: f32,
+}
+
+impl Coarse {
+    fn of(p: &Profile) -> Coarse {
+        let mut c = Coarse {
+            y: [0.0; BINS],
+            used: p.length().min(BINS),
+            t0: p.t0,
+            total: p.total.max(1.0),
+        };
+        for (b, (s4, c4)) in p.sum[..p.used]
+            .chunks(FINE)
+            .zip(p.cnt[..p.used].chunks(FINE))
+            .enumerate()
+            .take(BINS)
+        {
+            let (mut y, mut n) = (0f32, 0f32);
+            for (&a, &k) in s4.iter().zip(c4) {
+                y += a;
+                n += k;
+            }
+            c.y[b] = y - n * p.mean_dev;
+        }
         c
-    })
+    }
 }
 
-fn profile(img: &[f32; IMG_PIXELS], xy: &Coords, u_core: f32, reference: f32) -> Profile {
-    let mut tmin = f32::INFINITY;
-    for (&u, &t) in xy.u.iter().zip(xy.t.iter()) {
-        if u < u_core && t < tmin {
-            tmin = t;
-        }
-    }
-    let t0 = floor(tmin);
-    let mut p = Profile {
-        sum: [0.0; BINS],
-        cnt: [0.0; BINS],
-        used: 0,
-        t0,
-        total: 0.0,
-        mean_dev: 0.0,
-    };
-    let mut s = 0f32;
-    for ((&u, &t), &v) in xy.u.iter().zip(xy.t.iter()).zip(img.iter()) {
-        if u < u_core {
-            let b = ((t - t0) as usize).min(BINS - 1);
-            p.sum[b] += v - reference;
-            p.cnt[b] += 1.0;
-            p.total += 1.0;
-            s += v - reference;
-            if b + 1 > p.used {
-                p.used = b + 1;
-            }
-        }
-    }
-    if p.total > 0.0 {
-        p.mean_dev = s / p.total;
-    }
-    p
-}
-
-/// |fundamental| of the profile at `nu` cycles per pixel (mean removed), K.
-fn amplitude(p: &Profile, nu: f32) -> f32 {
+/// |fundamental| of the profile at `nu` cycles per pixel, K.
+fn amplitude(p: &Coarse, nu: f32) -> f32 {
     // z = e^{-i2πνt} at the bin centres, stepped by w = e^{-i2πν}.
     let (mut zs, mut zc) = sin_cos_turns(-nu * (p.t0 + 0.5));
     let (wr_s, wr_c) = sin_cos_turns(-nu);
     let (mut re, mut im) = (0f32, 0f32);
-    for b in 0..p.used {
-        let y = p.sum[b] - p.cnt[b] * p.mean_dev;
+    for &y in &p.y[..p.used] {
         re += y * zc;
         im += y * zs;
         let nc = zc * wr_c - zs * wr_s;
         zs = zs * wr_c + zc * wr_s;
         zc = nc;
     }
-    2.0 * crate::fmath::sqrt(re * re + im * im) / p.total.max(1.0)
+    2.0 * crate::fmath::sqrt(re * re + im * im) / p.total
 }
 
 /// Find the lattice frequency: the periodogram's peak (parabola through the best grid point
 /// and its neighbours) in [lo, hi] cycles per pixel, with its fundamental amplitude.
-fn find_frequency(p: &Profile, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)> {
+fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)> {
     if hi <= lo {
         return None;
     }
@@ -282,14 +321,7 @@ struct HarmonicFit {
     sigma2: f32,
 }
 
-fn harmonic_fit(
-    img: &[f32; IMG_PIXELS],
-    xy: &Coords,
-    u_core: f32,
-    reference: f32,
-    nu: f32,
-    harmonics: usize,
-) -> Option<HarmonicFit> {
+fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     let n = 1 + 2 * harmonics;
     let mut f = HarmonicFit {
         n,
@@ -298,12 +330,16 @@ fn harmonic_fit(
         theta: [0.0; NP],
         sigma2: 0.0,
     };
-    let (mut yy, mut count) = (0f32, 0f32);
-    for ((&u, &t), &v) in xy.u.iter().zip(xy.t.iter()).zip(img.iter()) {
-        if u >= u_core {
+    // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
+    // sample at their mean position, their count its weight.
+    let (mut yy, mut bins) = (0f32, 0f32);
+    for b in 0..p.used {
+        let w = p.cnt[b];
+        if w == 0.0 {
             continue;
         }
-        let (s1, c1) = sin_cos_turns(nu * t);
+        let inv = 1.0 / w;
+        let (s1, c1) = sin_cos_turns(nu * (p.tsum[b] * inv));
         let mut x = [0f32; NP];
         x[0] = 1.0;
         let (mut c, mut s) = (c1, s1);
@@ -314,17 +350,18 @@ fn harmonic_fit(
             s = s * c1 + c * s1;
             c = nc;
         }
-        let y = v - reference;
+        let y = p.sum[b] * inv;
         for i in 0..n {
-            f.rhs[i] += x[i] * y;
+            let wx = w * x[i];
+            f.rhs[i] += wx * y;
             for j in i..n {
-                f.normal[i][j] += x[i] * x[j];
+                f.normal[i][j] += wx * x[j];
             }
         }
-        yy += y * y;
-        count += 1.0;
+        yy += w * y * y;
+        bins += 1.0;
     }
-    if count < n as f32 + 4.0 {
+    if bins < n as f32 + 4.0 {
         return None;
     }
     for i in 0..n {
@@ -334,8 +371,9 @@ fn harmonic_fit(
     }
     f.theta = solve(&f.normal, &f.rhs, n)?;
     let fit: f32 = (0..n).map(|i| f.theta[i] * f.rhs[i]).sum();
+    // Σ w·r² over the bins is (bins − n)·σ² for a pixel noise σ.
     let floor_k = 0.05f32;
-    f.sigma2 = ((yy - fit) / (count - n as f32)).max(floor_k * floor_k);
+    f.sigma2 = ((yy - fit) / (bins - n as f32)).max(floor_k * floor_k);
     Some(f)
 }
 
@@ -417,7 +455,7 @@ pub fn separate(
     prior: Prior,
 ) -> Separation {
     let u_core = lattice_core_u(g.half_width_px);
-    let Some(core) = core_stats(img, xy, u_core) else {
+    let Some(prof) = Profile::of(img, xy, u_core) else {
         // No core pixel at all (cannot happen with a positive half-width): the image mean.
         let m = img.iter().sum::<f32>() / IMG_PIXELS as f32;
         return Separation {
@@ -428,6 +466,12 @@ pub fn separate(
             quality: Quality::Fallback,
         };
     };
+    let core = Core {
+        reference: prof.reference,
+        mean: prof.reference + prof.mean_dev,
+        lo: prof.lo,
+        hi: prof.hi,
+    };
     let fallback = Separation {
         t1_k: core.mean,
         t2_k: core.mean,
@@ -435,8 +479,7 @@ pub fn separate(
         bound_k: 0.5 * (core.hi - core.lo),
         quality: Quality::Fallback,
     };
-    let prof = profile(img, xy, u_core, core.reference);
-    let length = prof.used as f32;
+    let length = prof.length() as f32;
     let p_max = PERIOD_MAX_PX.min(length / 1.5);
     let (lo, hi, step) = if g.lattice_known {
         let nu = 1.0 / g.period_px;
@@ -444,8 +487,9 @@ pub fn separate(
     } else {
         (1.0 / p_max, 1.0 / PERIOD_MIN_PX, FREQ_STEP)
     };
+    let coarse = Coarse::of(&prof);
     let found = find_frequency(
-        &prof,
+        &coarse,
         lo.max(1.0 / p_max),
         hi.min(1.0 / PERIOD_MIN_PX),
         step,
@@ -461,7 +505,7 @@ pub fn separate(
     // Harmonics below 0.45 cycles per pixel, fewer if the fit is ill-conditioned.
     let mut harmonics = ((0.45 / nu) as usize).clamp(1, HARMONICS);
     let fit = loop {
-        match harmonic_fit(img, xy, u_core, core.reference, nu, harmonics) {
+        match harmonic_fit(&prof, nu, harmonics) {
             Some(f) => break Some(f),
             None if harmonics > 1 => harmonics -= 1,
             None => break None,
