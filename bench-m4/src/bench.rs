@@ -137,10 +137,13 @@ fn main() -> ! {
     let (_, t_cyl) = measure(|| black_box(thermorph::mtts::regions::fit_cylinder(&scratch.work)));
     let (xy, t_xy) = measure(|| g0.coords_all());
     let (_, t_lat) = measure(|| {
-        black_box(
-            thermorph::mtts::regions::Profile::of(&scratch.work, &xy)
-                .and_then(|p| thermorph::mtts::regions::fit_lattice(&p, None)),
-        )
+        let mut g = g0;
+        black_box(thermorph::mtts::lattice::separate(
+            &scratch.work,
+            &xy,
+            &mut g,
+            thermorph::mtts::Prior::Unknown,
+        ))
     });
     let (_, t_ov) = measure(|| {
         black_box(thermorph::mtts::regions::overlap(

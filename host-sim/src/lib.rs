@@ -11,6 +11,7 @@
 //! - [`run`]: `host-sim run`, a scene played against the plant, and its outputs.
 //! - [`scenario`]: scene files (TOML) and the bundled scenes.
 //! - [`scene`]: the camera's view of the block, with ground truth.
+//! - [`scene_family`]: randomized views of the block through the MLX90640 optics (MTTS robustness).
 //! - [`sim_time`]: the simulated clock and delay.
 //! - [`to_roots`]: root variants of the To calculation and its f64 reference.
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
@@ -27,6 +28,7 @@ pub mod plot;
 pub mod run;
 pub mod scenario;
 pub mod scene;
+pub mod scene_family;
 pub mod sensor_demo;
 pub mod sim_time;
 pub mod to_roots;

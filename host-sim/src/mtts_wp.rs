@@ -11,19 +11,24 @@
 //!   monotone), independent of the firmware's binned solver;
 //! - Cortex-M4 instruction counts parsed from a saved `scripts/bench-m4` output ([`M4Counts`]);
 //! - the roots table (variant, max |ΔTo| against the f64 reference of [`crate::to_roots`],
-//!   to_768 instructions) and the Pareto fronts of both tables ([`pareto`]).
+//!   to_768 instructions) and the Pareto fronts of both tables ([`pareto`]);
+//! - the scene family ([`crate::scene_family`]): T1/T2 error distributions by lattice period
+//!   and gap on the tuning seeds and on unseen ones, quality, swaps ([`family_outcomes`],
+//!   [`family_markdown`]).
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
 use thermorph::mtts::upsample::{UpsampleScratch, Upsampler};
-use thermorph::mtts::{self, Config, IMG_PIXELS, Method, Mtts, Scratch};
+use thermorph::mtts::{self, Config, IMG_PIXELS, Method, Mtts, Prior, Quality, Scratch};
 
 use crate::mtts_cli::method_name;
 use crate::scene::{Scene, standard_scenes};
+use crate::scene_family::Member;
 use crate::to_roots;
 
 /// Options of `host-sim mtts-wp`.
@@ -38,6 +43,12 @@ pub struct WpArgs {
     /// Noise seeds per scene, and method seeds per image (≥ 2 for a spread).
     #[arg(long, default_value_t = 5)]
     pub seeds: u64,
+    /// Scene-family members per seed range (tuning seeds, unseen seeds); the full run: 3000.
+    #[arg(long, default_value_t = 300)]
+    pub family: u64,
+    /// Print only the scene-family section (no standard scenes, no sensor data needed).
+    #[arg(long)]
+    pub family_only: bool,
 }
 
 /// What to measure.
@@ -765,6 +776,18 @@ fn default_verdict(rows: &[Row], front: &[bool], cost_name: &str) -> String {
 
 /// Run `host-sim mtts-wp`.
 pub fn run(args: &WpArgs) -> Result<(), String> {
+    if args.family_only {
+        let md = family_section(args.family);
+        return match &args.out {
+            Some(p) => {
+                std::fs::write(p, md).map_err(|e| format!("{}: cannot write: {e}", p.display()))
+            }
+            None => {
+                print!("{md}");
+                Ok(())
+            }
+        };
+    }
     if args.seeds < 2 {
         return Err("--seeds must be at least 2 (the spread needs two method seeds)".into());
     }
@@ -786,7 +809,7 @@ pub fn run(args: &WpArgs) -> Result<(), String> {
         m4.fill(&mut rows, &mut roots)
             .map_err(|e| format!("{}: {e}", args.m4.as_ref().unwrap().display()))?;
     }
-    let md = markdown(&cfg, &rows, &roots);
+    let md = markdown(&cfg, &rows, &roots) + "\n" + &family_section(args.family);
     match &args.out {
         Some(p) => std::fs::write(p, md).map_err(|e| format!("{}: cannot write: {e}", p.display())),
         None => {
@@ -794,4 +817,194 @@ pub fn run(args: &WpArgs) -> Result<(), String> {
             Ok(())
         }
     }
+}
+
+/// One family member's outcome under the default MTTS.
+#[derive(Clone, Copy, Debug)]
+pub struct FamilyOutcome {
+    /// Lattice period, pixels.
+    pub period_px: f64,
+    /// True T1 − T2, K.
+    pub gap_k: f64,
+    /// |T1 − truth|, |T2 − truth|, K.
+    pub err_k: [f64; 2],
+    /// The same for the clustering alone (the thesis method).
+    pub cluster_err_k: [f64; 2],
+    /// |merged value − true area-weighted mean|, K (merged frames).
+    pub merged_err_k: Option<f64>,
+    /// The frame's quality.
+    pub quality: Quality,
+    /// The bound the frame reported, K.
+    pub bound_k: f64,
+    /// A resolved frame whose T1 − T2 has the wrong sign (|gap| ≥ 1 K).
+    pub swapped: bool,
+}
+
+/// Run the default MTTS on `count` members of the family from `seeds` (first frames, fresh
+/// pipeline each), with the mode's prior (the sign of the true gap) when `with_prior`.
+pub fn family_outcomes(seeds: Range<u64>, count: u64, with_prior: bool) -> Vec<FamilyOutcome> {
+    let mut scratch = Box::new(Scratch::new());
+    (seeds.start..seeds.start + count.min(seeds.end - seeds.start))
+        .map(|seed| {
+            let m = Member::draw(seed);
+            let r = m.render();
+            let mut mtts = Mtts::new(Config::default()).expect("default config");
+            let gap = m.gap_k();
+            if with_prior {
+                mtts.set_prior(if gap >= 0.0 {
+                    Prior::HeaterHotter
+                } else {
+                    Prior::SurfaceHotter
+                });
+            }
+            let out = mtts
+                .process(&r.image_k, &mut scratch)
+                .expect("a family frame is valid");
+            let (t1, t2) = (out.t1().k() as f64, out.t2().k() as f64);
+            let truth = [m.temps.heater_k, m.temps.surface_k];
+            let est_gap = t1 - t2;
+            FamilyOutcome {
+                period_px: m.geometry.period_px,
+                gap_k: gap,
+                err_k: [(t1 - truth[0]).abs(), (t2 - truth[1]).abs()],
+                cluster_err_k: [
+                    (out.clustered[0].k() as f64 - truth[0]).abs(),
+                    (out.clustered[1].k() as f64 - truth[1]).abs(),
+                ],
+                merged_err_k: (out.quality == Quality::Merged).then(|| (t1 - m.mean_k()).abs()),
+                quality: out.quality,
+                bound_k: out.bound.k() as f64,
+                swapped: out.quality == Quality::Resolved
+                    && gap.abs() >= 1.0
+                    && est_gap * gap < 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Mean, 95th percentile and max of `v` (zeros when empty).
+pub fn distribution(v: &mut [f64]) -> (f64, f64, f64) {
+    if v.is_empty() {
+        return (0.0, 0.0, 0.0);
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let p95 = v[((0.95 * (n - 1) as f64).round() as usize).min(n - 1)];
+    (v.iter().sum::<f64>() / n as f64, p95, v[n - 1])
+}
+
+/// Period bins of the family table, pixels.
+pub const FAMILY_PERIODS: [(f64, f64); 4] = [(3.0, 4.0), (4.0, 5.0), (5.0, 6.0), (6.0, 8.0)];
+/// |T1 − T2| bins of the family table, K.
+pub const FAMILY_GAPS: [(f64, f64); 4] = [(0.0, 1.0), (1.0, 3.0), (3.0, 10.0), (10.0, 20.0)];
+
+/// The family's markdown table: one row per seed range × period bin × gap bin.
+pub fn family_markdown(ranges: &[(&str, &[FamilyOutcome])]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| seeds | period px | abs gap K | n | resolved % | merged % | mean abs T1 err K | p95 | max | mean abs T2 err K | p95 | max | max merged−mean K | swaps | clustering mean abs T1, T2 err K | |"
+    );
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for (name, outs) in ranges {
+        for &(plo, phi) in &FAMILY_PERIODS {
+            for &(glo, ghi) in &FAMILY_GAPS {
+                let cell: Vec<&FamilyOutcome> = outs
+                    .iter()
+                    .filter(|o| o.period_px >= plo && o.period_px < phi)
+                    .filter(|o| o.gap_k.abs() >= glo && o.gap_k.abs() < ghi)
+                    .collect();
+                if cell.is_empty() {
+                    continue;
+                }
+                let n = cell.len() as f64;
+                let res = cell
+                    .iter()
+                    .filter(|o| o.quality == Quality::Resolved)
+                    .count() as f64;
+                let mer = cell.iter().filter(|o| o.quality == Quality::Merged).count() as f64;
+                let mut e1: Vec<f64> = cell.iter().map(|o| o.err_k[0]).collect();
+                let mut e2: Vec<f64> = cell.iter().map(|o| o.err_k[1]).collect();
+                let (m1, p1, x1) = distribution(&mut e1);
+                let (m2, p2, x2) = distribution(&mut e2);
+                let merged_max = cell
+                    .iter()
+                    .filter_map(|o| o.merged_err_k)
+                    .fold(0.0f64, f64::max);
+                let swaps = cell.iter().filter(|o| o.swapped).count();
+                let c1 = cell.iter().map(|o| o.cluster_err_k[0]).sum::<f64>() / n;
+                let c2 = cell.iter().map(|o| o.cluster_err_k[1]).sum::<f64>() / n;
+                let mark = if res < 0.5 * n { "unresolvable" } else { "" };
+                let _ = writeln!(
+                    s,
+                    "| {name} | {plo}–{phi} | {glo}–{ghi} | {} | {:.0} | {:.0} | {m1:.2} | {p1:.2} | {x1:.2} | {m2:.2} | {p2:.2} | {x2:.2} | {merged_max:.2} | {swaps} | {c1:.1}, {c2:.1} | {mark} |",
+                    cell.len(),
+                    100.0 * res / n,
+                    100.0 * mer / n,
+                );
+            }
+        }
+    }
+    s
+}
+
+/// The headline figures of a set of outcomes at periods ≥ 4 px and gaps ≥ 3 K: mean |T1|
+/// and |T2| errors, swaps, and (over every merged frame) the largest merged − mean error.
+pub fn family_headline(outs: &[FamilyOutcome]) -> (f64, f64, usize, f64) {
+    let sel: Vec<&FamilyOutcome> = outs
+        .iter()
+        .filter(|o| o.period_px >= 4.0 && o.gap_k.abs() >= 3.0)
+        .collect();
+    let n = sel.len().max(1) as f64;
+    (
+        sel.iter().map(|o| o.err_k[0]).sum::<f64>() / n,
+        sel.iter().map(|o| o.err_k[1]).sum::<f64>() / n,
+        outs.iter().filter(|o| o.swapped).count(),
+        outs.iter()
+            .filter_map(|o| o.merged_err_k)
+            .fold(0.0, f64::max),
+    )
+}
+
+/// The scene-family section of the table: `count` members from the tuning seeds and `count`
+/// unseen ones, with the mode's prior; then the unseen ones without a prior.
+pub fn family_section(count: u64) -> String {
+    use crate::scene_family::{SEEN, UNSEEN};
+    let seen = family_outcomes(SEEN, count, true);
+    let unseen = family_outcomes(UNSEEN, count, true);
+    let blind = family_outcomes(UNSEEN, count, false);
+    let mut s = String::new();
+    let _ = writeln!(s, "## Scene family: seen and unseen seeds\n");
+    let _ = writeln!(
+        s,
+        "`host-sim mtts-wp --family-only --family {count}` (the full run: `--family 3000`). \
+         Members of `host_sim::scene_family` (period 3–8 px, width 6–20 px, exposed fraction \
+         0.3–0.8, tilt ±15°, shifts, 50–100 mm, footprint ⊗ Gaussian PSF σ 0.25–0.45 px, noise \
+         0–0.5 K, T1 − T2 within ±20 K), first frames of the default MTTS (s = 4, exact, K = 5) \
+         with the mode's prior (heating modes: heater hotter; forming: surface hotter). Seen: \
+         seeds {}…, the range the constants of `mtts::lattice` were tuned on; unseen: seeds {}…, \
+         never used while tuning. Errors are over every frame of a cell, whatever its quality \
+         (a merged frame's T1 and T2 are the area-weighted mean); *merged−mean* is a merged \
+         frame's distance to the true area-weighted mean; a swap is a resolved frame whose \
+         T1 − T2 has the wrong sign (|gap| ≥ 1 K). A cell is *unresolvable* when fewer than half \
+         its frames resolve. The last columns: the clustering alone (the thesis method).\n",
+        SEEN.start, UNSEEN.start
+    );
+    s += &family_markdown(&[("seen", &seen), ("unseen", &unseen)]);
+    for (name, outs) in [
+        ("seen, prior", &seen),
+        ("unseen, prior", &unseen),
+        ("unseen, no prior", &blind),
+    ] {
+        let (e1, e2, swaps, merged) = family_headline(outs);
+        let _ = writeln!(
+            s,
+            "\n- {name}: periods ≥ 4 px, gaps ≥ 3 K: mean abs T1 error {e1:.2} K, T2 {e2:.2} K; \
+             swaps {swaps} (all cells); largest merged−mean {merged:.2} K."
+        );
+    }
+    s
 }

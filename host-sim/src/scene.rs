@@ -3,7 +3,7 @@
 //!
 //! Geometry (in sensor pixels; the block's sizes live in `thermorph::block`): the cylinder is a
 //! band around an axis `col = axis_col0 + tan(tilt)·row` of half-width `half_width_px`. Along
-//! the axis the lattice repeats every `period_px`: the first `LATTICE_GAP_FRACTION` of each unit
+//! the axis the lattice repeats every `period_px`: the first `exposed` fraction (default `LATTICE_GAP_FRACTION`) of each unit
 //! (from `phase_px`) is a gap where the PI heater film shows (region 1), the rest is SMP ring
 //! (region 2). The outer `edge_fraction` of the half-width, seen at grazing angles, is region 3.
 //! Beside the cylinder a band `radiation_px` wide is the radiation zone (region 4); beyond it
@@ -32,6 +32,8 @@ pub struct Geometry {
     pub period_px: f64,
     /// Axial position where a gap starts, pixels.
     pub phase_px: f64,
+    /// Fraction of each lattice unit where the heater shows (the gap as seen from the camera).
+    pub exposed: f64,
     /// Outer fraction of the half-width that is edge (region 3).
     pub edge_fraction: f64,
     /// Width of the radiation zone beside the cylinder, pixels.
@@ -50,6 +52,7 @@ impl Default for Geometry {
             half_width_px: 8.0,
             period_px: 15.0,
             phase_px: 2.0,
+            exposed: LATTICE_GAP_FRACTION as f64,
             edge_fraction: 0.2,
             radiation_px: 3.0,
             springs: false,
@@ -147,11 +150,7 @@ pub fn sample(g: &Geometry, row: f64, col: f64) -> Option<usize> {
         }
         let x = t - g.phase_px;
         let ph = x - (x / g.period_px).floor() * g.period_px;
-        return Some(if ph < LATTICE_GAP_FRACTION as f64 * g.period_px {
-            0
-        } else {
-            1
-        });
+        return Some(if ph < g.exposed * g.period_px { 0 } else { 1 });
     }
     if g.springs && (ad - (g.half_width_px + 1.5)).abs() < 0.25 {
         return None;

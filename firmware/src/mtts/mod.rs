@@ -7,19 +7,25 @@
 //! 3. [`cluster`]: exact 1-D k-means of the binned values (K = 2…8, default 5) by dynamic
 //!    programming — or Lloyd with random / k-means++ seeding for comparison;
 //! 4. [`regions`]: clusters mapped to regions by where their pixels lie (cylinder axis, lattice
-//!    phase, continuity with the previous frame), so T1 stays the heater area and T2 the SMP
-//!    surface through the forming mode's hot-zone inversion.
+//!    phase, continuity with the previous frame);
+//! 5. [`lattice`]: T1 and T2 by least squares on the per-pixel region-mix forward model of the
+//!    cylinder's core (the refinement of SPEC section 3), with the supervisor's [`Prior`], a
+//!    bound and a per-frame [`Quality`] (resolved, merged, fallback) — never NaN, never a
+//!    guess presented as a measurement.
 //!
 //! [`Mtts`] owns the settings and the state that persists between frames (the last geometry);
 //! [`Scratch`] is the working memory (≈ 43 KB, all zero at start so a `static` of it costs no
 //! flash); [`Mtts::process`] runs one frame. No heap.
 
 pub mod cluster;
+pub mod lattice;
 pub mod regions;
 pub mod upsample;
 
 use cluster::{Clusters, DEFAULT_BINS, DpScratch, Histogram, Seeding, XorShift};
-use regions::{Coords, Geometry, Quality};
+use regions::{Coords, Fresh, Geometry};
+
+pub use crate::measurement::Quality;
 use upsample::{UpsampleScratch, Upsampler};
 
 use crate::units::Kelvin;
@@ -60,6 +66,14 @@ pub enum MttsError {
     },
     /// No pixel holds a plausible temperature.
     NoValidPixels,
+    /// More pixels were broken than [`Config::max_filled`] allows to fill in (the sensor-loss
+    /// fault).
+    TooManyBroken {
+        /// Broken pixels in the frame.
+        broken: u16,
+        /// The limit.
+        limit: u16,
+    },
 }
 
 impl core::fmt::Display for MttsError {
@@ -69,6 +83,9 @@ impl core::fmt::Display for MttsError {
             Self::BadK { k } => write!(f, "cluster count {k} is not 2-8"),
             Self::BadBins { bins } => write!(f, "histogram bins {bins} is not 2-512"),
             Self::NoValidPixels => write!(f, "no valid pixel in the frame"),
+            Self::TooManyBroken { broken, limit } => {
+                write!(f, "{broken} broken pixels, more than the {limit} allowed")
+            }
         }
     }
 }
@@ -113,7 +130,16 @@ pub struct Config {
     pub method: Method,
     /// Seed of the Lloyd methods' generator.
     pub seed: u64,
+    /// Most broken pixels a frame may have filled in; above it the frame is refused
+    /// ([`MttsError::TooManyBroken`]).
+    pub max_filled: u16,
 }
+
+/// Default [`Config::max_filled`]: 32 pixels (4 % of the frame). The MLX90640 datasheet allows
+/// at most 4 defective pixels per device; 32 leaves room for those plus transient outliers,
+/// while filled pixels stay isolated enough to be interpolated and cannot cover more than a
+/// quarter of the smallest cylinder core (≈ 6 × 24 px at 100 mm).
+pub const DEFAULT_MAX_FILLED: u16 = 32;
 
 impl Default for Config {
     /// s = 4, K = 5, 128 bins, exact: SPEC section 3 (bins: the Cortex-M4 budget).
@@ -124,6 +150,7 @@ impl Default for Config {
             bins: DEFAULT_BINS as u16,
             method: Method::Exact,
             seed: 1,
+            max_filled: DEFAULT_MAX_FILLED,
         }
     }
 }
@@ -140,21 +167,29 @@ pub struct Region {
     pub zone_pixels: u16,
 }
 
-/// One frame's MTTS result.
+/// One frame's MTTS result (every temperature finite).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Output {
-    /// Regions 1…5 (heater, surface, edge, radiation, background).
+    /// Regions 1…5 (heater, surface, edge, radiation, background). T1 and T2 are the
+    /// [`lattice`] fit's; regions 3–5 their clusters' means.
     pub regions: [Region; REGIONS],
-    /// Lowest sensor pixel over the cylinder (core and edges).
-    pub cylinder_min: Kelvin,
-    /// Highest sensor pixel over the cylinder.
-    pub cylinder_max: Kelvin,
+    /// How well T1 and T2 were separated this frame.
+    pub quality: Quality,
+    /// Bound on |T1 − truth| and |T2 − truth|, K (for a merged frame: how far either may lie
+    /// from the area-weighted mean both carry).
+    pub bound: Kelvin,
+    /// T1 and T2 as the clustering alone assigns them (the thesis method, for comparison).
+    pub clustered: [Kelvin; 2],
+    /// Lowest sensor pixel over the cylinder (core and edges), if any pixel lies on it.
+    pub cylinder_min: Option<Kelvin>,
+    /// Highest sensor pixel over the cylinder, if any pixel lies on it.
+    pub cylinder_max: Option<Kelvin>,
     /// The clusters.
     pub clusters: Clusters,
     /// The geometry used.
     pub geometry: Geometry,
     /// What was re-estimated this frame.
-    pub quality: Quality,
+    pub fresh: Fresh,
     /// Pixels that were broken and filled in.
     pub filled_pixels: u16,
 }
@@ -342,7 +377,7 @@ impl Mtts {
     }
 
     /// Stage 1–2: inpaint into `scratch.work`, upsample into `scratch.hist`. Returns how many
-    /// pixels were broken and filled.
+    /// pixels were broken and filled; refuses a frame with more than `max_filled` of them.
     pub fn stage_upsample(
         &mut self,
         image: &[f32; IMG_PIXELS],
@@ -350,6 +385,12 @@ impl Mtts {
     ) -> Result<u16, MttsError> {
         scratch.work = *image;
         let (filled, lo, hi) = inpaint_range(&mut scratch.work)?;
+        if filled > self.config.max_filled {
+            return Err(MttsError::TooManyBroken {
+                broken: filled,
+                limit: self.config.max_filled,
+            });
+        }
         scratch.hist.reset(lo, hi, self.config.bins as usize)?;
         let Scratch { up, hist, work, .. } = scratch;
         self.upsampler.histogram(work, hist, up);
@@ -369,7 +410,8 @@ impl Mtts {
         }
     }
 
-    /// Stage 4: regions from the filled image and the clusters; updates the geometry.
+    /// Stage 4: regions from the filled image and the clusters, T1 and T2 from the lattice
+    /// fit; updates the geometry.
     pub fn stage_regions(
         &mut self,
         clusters: &Clusters,
@@ -377,11 +419,12 @@ impl Mtts {
         scratch: &mut Scratch,
     ) -> Output {
         let Scratch { work, xy, .. } = scratch;
-        let (g, quality) = regions::update_geometry(work, &self.geometry, xy);
+        let (mut g, fresh) = regions::update_geometry(work, &self.geometry, xy);
+        let sep = lattice::separate(work, xy, &mut g, self.prior);
         self.geometry = g;
         let o = regions::overlap(work, &g, xy, clusters);
         let pick = regions::assign(&o, clusters.k);
-        let regions: [Region; REGIONS] = core::array::from_fn(|z| {
+        let mut regions: [Region; REGIONS] = core::array::from_fn(|z| {
             let zone_pixels = o[z].iter().sum();
             match pick[z] {
                 Some(c) => Region {
@@ -389,13 +432,17 @@ impl Mtts {
                     pixels: clusters.counts[c],
                     zone_pixels,
                 },
+                // A zone without pixels: the cylinder's mean stands in (never NaN).
                 None => Region {
-                    temp: Kelvin(f32::NAN),
+                    temp: Kelvin(sep.mean_k),
                     pixels: 0,
                     zone_pixels,
                 },
             }
         });
+        let clustered = [regions[0].temp, regions[1].temp];
+        regions[0].temp = Kelvin(sep.t1_k);
+        regions[1].temp = Kelvin(sep.t2_k);
         let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
         for (&u, &v) in xy.u.iter().zip(work.iter()) {
             // Plain comparisons: `f32::min` is a library call on the Cortex-M4.
@@ -408,13 +455,17 @@ impl Mtts {
                 }
             }
         }
+        let on = mn <= mx;
         Output {
             regions,
-            cylinder_min: Kelvin(mn),
-            cylinder_max: Kelvin(mx),
+            quality: sep.quality,
+            bound: Kelvin(sep.bound_k),
+            clustered,
+            cylinder_min: on.then_some(Kelvin(mn)),
+            cylinder_max: on.then_some(Kelvin(mx)),
             clusters: *clusters,
             geometry: g,
-            quality,
+            fresh,
             filled_pixels: filled,
         }
     }
@@ -449,15 +500,83 @@ mod tests {
         );
     }
 
-    #[test]
-    fn uniform_scene_gives_one_temperature() {
-        let mut m = Mtts::new(Config::default()).unwrap();
-        let out = m.process(&[300.0; IMG_PIXELS], &mut scratch()).unwrap();
-        assert_eq!(out.clusters.k, 1);
-        for r in out.regions {
-            assert!((r.temp.k() - 300.0).abs() < 1e-4 || r.temp.k().is_nan());
+    /// Every region finite and in the image's range; returns the output.
+    fn finite(out: Output, lo: f32, hi: f32) -> Output {
+        for (z, r) in out.regions.iter().enumerate() {
+            let t = r.temp.k();
+            assert!(t.is_finite(), "region {} is {t}", z + 1);
+            assert!(t >= lo - 1e-3 && t <= hi + 1e-3, "region {}: {t}", z + 1);
         }
+        assert!(out.bound.k().is_finite() && out.bound.k() >= 0.0);
+        out
+    }
+
+    #[test]
+    fn uniform_scene_gives_one_temperature_and_falls_back() {
+        let mut m = Mtts::new(Config::default()).unwrap();
+        let out = finite(
+            m.process(&[300.0; IMG_PIXELS], &mut scratch()).unwrap(),
+            300.0,
+            300.0,
+        );
+        assert_eq!(out.clusters.k, 1);
+        assert_eq!(out.quality, Quality::Fallback);
         assert!((out.t1().k() - 300.0).abs() < 1e-4);
+        assert!((out.t2().k() - 300.0).abs() < 1e-4);
+        assert_eq!(out.cylinder_max, Some(Kelvin(300.0)));
+    }
+
+    #[test]
+    fn cold_power_up_gives_the_core_as_t2() {
+        // A cold block at 296 K on a 294 K background: no lattice visible, sensor noise.
+        let mut rng = cluster::XorShift::new(3);
+        let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+            let c = (p % IMG_COLS) as f32;
+            let noise = (rng.next_f32() - 0.5) * 0.2;
+            (if (c - 15.5).abs() < 6.0 { 296.0 } else { 294.0 }) + noise
+        });
+        let mut m = Mtts::new(Config::default()).unwrap();
+        let out = finite(m.process(&img, &mut scratch()).unwrap(), 293.8, 296.2);
+        assert_eq!(out.quality, Quality::Fallback);
+        assert!((out.t2().k() - 296.0).abs() < 0.1, "T2 {}", out.t2().k());
+        assert!((out.t1().k() - 296.0).abs() < 0.1, "T1 {}", out.t1().k());
+    }
+
+    #[test]
+    fn saturated_pixels_stay_finite() {
+        // A cylinder pinned at the sensor's top (573 K) over a cold background.
+        let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+            if ((p % IMG_COLS) as f32 - 15.5).abs() < 7.0 {
+                573.15
+            } else {
+                233.15
+            }
+        });
+        let mut m = Mtts::new(Config::default()).unwrap();
+        let out = finite(m.process(&img, &mut scratch()).unwrap(), 233.15, 573.15);
+        assert!((out.t2().k() - 573.15).abs() < 1.0, "T2 {}", out.t2().k());
+    }
+
+    #[test]
+    fn all_broken_but_one_region_is_refused_or_finite() {
+        // Only the background (left columns) survives.
+        let img: [f32; IMG_PIXELS] =
+            core::array::from_fn(|p| if p % IMG_COLS < 4 { 298.0 } else { f32::NAN });
+        let mut m = Mtts::new(Config::default()).unwrap();
+        assert_eq!(
+            m.process(&img, &mut scratch()).unwrap_err(),
+            MttsError::TooManyBroken {
+                broken: 672,
+                limit: DEFAULT_MAX_FILLED
+            }
+        );
+        let mut lax = Mtts::new(Config {
+            max_filled: IMG_PIXELS as u16,
+            ..Config::default()
+        })
+        .unwrap();
+        let out = finite(lax.process(&img, &mut scratch()).unwrap(), 298.0, 298.0);
+        assert_eq!(out.filled_pixels, 672);
     }
 
     #[test]
@@ -469,7 +588,7 @@ mod tests {
             ..Config::default()
         })
         .unwrap();
-        let out = m.process(&img, &mut scratch()).unwrap();
+        let out = finite(m.process(&img, &mut scratch()).unwrap(), 300.0, 400.0);
         assert_eq!(out.clusters.k, 2, "two distinct values");
         assert_eq!(out.clusters.counts[1], 1);
         // Values stand at their bin's centre: within half a bin of 400 K.

@@ -11,14 +11,9 @@
 //!    distance ratio u = |d|/w and an axial coordinate t along the axis.
 //! 3. Zones: u < [`CORE_U`] core, < [`EDGE_U`] edge (region 3), < [`RADIATION_U`] radiation
 //!    (region 4), else background (region 5).
-//! 4. Lattice: the core's mean temperature along t is fitted with a square wave of the
-//!    block's gap fraction (`block::LATTICE_GAP_FRACTION`, 71 %) over periods of
-//!    [`PERIOD_MIN_PX`]–[`PERIOD_MAX_PX`] and all phases; the part of each period that is
-//!    `gap fraction` long is the heater area (region 1), the rest SMP surface (region 2). The
-//!    sign of the contrast is ignored: which part is hotter may flip (the hot-zone inversion
-//!    of forming) without changing which part is the gap. A fit weaker than
-//!    [`MIN_LATTICE_K`], or not clearly better than the previous frame's lattice, keeps the
-//!    previous lattice (continuity).
+//! 4. Lattice: fitted by [`super::lattice`] (period, phase, exposed fraction and which target
+//!    is hotter); a core pixel whose axial coordinate falls in a gap is heater area (region 1),
+//!    else SMP surface (region 2).
 //! 5. Assignment: each pixel's cluster is its temperature's cluster; the zone × cluster
 //!    overlap, each row normalised by the zone's size, is assigned greedily one to one
 //!    (largest share first); when there are fewer clusters than zones the remaining zones take
@@ -30,18 +25,12 @@ use crate::block::LATTICE_GAP_FRACTION;
 
 /// Least contrast (95th − 20th percentile) to re-estimate the cylinder, K.
 pub const MIN_CONTRAST_K: f32 = 1.0;
-/// Least lattice square-wave amplitude to re-estimate the lattice, K.
-pub const MIN_LATTICE_K: f32 = 0.3;
 /// Core zone: distance ratio below this.
 pub const CORE_U: f32 = 0.75;
 /// Edge zone (region 3): distance ratio below this.
 pub const EDGE_U: f32 = 1.15;
 /// Radiation zone (region 4): distance ratio below this.
 pub const RADIATION_U: f32 = 1.6;
-/// Shortest lattice period searched, pixels (a 30 mm unit at 100 mm distance).
-pub const PERIOD_MIN_PX: f32 = 8.0;
-/// Longest lattice period searched, pixels (a 30 mm unit at 50 mm distance).
-pub const PERIOD_MAX_PX: f32 = 24.0;
 /// Default half-width when nothing was ever detected, pixels.
 pub const DEFAULT_HALF_WIDTH_PX: f32 = 8.0;
 
@@ -74,8 +63,12 @@ pub struct Geometry {
     pub period_px: f32,
     /// Axial position where a gap starts, pixels (0 ≤ phase < period).
     pub phase_px: f32,
+    /// Fraction of each lattice unit where the heater shows (from `phase_px`).
+    pub exposed: f32,
     /// Whether the lattice has ever been fitted (else every core pixel is heater area).
     pub lattice_known: bool,
+    /// The last decided answer to "is the heater area the hotter target?" (continuity).
+    pub heater_hotter: Option<bool>,
 }
 
 impl Default for Geometry {
@@ -92,7 +85,9 @@ impl Geometry {
         half_width_px: DEFAULT_HALF_WIDTH_PX,
         period_px: 16.0,
         phase_px: 0.0,
+        exposed: LATTICE_GAP_FRACTION,
         lattice_known: false,
+        heater_hotter: None,
     };
 
     /// Return (distance ratio u, axial coordinate t) of a pixel.
@@ -133,7 +128,7 @@ impl Geometry {
         }
         let x = t - self.phase_px;
         let ph = x - floor(x / self.period_px) * self.period_px;
-        ph < LATTICE_GAP_FRACTION * self.period_px
+        ph < self.exposed * self.period_px
     }
 
     /// Return the zone of a pixel.
@@ -184,11 +179,9 @@ fn floor(x: f32) -> f32 {
 
 /// What the region finder could estimate this frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Quality {
+pub struct Fresh {
     /// The cylinder was re-estimated (else the previous geometry was kept).
     pub cylinder_fresh: bool,
-    /// The lattice was re-estimated (else the previous lattice was kept).
-    pub lattice_fresh: bool,
 }
 
 /// Return the 20th and 95th percentiles of `v`, to 1/256 of its range: a counting pass over
@@ -275,214 +268,16 @@ pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
     Some((col0, slope, half.max(1.0)))
 }
 
-/// Square-wave amplitude of an axial profile (`prof[b]` at t = t0 + b + ½, NaN = no data)
-/// for one period and phase: |mean over gaps − mean over rings|, or `None` if either part has
-/// fewer than two samples.
-fn square_wave(prof: &[f32], t0: f32, period: f32, phase: f32) -> Option<f32> {
-    let (mut sg, mut ng, mut ss, mut ns) = (0f32, 0f32, 0f32, 0f32);
-    let gap = LATTICE_GAP_FRACTION * period;
-    let x = t0 + 0.5 - phase;
-    let mut ph = x - floor(x / period) * period;
-    for &p in prof {
-        if !p.is_nan() {
-            if ph < gap {
-                sg += p;
-                ng += 1.0;
-            } else {
-                ss += p;
-                ns += 1.0;
-            }
-        }
-        ph += 1.0;
-        if ph >= period {
-            ph -= period;
-        }
-    }
-    (ng >= 2.0 && ns >= 2.0).then(|| libm::fabsf(sg / ng - ss / ns))
-}
-
-/// Bins of the axial profile (one per pixel of axial length).
-const PROFILE_BINS: usize = 48;
-
-/// The core's mean temperature along the axis: `v[b]` at t = t0 + b + ½ (NaN = no pixel).
-#[derive(Clone, Debug)]
-pub struct Profile {
-    v: [f32; PROFILE_BINS],
-    /// `v` less the first sample (precision of the folded sums), 0 where NaN.
-    dev: [f32; PROFILE_BINS],
-    /// 1 where `v` holds a sample, else 0.
-    valid: [f32; PROFILE_BINS],
-    used: usize,
-    t0: f32,
-}
-
-impl Profile {
-    /// Return the profile of the core pixels (u < [`CORE_U`]), or `None` if there are none.
-    pub fn of(img: &[f32; IMG_PIXELS], xy: &Coords) -> Option<Profile> {
-        let mut sum = [0f32; PROFILE_BINS];
-        let mut cnt = [0u16; PROFILE_BINS];
-        let mut tmin = f32::INFINITY;
-        for p in 0..IMG_PIXELS {
-            if xy.u[p] < CORE_U && xy.t[p] < tmin {
-                tmin = xy.t[p];
-            }
-        }
-        if !tmin.is_finite() {
-            return None;
-        }
-        let t0 = floor(tmin);
-        for p in 0..IMG_PIXELS {
-            if xy.u[p] < CORE_U {
-                let b = ((xy.t[p] - t0) as usize).min(PROFILE_BINS - 1);
-                sum[b] += img[p];
-                cnt[b] += 1;
-            }
-        }
-        let used = cnt.iter().rposition(|&n| n > 0)? + 1;
-        let mut v = [f32::NAN; PROFILE_BINS];
-        let mut dev = [0f32; PROFILE_BINS];
-        let mut valid = [0f32; PROFILE_BINS];
-        let mut reference = None;
-        for b in 0..used {
-            if cnt[b] > 0 {
-                v[b] = sum[b] / cnt[b] as f32;
-                let r = *reference.get_or_insert(v[b]);
-                dev[b] = v[b] - r;
-                valid[b] = 1.0;
-            }
-        }
-        Some(Profile {
-            v,
-            dev,
-            valid,
-            used,
-            t0,
-        })
-    }
-
-    /// Return the square-wave amplitude |mean over gaps − mean over rings| for a period and
-    /// phase (pixels), or `None` if either part has fewer than two samples.
-    pub fn amplitude(&self, period: f32, phase: f32) -> Option<f32> {
-        square_wave(&self.v[..self.used], self.t0, period, phase)
-    }
-
-    /// Return the best (phase, amplitude) of an integer period over the even phases 0, 2, …
-    /// (ties keep the lower phase), or `None` if no phase leaves two samples to each part.
-    ///
-    /// Equal to [`Profile::amplitude`] at those phases up to rounding, in O(bins + period)
-    /// instead of O(bins · period): with t0 and the phase integers, sample b lies in a gap iff
-    /// (t0 + b − phase) mod period < m, where m counts the j with j + ½ < gap fraction ·
-    /// period; so the profile is folded modulo the period once, and each phase's gap is a
-    /// circular window of m folded bins, summed from prefix sums.
-    pub fn best_integer_phase(&self, period: usize) -> Option<(usize, f32)> {
-        const W: usize = 32;
-        let p = period.clamp(1, MAX_PERIOD);
-        let mut f = [0f32; W];
-        let mut c = [0f32; W];
-        let mut i = (self.t0 as i32).rem_euclid(p as i32) as usize;
-        for (&d, &n) in self.dev[..self.used].iter().zip(&self.valid[..self.used]) {
-            // Masks and clamps (no-ops: i < p ≤ 24 < W) spare the bounds checks.
-            f[i & (W - 1)] += d;
-            c[i & (W - 1)] += n;
-            i += 1;
-            if i == p {
-                i = 0;
-            }
-        }
-        let gap = LATTICE_GAP_FRACTION * p as f32;
-        let m = (0..p).filter(|&j| (j as f32 + 0.5) < gap).count();
-        // Prefix sums over one period; a window phase..phase + m past the end wraps around.
-        let mut sf = [0f32; W + 1];
-        let mut sc = [0f32; W + 1];
-        let (mut af, mut ac) = (0f32, 0f32);
-        for j in 0..p {
-            af += f[j & (W - 1)];
-            ac += c[j & (W - 1)];
-            sf[(j + 1).min(W)] = af;
-            sc[(j + 1).min(W)] = ac;
-        }
-        let (tf, tc) = (af, ac);
-        let mut best: Option<(usize, f32)> = None;
-        for phase in (0..p).step_by(2) {
-            let e = phase + m;
-            let (sg, ng) = if e <= p {
-                (
-                    sf[e.min(W)] - sf[phase.min(W)],
-                    sc[e.min(W)] - sc[phase.min(W)],
-                )
-            } else {
-                let e = e - p;
-                (
-                    tf - sf[phase.min(W)] + sf[e.min(W)],
-                    tc - sc[phase.min(W)] + sc[e.min(W)],
-                )
-            };
-            let (ss, ns) = (tf - sg, tc - ng);
-            if ng >= 2.0 && ns >= 2.0 {
-                let amp = libm::fabsf(sg / ng - ss / ns);
-                if best.is_none_or(|b| amp > b.1) {
-                    best = Some((phase, amp));
-                }
-            }
-        }
-        best
-    }
-}
-
-/// Longest period [`Profile::best_integer_phase`] folds.
-const MAX_PERIOD: usize = PERIOD_MAX_PX as usize;
-
-/// Fit the lattice square wave to the core's axial profile; return (period, phase,
-/// amplitude in K). Coarse search (integer periods, even phases, by folding — see
-/// [`Profile::best_integer_phase`]), then a fine one (0.5 px) around the best.
-///
-/// With `near` (the previous frame's period), only the integer periods within 2 px of it are
-/// searched: the lattice's image period changes only as the camera distance does.
-pub fn fit_lattice(prof: &Profile, near: Option<f32>) -> Option<(f32, f32, f32)> {
-    let (pmin, pmax) = match near {
-        Some(p) => {
-            let r = libm::roundf(p.clamp(PERIOD_MIN_PX, PERIOD_MAX_PX)) as usize;
-            (r.saturating_sub(2), r + 2)
-        }
-        None => (PERIOD_MIN_PX as usize, PERIOD_MAX_PX as usize),
-    };
-    let (pmin, pmax) = (
-        pmin.max(PERIOD_MIN_PX as usize),
-        pmax.min(PERIOD_MAX_PX as usize),
-    );
-    let mut best: Option<(f32, f32, f32)> = None;
-    for period in pmin..=pmax {
-        if let Some((phase, amp)) = prof.best_integer_phase(period) {
-            if best.is_none_or(|b| amp > b.2) {
-                best = Some((period as f32, phase as f32, amp));
-            }
-        }
-    }
-    let (p0, f0, _) = best?;
-    for dp in [-0.5f32, 0.0, 0.5] {
-        let period = (p0 + dp).clamp(PERIOD_MIN_PX, PERIOD_MAX_PX);
-        for df in [-1.5f32, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5] {
-            let phase = f0 + df;
-            let phase = phase - floor(phase / period) * period;
-            if let Some(amp) = prof.amplitude(period, phase) {
-                if best.is_none_or(|b| amp > b.2) {
-                    best = Some((period, phase, amp));
-                }
-            }
-        }
-    }
-    best
-}
-
-/// Update the geometry from a frame (keeping what cannot be re-estimated); `xy` receives every
-/// pixel's coordinates under the new geometry.
+/// Update the cylinder from a frame (keeping the previous one when it cannot be
+/// re-estimated); `xy` receives every pixel's coordinates under the new geometry. The lattice
+/// is left to [`super::lattice::separate`].
 pub fn update_geometry(
     img: &[f32; IMG_PIXELS],
     prev: &Geometry,
     xy: &mut Coords,
-) -> (Geometry, Quality) {
+) -> (Geometry, Fresh) {
     let mut g = *prev;
-    let mut q = Quality::default();
+    let mut q = Fresh::default();
     if let Some((col0, slope, half)) = fit_cylinder(img) {
         g.axis_col0 = col0;
         g.axis_slope = slope;
@@ -490,20 +285,6 @@ pub fn update_geometry(
         q.cylinder_fresh = true;
     }
     g.coords_into(xy);
-    let near = g.lattice_known.then_some(g.period_px);
-    let prof = Profile::of(img, xy);
-    let fit = prof.as_ref().and_then(|p| fit_lattice(p, near));
-    if let (Some(prof), Some((period, phase, amp))) = (&prof, fit) {
-        // Continuity: the previous lattice, measured on the same profile.
-        let prev_amp = prof.amplitude(g.period_px, g.phase_px).unwrap_or(0.0);
-        let keep = g.lattice_known && prev_amp >= 0.8 * amp;
-        if amp >= MIN_LATTICE_K && !keep {
-            g.period_px = period;
-            g.phase_px = phase;
-            g.lattice_known = true;
-            q.lattice_fresh = true;
-        }
-    }
     (g, q)
 }
 
@@ -576,6 +357,7 @@ mod tests {
             period_px: 14.0,
             phase_px: 3.0,
             lattice_known: true,
+            ..Geometry::DEFAULT
         };
         core::array::from_fn(|p| {
             let (r, c) = (p / IMG_COLS, p % IMG_COLS);
@@ -605,33 +387,6 @@ mod tests {
     }
 
     #[test]
-    fn lattice_phase_survives_inversion() {
-        for inverted in [false, true] {
-            let img = cylinder_image(15.5, 0.0, 7.0, inverted);
-            let (g, q) = update_geometry(
-                &img,
-                &Geometry::default(),
-                &mut Geometry::DEFAULT.coords_all(),
-            );
-            assert!(q.cylinder_fresh && q.lattice_fresh);
-            assert!((g.period_px - 14.0).abs() <= 0.5, "period {}", g.period_px);
-            // Gap rows agree with the truth on most core pixels.
-            let truth = Geometry {
-                axis_col0: 15.5,
-                axis_slope: 0.0,
-                half_width_px: 7.0,
-                period_px: 14.0,
-                phase_px: 3.0,
-                lattice_known: true,
-            };
-            let agree = (0..IMG_ROWS)
-                .filter(|&r| g.in_gap(r as f32) == truth.in_gap(r as f32))
-                .count();
-            assert!(agree >= 20, "inverted={inverted}: {agree}/24 rows agree");
-        }
-    }
-
-    #[test]
     fn uniform_scene_keeps_previous_geometry() {
         let img = [300.0f32; IMG_PIXELS];
         let prev = Geometry {
@@ -639,7 +394,7 @@ mod tests {
             ..Geometry::default()
         };
         let (g, q) = update_geometry(&img, &prev, &mut prev.coords_all());
-        assert_eq!(q, Quality::default());
+        assert_eq!(q, Fresh::default());
         assert_eq!(g, prev);
     }
 
@@ -692,44 +447,5 @@ mod tests {
         let a = assign(&o, 3);
         assert_eq!(a[4], Some(0));
         assert!(a.iter().all(|x| x.is_some()));
-    }
-
-    #[test]
-    fn folded_phase_search_equals_the_direct_one() {
-        for (t0, n) in [(-3.0f32, 40usize), (0.0, 24), (5.0, 33)] {
-            let mut v = [f32::NAN; PROFILE_BINS];
-            for (b, x) in v.iter_mut().enumerate().take(n) {
-                if b % 7 != 3 {
-                    *x = 330.0 + 8.0 * libm::sinf(b as f32 * 0.61) + (b % 5) as f32;
-                }
-            }
-            let r = v[..n].iter().copied().find(|x| !x.is_nan()).unwrap();
-            let prof = Profile {
-                v,
-                dev: core::array::from_fn(|b| if v[b].is_nan() { 0.0 } else { v[b] - r }),
-                valid: core::array::from_fn(|b| if v[b].is_nan() { 0.0 } else { 1.0 }),
-                used: n,
-                t0,
-            };
-            for period in 8..=24usize {
-                let mut want: Option<(usize, f32)> = None;
-                for phase in (0..period).step_by(2) {
-                    if let Some(a) = prof.amplitude(period as f32, phase as f32) {
-                        if want.is_none_or(|w| a > w.1 + 1e-4) {
-                            want = Some((phase, a));
-                        }
-                    }
-                }
-                let got = prof.best_integer_phase(period);
-                match (got, want) {
-                    (Some(g), Some(w)) => {
-                        assert!((g.1 - w.1).abs() < 1e-3, "t0={t0} p={period}: {g:?} {w:?}");
-                        let at = prof.amplitude(period as f32, g.0 as f32).unwrap();
-                        assert!((at - g.1).abs() < 1e-3);
-                    }
-                    (g, w) => assert_eq!(g.is_some(), w.is_some(), "p={period}"),
-                }
-            }
-        }
     }
 }

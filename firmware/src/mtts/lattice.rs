@@ -1,0 +1,727 @@
+//! Lattice separation (SPEC section 3, "beyond clustering"): T1 (heater area) and T2 (SMP
+//! surface) by least squares on the region-mix forward model of the cylinder's core, with a
+//! bound and a per-frame quality (resolved, merged, fallback).
+//!
+//! Model. Along the axis coordinate t the core shows a square wave: stripes of the hotter
+//! target, a fraction h of each period P, on the colder one. A sensor pixel integrates its
+//! footprint (a unit square, projected on the tilted axis: two boxes of widths cos α and
+//! sin α) through the optics' spread (a Gaussian of [`PSF_SIGMA_PX`]), so its value is
+//! `a + b·f(t)` with f the square wave seen through that transfer function H:
+//! `f(t) = h + Σ_k 2·sin(πkh)/(πk)·H(k/P)·cos(2πk(t − c)/P)`, a the colder temperature, b the
+//! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
+//! are known:
+//! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
+//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's);
+//! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
+//!    that lie below 0.45 cycles per pixel (at most three); c is the fundamental's phase;
+//! 3. for each h on a grid the (a, b) that best match those coefficients (weighted by their
+//!    normal matrix, i.e. the per-pixel least squares) give a misfit χ²(h), with the noise
+//!    estimated from the fit's residual.
+//!
+//! Which target is hotter is ambiguous in the image alone: hot stripes of fraction h are the
+//! heater if the exposed fraction d = h, or the surface if d = 1 − h. The block's exposed
+//! fraction lies in [`EXPOSED_MIN`]…[`EXPOSED_MAX`] (view angles), so each hypothesis has its
+//! own h range and best χ². The supervisor's [`Prior`] (or, without one, the previous frame's
+//! decision) adds a bonus of [`PRIOR_CHI2`] (or [`CONTINUITY_CHI2`]) to its hypothesis: it picks
+//! between hypotheses the image both allows, and never overrides a clear spatial verdict. With
+//! nothing to pick between two allowed hypotheses the frame is [`Quality::Merged`].
+//!
+//! The bound: the spread of T1 and T2 over the h whose χ² is within [`CONFIDENCE_CHI2`] of the
+//! best, plus two standard errors of (a, b). A frame is resolved when the hypothesis is decided
+//! and the bound is at most [`RESOLVED_BOUND_K`]; else merged: both targets carry the core's
+//! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
+//! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
+
+use super::regions::{CORE_U, Coords, Geometry};
+use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
+use crate::measurement::Quality;
+
+/// Smallest exposed (heater) fraction of a lattice unit the view can show.
+pub const EXPOSED_MIN: f32 = 0.3;
+/// Largest exposed fraction.
+pub const EXPOSED_MAX: f32 = 0.8;
+/// The optics' point-spread function: Gaussian standard deviation, pixels.
+pub const PSF_SIGMA_PX: f32 = 0.35;
+/// Shortest lattice period searched, pixels.
+pub const PERIOD_MIN_PX: f32 = 2.9;
+/// Longest lattice period searched, pixels.
+pub const PERIOD_MAX_PX: f32 = 24.0;
+/// Least fundamental amplitude of the axial profile to (re)detect the lattice, K.
+pub const MIN_LATTICE_K: f32 = 0.3;
+/// χ² bonus of the hypothesis the supervisor's prior expects.
+pub const PRIOR_CHI2: f32 = 9.0;
+/// χ² bonus of the previous frame's hypothesis when there is no prior.
+pub const CONTINUITY_CHI2: f32 = 4.0;
+/// χ² margin within which two hypotheses are both allowed by the image.
+pub const AMBIGUOUS_CHI2: f32 = 4.0;
+/// χ² margin of the confidence set over h.
+pub const CONFIDENCE_CHI2: f32 = 4.0;
+/// Largest bound of a resolved frame, K.
+pub const RESOLVED_BOUND_K: f32 = 1.0;
+
+/// Harmonics fitted at most.
+const HARMONICS: usize = 3;
+/// Unknowns of the harmonic fit at most.
+const NP: usize = 1 + 2 * HARMONICS;
+/// Axial profile bins (one per pixel of axial length).
+const BINS: usize = 48;
+/// Frequency step of the first frame's periodogram, cycles per pixel.
+const FREQ_STEP: f32 = 0.012;
+/// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
+const H_FIRST: f32 = 0.2;
+const H_STEP: f32 = 0.025;
+const H_COUNT: usize = 25;
+
+/// Result of one frame's separation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Separation {
+    /// T1 estimate, K.
+    pub t1_k: f32,
+    /// T2 estimate, K.
+    pub t2_k: f32,
+    /// Area-weighted mean of the core (heater and surface), K.
+    pub mean_k: f32,
+    /// Bound on |T1 − truth| and |T2 − truth|, K.
+    pub bound_k: f32,
+    /// Resolved, merged or fallback.
+    pub quality: Quality,
+}
+
+/// Sine and cosine of 2π·x (x in turns), without a library call: reduction to an eighth of a
+/// turn and Taylor polynomials (error < 1e-6).
+pub fn sin_cos_turns(x: f32) -> (f32, f32) {
+    let r = x - floor(x + 0.5);
+    let q = floor(r * 4.0 + 0.5);
+    let p = core::f32::consts::TAU * (r - 0.25 * q);
+    let p2 = p * p;
+    let s = p * (1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0)));
+    let c = 1.0 - p2 / 2.0 * (1.0 - p2 / 12.0 * (1.0 - p2 / 30.0 * (1.0 - p2 / 56.0)));
+    match q as i32 {
+        0 => (s, c),
+        1 => (c, -s),
+        -1 => (-c, s),
+        _ => (-s, -c),
+    }
+}
+
+/// Floor without a library call (|x| < 2^31).
+fn floor(x: f32) -> f32 {
+    let i = x as i32 as f32;
+    if i > x { i - 1.0 } else { i }
+}
+
+/// sin(πx)/(πx).
+fn sinc(x: f32) -> f32 {
+    if libm::fabsf(x) < 1e-4 {
+        1.0
+    } else {
+        sin_cos_turns(0.5 * x).0 / (core::f32::consts::PI * x)
+    }
+}
+
+/// Transfer function of pixel footprint and optics at `nu` cycles per pixel along an axis of
+/// slope `slope` (columns per row).
+pub fn transfer(nu: f32, slope: f32) -> f32 {
+    let inv = 1.0 / crate::fmath::sqrt(1.0 + slope * slope);
+    let (ca, sa) = (inv, libm::fabsf(slope) * inv);
+    let g = core::f32::consts::PI * PSF_SIGMA_PX * nu;
+    sinc(nu * ca) * sinc(nu * sa) * libm::expf(-2.0 * g * g)
+}
+
+/// Distance ratio below which a pixel belongs to the lattice core: the core less about one
+/// pixel (the footprint and the optics' spread reach the edges), at least the axis pixels.
+pub fn lattice_core_u(half_width_px: f32) -> f32 {
+    let w = half_width_px.max(0.5);
+    (CORE_U - 0.75 / w).max(0.6 / w).min(CORE_U)
+}
+
+/// The core's reference value, mean and range, K.
+struct Core {
+    reference: f32,
+    mean: f32,
+    lo: f32,
+    hi: f32,
+}
+
+/// Fine bins per pixel of axial length.
+const FINE: usize = 4;
+/// Fine bins of the core's axial profile.
+const FINE_BINS: usize = FINE * BINS;
+
+/// The core's pixels binned along the axis (one pass over the image): per fine bin (¼ px) the
+/// sum of values less the reference, the count and the sum of axial positions; with the core's
+/// count, mean and range.
+struct Profile {
+    sum: [f32; FINE_BINS],
+    cnt: [f32; FINE_BINS],
+    tsum: [f32; FINE_BINS],
+    /// Fine bins in use (the last non-empty one + 1).
+    used: usize,
+    /// Axial position of bin 0's start, pixels.
+    t0: f32,
+    reference: f32,
+    total: f32,
+    mean_dev: f32,
+    lo: f32,
+    hi: f32,
+}
+
+impl Profile {
+    fn of(img: &[f32; IMG_PIXELS], xy: &Coords, u_core: f32) -> Option<Profile> {
+        // The smallest axial coordinate in the image is at a corner.
+        let corners = [0, IMG_COLS - 1, (IMG_ROWS - 1) * IMG_COLS, IMG_PIXELS - 1];
+        let mut tmin = f32::INFINITY;
+        for p in corners {
+            if xy.t[p] < tmin {
+                tmin = xy.t[p];
+            }
+        }
+        let t0 = floor(tmin);
+        let mut p = Profile {
+            sum: [0.0; FINE_BINS],
+            cnt: [0.0; FINE_BINS],
+            tsum: [0.0; FINE_BINS],
+            used: 0,
+            t0,
+            reference: 0.0,
+            total: 0.0,
+            mean_dev: 0.0,
+            lo: f32::INFINITY,
+            hi: f32::NEG_INFINITY,
+        };
+        let mut s = 0f32;
+        for ((&u, &t), &v) in xy.u.iter().zip(xy.t.iter()).zip(img.iter()) {
+            if u < u_core {
+                if p.total == 0.0 {
+                    p.reference = v;
+                }
+                let dt = t - t0;
+                let b = ((dt * FINE as f32) as usize).min(FINE_BINS - 1);
+                let y = v - p.reference;
+                p.sum[b] += y;
+                p.cnt[b] += 1.0;
+                p.tsum[b] += t;
+                p.total += 1.0;
+                s += y;
+                if b >= p.used {
+                    p.used = b + 1;
+                }
+                if v < p.lo {
+                    p.lo = v;
+                }
+                if v > p.hi {
+                    p.hi = v;
+                }
+            }
+        }
+        (p.total > 0.0).then(|| {
+            p.mean_dev = s / p.total;
+            p
+        })
+    }
+
+    /// Pixels of axial length covered (1 px bins).
+    fn length(&self) -> usize {
+        self.used.div_ceil(FINE)
+    }
+}
+
+/// The profile on 1 px bins, mean removed (bin b centred at t0 + b + ½), for the periodogram.
+struct Coarse {
+    y: [f32; BINS],
+    used: usize,
+    t0: f32,
+    total: f32,
+}
+
+impl Coarse {
+    fn of(p: &Profile) -> Coarse {
+        let mut c = Coarse {
+            y: [0.0; BINS],
+            used: p.length().min(BINS),
+            t0: p.t0,
+            total: p.total.max(1.0),
+        };
+        for (b, (s4, c4)) in p.sum[..p.used]
+            .chunks(FINE)
+            .zip(p.cnt[..p.used].chunks(FINE))
+            .enumerate()
+            .take(BINS)
+        {
+            let (mut y, mut n) = (0f32, 0f32);
+            for (&a, &k) in s4.iter().zip(c4) {
+                y += a;
+                n += k;
+            }
+            c.y[b] = y - n * p.mean_dev;
+        }
+        c
+    }
+}
+
+/// |fundamental| of the profile at `nu` cycles per pixel, K.
+fn amplitude(p: &Coarse, nu: f32) -> f32 {
+    // z = e^{-i2πνt} at the bin centres, stepped by w = e^{-i2πν}.
+    let (mut zs, mut zc) = sin_cos_turns(-nu * (p.t0 + 0.5));
+    let (wr_s, wr_c) = sin_cos_turns(-nu);
+    let (mut re, mut im) = (0f32, 0f32);
+    for &y in &p.y[..p.used] {
+        re += y * zc;
+        im += y * zs;
+        let nc = zc * wr_c - zs * wr_s;
+        zs = zs * wr_c + zc * wr_s;
+        zc = nc;
+    }
+    2.0 * crate::fmath::sqrt(re * re + im * im) / p.total
+}
+
+/// Find the lattice frequency: the periodogram's peak (parabola through the best grid point
+/// and its neighbours) in [lo, hi] cycles per pixel, with its fundamental amplitude.
+fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)> {
+    if hi <= lo {
+        return None;
+    }
+    let n = ((hi - lo) / step) as usize + 1;
+    let (mut best_i, mut best_a) = (0usize, -1f32);
+    let (mut prev, mut at_best_prev, mut at_best_next) = (0f32, 0f32, 0f32);
+    let mut after_best = false;
+    for i in 0..=n {
+        let a = amplitude(p, lo + i as f32 * step);
+        if after_best {
+            at_best_next = a;
+            after_best = false;
+        }
+        if a > best_a {
+            best_a = a;
+            best_i = i;
+            at_best_prev = if i > 0 { prev } else { a };
+            at_best_next = a;
+            after_best = true;
+        }
+        prev = a;
+    }
+    let (l, c, r) = (at_best_prev, best_a, at_best_next);
+    let den = l - 2.0 * c + r;
+    let off = if den < -1e-9 {
+        (0.5 * (l - r) / den).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
+    let nu = lo + (best_i as f32 + off) * step;
+    Some((nu, amplitude(p, nu)))
+}
+
+/// Per-pixel least squares at frequency `nu`: the normal matrix, its right-hand side, the
+/// solution and the residual variance per pixel.
+struct HarmonicFit {
+    n: usize,
+    normal: [[f32; NP]; NP],
+    rhs: [f32; NP],
+    theta: [f32; NP],
+    sigma2: f32,
+}
+
+fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
+    let n = 1 + 2 * harmonics;
+    let mut f = HarmonicFit {
+        n,
+        normal: [[0.0; NP]; NP],
+        rhs: [0.0; NP],
+        theta: [0.0; NP],
+        sigma2: 0.0,
+    };
+    // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
+    // sample at their mean position, their count its weight.
+    let (mut yy, mut bins) = (0f32, 0f32);
+    for b in 0..p.used {
+        let w = p.cnt[b];
+        if w == 0.0 {
+            continue;
+        }
+        let inv = 1.0 / w;
+        let (s1, c1) = sin_cos_turns(nu * (p.tsum[b] * inv));
+        let mut x = [0f32; NP];
+        x[0] = 1.0;
+        let (mut c, mut s) = (c1, s1);
+        for k in 0..harmonics {
+            x[1 + 2 * k] = c;
+            x[2 + 2 * k] = s;
+            let nc = c * c1 - s * s1;
+            s = s * c1 + c * s1;
+            c = nc;
+        }
+        let y = p.sum[b] * inv;
+        for i in 0..n {
+            let wx = w * x[i];
+            f.rhs[i] += wx * y;
+            for j in i..n {
+                f.normal[i][j] += wx * x[j];
+            }
+        }
+        yy += w * y * y;
+        bins += 1.0;
+    }
+    if bins < n as f32 + 4.0 {
+        return None;
+    }
+    for i in 0..n {
+        for j in 0..i {
+            f.normal[i][j] = f.normal[j][i];
+        }
+    }
+    f.theta = solve(&f.normal, &f.rhs, n)?;
+    let fit: f32 = (0..n).map(|i| f.theta[i] * f.rhs[i]).sum();
+    // Σ w·r² over the bins is (bins − n)·σ² for a pixel noise σ.
+    let floor_k = 0.05f32;
+    f.sigma2 = ((yy - fit) / (bins - n as f32)).max(floor_k * floor_k);
+    Some(f)
+}
+
+/// Solve the symmetric positive definite system `a·x = b` (size n) by Cholesky; `None` when a
+/// pivot is not clearly positive (an ill-conditioned fit).
+fn solve(a: &[[f32; NP]; NP], b: &[f32; NP], n: usize) -> Option<[f32; NP]> {
+    let mut l = [[0f32; NP]; NP];
+    for i in 0..n {
+        for j in 0..=i {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if s <= 1e-4 * a[i][i].max(1e-12) {
+                    return None;
+                }
+                l[i][i] = crate::fmath::sqrt(s);
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut y = [0f32; NP];
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i][k] * y[k];
+        }
+        y[i] = s / l[i][i];
+    }
+    let mut x = [0f32; NP];
+    for i in (0..n).rev() {
+        let mut s = y[i];
+        for k in i + 1..n {
+            s -= l[k][i] * x[k];
+        }
+        x[i] = s / l[i][i];
+    }
+    Some(x)
+}
+
+/// One h of the grid: the colder temperature a (less the reference), the gap b, their
+/// standard errors on (a + b) and a, and the misfit χ².
+#[derive(Clone, Copy, Default)]
+struct Candidate {
+    a: f32,
+    b: f32,
+    sd_hot: f32,
+    sd_cold: f32,
+    chi2: f32,
+}
+
+/// Which hypothesis: the heater is the hot stripe (A) or the cold one (B).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Hyp {
+    HeaterHot,
+    SurfaceHot,
+}
+
+fn h_at(i: usize) -> f32 {
+    H_FIRST + i as f32 * H_STEP
+}
+
+fn in_range(hyp: Hyp, h: f32) -> bool {
+    let d = match hyp {
+        Hyp::HeaterHot => h,
+        Hyp::SurfaceHot => 1.0 - h,
+    };
+    d >= EXPOSED_MIN - 1e-4 && d <= EXPOSED_MAX + 1e-4
+}
+
+/// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
+/// cylinder geometry `g` (its lattice fields are updated), with the coordinates `xy` of `g`.
+pub fn separate(
+    img: &[f32; IMG_PIXELS],
+    xy: &Coords,
+    g: &mut Geometry,
+    prior: Prior,
+) -> Separation {
+    let u_core = lattice_core_u(g.half_width_px);
+    let Some(prof) = Profile::of(img, xy, u_core) else {
+        // No core pixel at all (cannot happen with a positive half-width): the image mean.
+        let m = img.iter().sum::<f32>() / IMG_PIXELS as f32;
+        return Separation {
+            t1_k: m,
+            t2_k: m,
+            mean_k: m,
+            bound_k: 0.0,
+            quality: Quality::Fallback,
+        };
+    };
+    let core = Core {
+        reference: prof.reference,
+        mean: prof.reference + prof.mean_dev,
+        lo: prof.lo,
+        hi: prof.hi,
+    };
+    let fallback = Separation {
+        t1_k: core.mean,
+        t2_k: core.mean,
+        mean_k: core.mean,
+        bound_k: 0.5 * (core.hi - core.lo),
+        quality: Quality::Fallback,
+    };
+    let length = prof.length() as f32;
+    let p_max = PERIOD_MAX_PX.min(length / 1.5);
+    let (lo, hi, step) = if g.lattice_known {
+        let nu = 1.0 / g.period_px;
+        (0.88 * nu, 1.12 * nu, 0.004)
+    } else {
+        (1.0 / p_max, 1.0 / PERIOD_MIN_PX, FREQ_STEP)
+    };
+    let coarse = Coarse::of(&prof);
+    let found = find_frequency(
+        &coarse,
+        lo.max(1.0 / p_max),
+        hi.min(1.0 / PERIOD_MIN_PX),
+        step,
+    )
+    .filter(|&(_, amp)| amp >= MIN_LATTICE_K);
+    // Not seen this frame (too little contrast): the previous lattice measures, unchanged.
+    let kept = *g;
+    let nu = match (found, g.lattice_known) {
+        (Some((nu, _)), _) => nu,
+        (None, true) => 1.0 / g.period_px,
+        (None, false) => return fallback,
+    };
+    // Harmonics below 0.45 cycles per pixel, fewer if the fit is ill-conditioned.
+    let mut harmonics = ((0.45 / nu) as usize).clamp(1, HARMONICS);
+    let fit = loop {
+        match harmonic_fit(&prof, nu, harmonics) {
+            Some(f) => break Some(f),
+            None if harmonics > 1 => harmonics -= 1,
+            None => break None,
+        }
+    };
+    let Some(fit) = fit else {
+        return if g.lattice_known {
+            Separation {
+                quality: Quality::Merged,
+                ..fallback
+            }
+        } else {
+            fallback
+        };
+    };
+    let n = fit.n;
+    let (a1, b1) = (fit.theta[1], fit.theta[2]);
+    let r1 = crate::fmath::sqrt(a1 * a1 + b1 * b1).max(1e-12);
+    let (cpsi, spsi) = (a1 / r1, b1 / r1);
+    let mtf: [f32; HARMONICS] =
+        core::array::from_fn(|k| transfer((k + 1) as f32 * nu, g.axis_slope));
+    let dnd: f32 = (0..n).map(|i| fit.theta[i] * fit.rhs[i]).sum();
+    let g00 = fit.normal[0][0];
+    let r0 = fit.rhs[0];
+    let mut cand = [Candidate::default(); H_COUNT];
+    for (i, cd) in cand.iter_mut().enumerate() {
+        let h = h_at(i);
+        // v = the model's coefficients per unit gap: (h, 2·S_k·H_k·(cos kψ, sin kψ)).
+        let mut v = [0f32; NP];
+        v[0] = h;
+        let (s1, c1) = sin_cos_turns(0.5 * h);
+        let (mut sk, mut ck) = (s1, c1);
+        let (mut kc, mut ks) = (cpsi, spsi);
+        for k in 0..harmonics {
+            let amp = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32) * mtf[k];
+            v[1 + 2 * k] = amp * kc;
+            v[2 + 2 * k] = amp * ks;
+            let nsk = sk * c1 + ck * s1;
+            ck = ck * c1 - sk * s1;
+            sk = nsk;
+            let nkc = kc * cpsi - ks * spsi;
+            ks = ks * cpsi + kc * spsi;
+            kc = nkc;
+        }
+        let mut nv = [0f32; NP];
+        for r in 0..n {
+            nv[r] = (0..n).map(|c| fit.normal[r][c] * v[c]).sum();
+        }
+        let g01 = nv[0];
+        let g11: f32 = (0..n).map(|r| v[r] * nv[r]).sum();
+        let rv: f32 = (0..n).map(|r| v[r] * fit.rhs[r]).sum();
+        let det = g00 * g11 - g01 * g01;
+        let (mut a, mut b) = if det > 1e-6 * g00 * g11 {
+            ((g11 * r0 - g01 * rv) / det, (g00 * rv - g01 * r0) / det)
+        } else {
+            (r0 / g00, 0.0)
+        };
+        let explained = if b < 0.0 {
+            a = r0 / g00;
+            b = 0.0;
+            a * r0
+        } else {
+            a * r0 + b * rv
+        };
+        let (va, vb, cab) = if det > 1e-6 * g00 * g11 {
+            (g11 / det, g00 / det, -g01 / det)
+        } else {
+            (1.0 / g00, 0.0, 0.0)
+        };
+        *cd = Candidate {
+            a,
+            b,
+            sd_hot: crate::fmath::sqrt((fit.sigma2 * (va + vb + 2.0 * cab)).max(0.0)),
+            sd_cold: crate::fmath::sqrt(fit.sigma2 * va),
+            chi2: ((dnd - explained) / fit.sigma2).max(0.0),
+        };
+    }
+    let best_of = |hyp: Hyp| {
+        let mut best: Option<usize> = None;
+        for (i, c) in cand.iter().enumerate() {
+            if in_range(hyp, h_at(i)) && best.is_none_or(|j| c.chi2 < cand[j].chi2) {
+                best = Some(i);
+            }
+        }
+        best.unwrap_or(0)
+    };
+    let (ia, ib) = (best_of(Hyp::HeaterHot), best_of(Hyp::SurfaceHot));
+    let (ca, cb) = (cand[ia].chi2, cand[ib].chi2);
+    let (bonus_a, bonus_b, informed) = match (prior, g.heater_hotter) {
+        (Prior::HeaterHotter, _) => (PRIOR_CHI2, 0.0, true),
+        (Prior::SurfaceHotter, _) => (0.0, PRIOR_CHI2, true),
+        (Prior::Unknown, Some(true)) => (CONTINUITY_CHI2, 0.0, true),
+        (Prior::Unknown, Some(false)) => (0.0, CONTINUITY_CHI2, true),
+        (Prior::Unknown, None) => (0.0, 0.0, false),
+    };
+    let hyp = if ca - bonus_a <= cb - bonus_b {
+        Hyp::HeaterHot
+    } else {
+        Hyp::SurfaceHot
+    };
+    let decided = informed || libm::fabsf(ca - cb) >= AMBIGUOUS_CHI2;
+    // (T1, T2) of a candidate under a hypothesis, K.
+    let temps = |c: &Candidate, hyp: Hyp| {
+        let (hot, cold) = (core.reference + c.a + c.b, core.reference + c.a);
+        match hyp {
+            Hyp::HeaterHot => (hot, cold),
+            Hyp::SurfaceHot => (cold, hot),
+        }
+    };
+    let ibest = if hyp == Hyp::HeaterHot { ia } else { ib };
+    let best = cand[ibest];
+    let (t1, t2) = temps(&best, hyp);
+    let mean = core.reference + fit.theta[0];
+    // Envelopes over the confidence sets: around the estimate, and around the mean.
+    let mut spread = 0f32;
+    let mut merged_spread = 0f32;
+    for (i, c) in cand.iter().enumerate() {
+        let h = h_at(i);
+        for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
+            let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
+            if !in_range(hy, h) || c.chi2 > cmin + CONFIDENCE_CHI2 {
+                continue;
+            }
+            let (x1, x2) = temps(c, hy);
+            let sd = c.sd_hot.max(c.sd_cold);
+            let m = libm::fabsf(x1 - mean).max(libm::fabsf(x2 - mean)) + 2.0 * sd;
+            if m > merged_spread {
+                merged_spread = m;
+            }
+            if hy == hyp {
+                let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2)) + 2.0 * sd;
+                if e > spread {
+                    spread = e;
+                }
+            }
+        }
+    }
+    // The lattice as zones see it: the heater stripes start at `phase`.
+    let period = 1.0 / nu;
+    let h = h_at(ibest);
+    let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period;
+    let (exposed, start) = match hyp {
+        Hyp::HeaterHot => (h, centre - 0.5 * h * period),
+        Hyp::SurfaceHot => (1.0 - h, centre + 0.5 * h * period),
+    };
+    g.period_px = period;
+    g.phase_px = start - floor(start / period) * period;
+    g.exposed = exposed;
+    g.lattice_known = true;
+    if decided {
+        g.heater_hotter = Some(hyp == Hyp::HeaterHot);
+    }
+    if found.is_none() {
+        *g = kept;
+    }
+    if decided && spread <= RESOLVED_BOUND_K {
+        Separation {
+            t1_k: t1,
+            t2_k: t2,
+            mean_k: mean,
+            bound_k: spread,
+            quality: Quality::Resolved,
+        }
+    } else {
+        Separation {
+            t1_k: mean,
+            t2_k: mean,
+            mean_k: mean,
+            bound_k: merged_spread,
+            quality: Quality::Merged,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sin_cos_matches_libm() {
+        for i in -400..400 {
+            let x = i as f32 * 0.01237;
+            let (s, c) = sin_cos_turns(x);
+            let a = core::f32::consts::TAU * x;
+            assert!((s - libm::sinf(a)).abs() < 2e-6, "{x}");
+            assert!((c - libm::cosf(a)).abs() < 2e-6, "{x}");
+        }
+    }
+
+    #[test]
+    fn cholesky_solves() {
+        let mut a = [[0f32; NP]; NP];
+        let b = [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 0.0];
+        a[0] = [4.0, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0];
+        a[1] = [1.0, 3.0, 0.2, 0.0, 0.0, 0.0, 0.0];
+        a[2] = [0.5, 0.2, 2.0, 0.0, 0.0, 0.0, 0.0];
+        let x = solve(&a, &b, 3).unwrap();
+        for i in 0..3 {
+            let r: f32 = (0..3).map(|j| a[i][j] * x[j]).sum();
+            assert!((r - b[i]).abs() < 1e-5);
+        }
+        let mut singular = a;
+        singular[2] = singular[1];
+        for r in singular.iter_mut() {
+            r[2] = r[1];
+        }
+        assert!(solve(&singular, &b, 3).is_none());
+    }
+
+    #[test]
+    fn transfer_is_one_at_zero_and_falls() {
+        assert!((transfer(0.0, 0.3) - 1.0).abs() < 1e-6);
+        assert!(transfer(0.25, 0.0) < transfer(0.1, 0.0));
+        // A box of one pixel: sinc(0.5) · Gaussian.
+        let want = (2.0 / core::f32::consts::PI)
+            * libm::expf(-2.0 * (core::f32::consts::PI * PSF_SIGMA_PX * 0.5).powi(2));
+        assert!((transfer(0.5, 0.0) - want).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,254 @@
+//! A family of camera views, not a list: randomized geometry and optics of the block seen by
+//! the MLX90640, for tuning MTTS on one seed range and reporting on another it never saw.
+//!
+//! Each seed draws, uniformly: lattice period 3–8 px; cylinder width 6–20 px; exposed (heater)
+//! fraction 0.3–0.8; tilt ±15°; axis shift ±3 px and any lattice phase; camera distance
+//! 50–100 mm (SPEC section 1), which sets the radiation halo (a 12 mm band, at the 110° × 75°
+//! sensor's 3.44° per pixel); noise 0–0.5 K rms; SMP surface 300–365 K, the heater 0–20 K
+//! from it of either sign, background 288–308 K. The period and width are drawn in pixels
+//! directly: their ranges already span the distance range and both fields of view.
+//!
+//! Optics: each pixel integrates its square footprint convolved with a Gaussian
+//! point-spread function, evaluated on an 8 × 8 subgrid per pixel. The datasheet gives the
+//! field of view (55° × 35° or 110° × 75° over 32 × 24 pixels) but no numeric sensitivity
+//! profile, so the spread is drawn per seed, σ = 0.25–0.45 px, around the firmware's model
+//! (`thermorph::mtts::lattice::PSF_SIGMA_PX` = 0.35 px): the firmware never gets the exact
+//! optics it is tested on.
+
+use std::ops::Range;
+
+use thermorph::mtts::{IMG_COLS, IMG_PIXELS, IMG_ROWS, REGIONS};
+
+use crate::scene::{Geometry, Rendered, Temps, sample};
+use crate::virtual_mlx::Rng;
+
+/// Seeds the MTTS constants were tuned on.
+pub const SEEN: Range<u64> = 0..1_000_000;
+/// Seeds kept for reporting: never used while tuning.
+pub const UNSEEN: Range<u64> = 1_000_000..2_000_000;
+
+/// One member of the family.
+#[derive(Clone, Copy, Debug)]
+pub struct Member {
+    /// The seed it was drawn from.
+    pub seed: u64,
+    /// Geometry in sensor pixels.
+    pub geometry: Geometry,
+    /// True temperatures.
+    pub temps: Temps,
+    /// Sensor noise, K rms.
+    pub noise_k: f64,
+    /// Camera distance, mm.
+    pub distance_mm: f64,
+    /// Point-spread function: Gaussian standard deviation, pixels.
+    pub psf_sigma_px: f64,
+}
+
+impl Member {
+    /// Draw the member of `seed`.
+    pub fn draw(seed: u64) -> Member {
+        let mut rng = Rng::new(seed ^ 0x5CE7_E5EE_D000_0000);
+        let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+        let period_px = u(3.0, 8.0);
+        let half_width_px = 0.5 * u(6.0, 20.0);
+        let exposed = u(0.3, 0.8);
+        let tilt_deg = u(-15.0, 15.0);
+        let shift = u(-3.0, 3.0);
+        let phase_px = u(0.0, period_px);
+        let distance_mm = u(50.0, 100.0);
+        let noise_k = u(0.0, 0.5);
+        let surface_k = u(300.0, 365.0);
+        let gap_k = u(-20.0, 20.0);
+        let background_k = u(288.0, 308.0);
+        let psf_sigma_px = u(0.25, 0.45);
+        let mm_per_px = distance_mm * (110.0f64 / 32.0).to_radians();
+        let geometry = Geometry {
+            axis_col0: 15.5 + shift,
+            tilt_deg,
+            half_width_px,
+            period_px,
+            phase_px,
+            exposed,
+            edge_fraction: 0.2,
+            radiation_px: 12.0 / mm_per_px,
+            springs: false,
+        };
+        let temps = Temps::from_surfaces(background_k, surface_k + gap_k, surface_k, background_k);
+        Member {
+            seed,
+            geometry,
+            temps,
+            noise_k,
+            distance_mm,
+            psf_sigma_px,
+        }
+    }
+
+    /// T1 − T2, K.
+    pub fn gap_k(&self) -> f64 {
+        self.temps.heater_k - self.temps.surface_k
+    }
+
+    /// The true area-weighted mean of the two targets, K.
+    pub fn mean_k(&self) -> f64 {
+        let d = self.geometry.exposed;
+        d * self.temps.heater_k + (1.0 - d) * self.temps.surface_k
+    }
+
+    /// Render the member (noise seeded by its seed).
+    pub fn render(&self) -> Rendered {
+        render_psf(
+            &self.geometry,
+            &self.temps,
+            self.psf_sigma_px,
+            self.noise_k,
+            self.seed,
+        )
+    }
+}
+
+/// Φ(x), the standard normal distribution function (erfc, to 1e-7).
+fn phi(x: f64) -> f64 {
+    0.5 * libm::erfc(-x / std::f64::consts::SQRT_2)
+}
+
+/// Render a view: pixel footprint ⊗ Gaussian PSF (σ pixels), 8 × 8 samples per pixel, then
+/// Gaussian noise of `noise_k` rms. Fractions are the same weights applied to each region.
+pub fn render_psf(g: &Geometry, temps: &Temps, sigma_px: f64, noise_k: f64, seed: u64) -> Rendered {
+    const N: usize = 8;
+    let truth = temps.regions();
+    let reach = 0.5 + 4.0 * sigma_px.max(0.0);
+    let margin = reach.ceil() as i64 + 1;
+    let (rows, cols) = (IMG_ROWS as i64 + 2 * margin, IMG_COLS as i64 + 2 * margin);
+    let (fr, fc) = (rows as usize * N, cols as usize * N);
+    // Fine grid: region index per sample (a spring counts as background).
+    let pos = |i: usize, m: i64| (i as f64 + 0.5) / N as f64 - 0.5 - m as f64;
+    let mut label = vec![0u8; fr * fc];
+    for i in 0..fr {
+        for j in 0..fc {
+            label[i * fc + j] = sample(g, pos(i, margin), pos(j, margin)).unwrap_or(4) as u8;
+        }
+    }
+    // Weight of a sample at offset x from a pixel centre: the footprint box ⊗ the Gaussian.
+    let weight = |x: f64| {
+        if sigma_px <= 0.0 {
+            if x.abs() < 0.5 { 1.0 } else { 0.0 }
+        } else {
+            phi((x + 0.5) / sigma_px) - phi((x - 0.5) / sigma_px)
+        }
+    };
+    let span = (reach * N as f64).ceil() as i64;
+    // Sample centre + m sits at (m + ½)/N pixels from the pixel centre.
+    let w1: Vec<f64> = (-span..span)
+        .map(|m| weight((m as f64 + 0.5) / N as f64))
+        .collect();
+    let wsum: f64 = w1.iter().sum();
+    let w1: Vec<f64> = w1.iter().map(|w| w / wsum).collect();
+    // Horizontal pass: per fine row, per pixel column, the weight of each region.
+    let mut horiz = vec![[0f64; REGIONS]; fr * IMG_COLS];
+    for i in 0..fr {
+        for c in 0..IMG_COLS {
+            let centre = (c as i64 + margin) * N as i64 + (N as i64 / 2);
+            let mut acc = [0f64; REGIONS];
+            for (k, &w) in w1.iter().enumerate() {
+                let j = centre + k as i64 - span;
+                if (0..fc as i64).contains(&j) {
+                    acc[label[i * fc + j as usize] as usize] += w;
+                }
+            }
+            horiz[i * IMG_COLS + c] = acc;
+        }
+    }
+    let mut rng = Rng::new(seed);
+    let mut out = Rendered {
+        image_k: [0.0; IMG_PIXELS],
+        truth_k: truth,
+        fraction: [[0.0; IMG_PIXELS]; REGIONS],
+    };
+    for r in 0..IMG_ROWS {
+        for c in 0..IMG_COLS {
+            let centre = (r as i64 + margin) * N as i64 + (N as i64 / 2);
+            let mut acc = [0f64; REGIONS];
+            for (k, &w) in w1.iter().enumerate() {
+                let i = centre + k as i64 - span;
+                if (0..fr as i64).contains(&i) {
+                    let a = &horiz[i as usize * IMG_COLS + c];
+                    for z in 0..REGIONS {
+                        acc[z] += w * a[z];
+                    }
+                }
+            }
+            let total: f64 = acc.iter().sum();
+            let p = r * IMG_COLS + c;
+            let mut v = 0.0;
+            for z in 0..REGIONS {
+                out.fraction[z][p] = (acc[z] / total) as f32;
+                v += acc[z] / total * truth[z];
+            }
+            if noise_k > 0.0 {
+                v += noise_k * rng.gauss();
+            }
+            out.image_k[p] = v as f32;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn draws_stay_in_their_ranges_and_differ() {
+        let a = Member::draw(1);
+        let b = Member::draw(2);
+        assert_ne!(a.geometry.period_px, b.geometry.period_px);
+        for s in 0..200 {
+            let m = Member::draw(s);
+            let g = m.geometry;
+            assert!((3.0..8.0).contains(&g.period_px));
+            assert!((3.0..10.0).contains(&g.half_width_px));
+            assert!((0.3..0.8).contains(&g.exposed));
+            assert!(g.tilt_deg.abs() <= 15.0 && m.gap_k().abs() <= 20.0);
+            assert!((0.0..0.5).contains(&m.noise_k));
+        }
+    }
+
+    #[test]
+    fn without_spread_and_noise_it_is_the_area_integrating_renderer() {
+        // σ = 0: the footprint box alone, which `scene::render` computes with its own grid.
+        let m = Member::draw(7);
+        let ours = render_psf(&m.geometry, &m.temps, 0.0, 0.0, 1);
+        let theirs = crate::scene::render(
+            &m.geometry,
+            &m.temps,
+            &crate::scene::Options {
+                subgrid: 8,
+                noise_k: 0.0,
+                seed: 1,
+            },
+        );
+        for p in 0..IMG_PIXELS {
+            assert!(
+                (ours.image_k[p] - theirs.image_k[p]).abs() < 1e-3,
+                "pixel {p}: {} vs {}",
+                ours.image_k[p],
+                theirs.image_k[p]
+            );
+        }
+    }
+
+    #[test]
+    fn spread_conserves_the_mean_and_fractions_sum_to_one() {
+        let m = Member::draw(11);
+        let r = m.render();
+        for p in 0..IMG_PIXELS {
+            let total: f32 = (0..REGIONS).map(|z| r.fraction[z][p]).sum();
+            assert!((total - 1.0).abs() < 1e-4);
+        }
+        // A uniform scene stays uniform through the optics.
+        let flat = Temps::from_surfaces(300.0, 300.0, 300.0, 300.0);
+        let f = render_psf(&m.geometry, &flat, 0.4, 0.0, 1);
+        assert!(f.image_k.iter().all(|&v| (v - 300.0).abs() < 1e-3));
+    }
+}
