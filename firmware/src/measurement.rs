@@ -49,6 +49,9 @@ pub struct Measurement {
     pub filled_pixels: u16,
     /// How well T1 and T2 were separated.
     pub quality: Quality,
+    /// How far T1 and T2 may each lie from their values (for a merged or fallback frame: from
+    /// the area-weighted mean both carry), K.
+    pub bound: Kelvin,
 }
 
 impl Measurement {
@@ -60,6 +63,27 @@ impl Measurement {
     /// Return T2 (SMP outer surface).
     pub fn t2(&self) -> Kelvin {
         self.regions[1]
+    }
+
+    /// Return the hotter of the two targets as far as this frame can tell: the higher of T1 and
+    /// T2 when they were resolved; the mean plus the bound when they were not (the hotter
+    /// target may be that far above the mean both carry).
+    pub fn hotter(&self) -> Kelvin {
+        let (a, b) = (self.t1().k(), self.t2().k());
+        match self.quality {
+            Quality::Resolved => Kelvin(if a >= b { a } else { b }),
+            _ => Kelvin(0.5 * (a + b) + self.bound.k().max(0.0)),
+        }
+    }
+
+    /// Return the colder of the two targets as far as this frame can tell (see
+    /// [`Measurement::hotter`]).
+    pub fn colder(&self) -> Kelvin {
+        let (a, b) = (self.t1().k(), self.t2().k());
+        match self.quality {
+            Quality::Resolved => Kelvin(if a >= b { b } else { a }),
+            _ => Kelvin(0.5 * (a + b) - self.bound.k().max(0.0)),
+        }
     }
 }
 
@@ -83,19 +107,21 @@ impl Default for SensingHint {
     }
 }
 
-/// Return Tc for the pair (T1, T2) under `hint`: Tc = w1·T1* + w2·T2*, where (T1*, T2*) is the
-/// pair ordered as the mode expects it — with [`Prior::HeaterHotter`](crate::mtts::Prior) T1* is
-/// the hotter of the two, with `SurfaceHotter` the colder, with `Unknown` the pair as measured.
+/// Return Tc of a frame under `hint`: Tc = w1·T1* + w2·T2*, where (T1*, T2*) is the pair ordered
+/// as the mode expects it — with [`Prior::HeaterHotter`](crate::mtts::Prior) T1* is the hotter of
+/// the two ([`Measurement::hotter`]), with `SurfaceHotter` the colder, with `Unknown` the pair as
+/// measured.
 ///
-/// Ordering by rank makes Tc immune to a swapped (or merged) T1/T2: with the default weights
-/// (0, 1) the heating modes control the colder of the two — the whole cross-section reaches the
-/// target and a swap cannot make the controller chase the hotter one past it — and forming
-/// controls the hotter one, so it ends only when everything it sees is cool.
-pub fn controlled_temperature(t1: Kelvin, t2: Kelvin, hint: &SensingHint) -> Kelvin {
+/// Ordering by rank makes Tc immune to a swapped T1/T2, and a merged frame counts its bound
+/// against the loop: weighted to the colder region, Tc is the mean less the bound, so the whole
+/// cross-section is at the target before a stepping starts; weighted to the hotter one, the mean
+/// plus the bound, so standby never runs above it and forming ends only when everything the
+/// frame can hide is cool.
+pub fn controlled_temperature(m: &Measurement, hint: &SensingHint) -> Kelvin {
     use crate::mtts::Prior;
-    let (hi, lo) = if t1.k() >= t2.k() { (t1, t2) } else { (t2, t1) };
+    let (hi, lo) = (m.hotter(), m.colder());
     let (a, b) = match hint.prior {
-        Prior::Unknown => (t1, t2),
+        Prior::Unknown => (m.t1(), m.t2()),
         Prior::HeaterHotter => (hi, lo),
         Prior::SurfaceHotter => (lo, hi),
     };
@@ -106,6 +132,25 @@ pub fn controlled_temperature(t1: Kelvin, t2: Kelvin, hint: &SensingHint) -> Kel
 mod tests {
     use super::*;
     use crate::mtts::{Prior, Weights};
+
+    fn frame(t1: f32, t2: f32, quality: Quality, bound: f32) -> Measurement {
+        Measurement {
+            at: Millis(0),
+            seq: 0,
+            regions: [
+                Kelvin(t1),
+                Kelvin(t2),
+                Kelvin(300.0),
+                Kelvin(299.0),
+                Kelvin(298.0),
+            ],
+            tc: Kelvin(t2),
+            cylinder_max: None,
+            filled_pixels: 0,
+            quality,
+            bound: Kelvin(bound),
+        }
+    }
 
     #[test]
     fn tc_ranks_the_pair_as_the_mode_expects() {
@@ -118,31 +163,35 @@ mod tests {
             prior: Prior::SurfaceHotter,
             weights: w,
         };
+        let tc = |t1, t2, h: &SensingHint| {
+            controlled_temperature(&frame(t1, t2, Quality::Resolved, 0.5), h)
+        };
         // Heating: the colder of the two, whichever label it carries.
-        assert_eq!(
-            controlled_temperature(Kelvin(360.0), Kelvin(350.0), &heat),
-            Kelvin(350.0)
-        );
-        assert_eq!(
-            controlled_temperature(Kelvin(350.0), Kelvin(360.0), &heat),
-            Kelvin(350.0)
-        );
+        assert_eq!(tc(360.0, 350.0, &heat), Kelvin(350.0));
+        assert_eq!(tc(350.0, 360.0, &heat), Kelvin(350.0));
         // Forming: the hotter.
-        assert_eq!(
-            controlled_temperature(Kelvin(320.0), Kelvin(330.0), &form),
-            Kelvin(330.0)
-        );
-        assert_eq!(
-            controlled_temperature(Kelvin(330.0), Kelvin(320.0), &form),
-            Kelvin(330.0)
-        );
+        assert_eq!(tc(320.0, 330.0, &form), Kelvin(330.0));
+        assert_eq!(tc(330.0, 320.0, &form), Kelvin(330.0));
         let blend = SensingHint {
             prior: Prior::Unknown,
             weights: Weights { w1: 0.25, w2: 0.75 },
         };
-        assert_eq!(
-            controlled_temperature(Kelvin(340.0), Kelvin(320.0), &blend),
-            Kelvin(325.0)
-        );
+        assert_eq!(tc(340.0, 320.0, &blend), Kelvin(325.0));
+    }
+
+    #[test]
+    fn a_merged_frame_counts_its_bound_against_the_loop() {
+        let m = frame(350.0, 350.0, Quality::Merged, 6.0);
+        assert_eq!((m.hotter(), m.colder()), (Kelvin(356.0), Kelvin(344.0)));
+        let heat = SensingHint {
+            prior: Prior::HeaterHotter,
+            weights: Weights { w1: 0.0, w2: 1.0 },
+        };
+        assert_eq!(controlled_temperature(&m, &heat), Kelvin(344.0));
+        let standby = SensingHint {
+            prior: Prior::HeaterHotter,
+            weights: Weights { w1: 1.0, w2: 0.0 },
+        };
+        assert_eq!(controlled_temperature(&m, &standby), Kelvin(356.0));
     }
 }

@@ -279,15 +279,18 @@ fn measurement_of(
     let hint = control
         .as_ref()
         .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
-    Measurement {
+    let mut m = Measurement {
         at: Millis((t_s * 1000.0).round() as u64),
         seq: seq as u32,
         regions,
-        tc: controlled_temperature(regions[0], regions[1], &hint),
+        tc: Kelvin(f32::NAN),
         cylinder_max,
         filled_pixels: 0,
         quality: Quality::Resolved,
-    }
+        bound: Kelvin(0.0),
+    };
+    m.tc = controlled_temperature(&m, &hint);
+    m
 }
 
 /// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):

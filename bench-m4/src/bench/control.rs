@@ -30,6 +30,7 @@ fn frame(at_ms: u64, seq: u32, t2: f32) -> Measurement {
         cylinder_max: Some(Kelvin(t1 + 1.0)),
         filled_pixels: 0,
         quality: Quality::Resolved,
+        bound: Kelvin(0.5),
     }
 }
 

@@ -412,7 +412,7 @@ impl Supervisor {
         let mut dt_s = 0.0;
         if let Some(m) = fresh {
             dt_s = self.last.map_or(0.0, |l| m.at.seconds_since(l.at));
-            self.tc_k = controlled_temperature(m.t1(), m.t2(), &self.sensing_hint()).k();
+            self.tc_k = controlled_temperature(&m, &self.sensing_hint()).k();
             self.last = Some(m);
         }
 
@@ -437,7 +437,7 @@ impl Supervisor {
             let l = LoopState {
                 target_k: self.target_k,
                 tc_k: self.tc_k,
-                film_k: m.t1().k().max(m.t2().k()),
+                film_k: m.hotter().k(),
                 heater_duty: self.outputs.heater.fraction(),
                 active: self.loop_active() && !matches!(self.mode, Mode::Autotune(_)),
             };
@@ -553,7 +553,7 @@ impl Supervisor {
         dt_s: f32,
     ) -> Outputs {
         let s = self.settings;
-        let hotter = self.last.map(|m| m.t1().k().max(m.t2().k()));
+        let hotter = self.last.map(|m| m.hotter().k());
         let tc = self.tc_k;
         // Ready: Tc has reached hot_k (with the stepping weights, the colder region: the
         // whole cross-section) and has not fallen more than ready_band_k below it since, for

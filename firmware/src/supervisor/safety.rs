@@ -159,14 +159,13 @@ impl Safety {
     /// `t_max_k`; the hotter of T1/T2 and the hottest cylinder pixel (the PI heater film seen
     /// through the lattice) against `t_heater_max_k`.
     pub fn over_temperature(m: &Measurement, s: &Settings) -> Option<Fault> {
-        let (t1, t2) = (m.t1().k(), m.t2().k());
         let smp = m.regions[2..]
             .iter()
             .map(|t| t.k())
-            .chain([t1.min(t2)])
+            .chain([m.colder().k()])
             .filter(|t| t.is_finite())
             .fold(f32::MIN, f32::max);
-        let film = [t1.max(t2)]
+        let film = [m.hotter().k()]
             .into_iter()
             .chain(m.cylinder_max.map(|t| t.k()))
             .filter(|t| t.is_finite())

@@ -53,6 +53,7 @@ impl Block {
             cylinder_max: Some(Kelvin(self.t1.max(self.t2))),
             filled_pixels: 0,
             quality: Quality::Resolved,
+            bound: Kelvin(0.5),
         }
     }
 }
