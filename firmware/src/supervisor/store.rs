@@ -18,7 +18,6 @@ use super::report::Reply;
 use super::{Mode, Supervisor, pid_config};
 use crate::control::{Pid, SplitRange};
 use crate::settings::{PARAMS, RECORD_LEN, RECORD_VERSION, Record, Settings};
-use crate::units::Millis;
 
 /// What the caller must do for a `save` or `load`.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -139,6 +138,7 @@ mod tests {
     use super::super::Decision;
     use super::*;
     use crate::command::{Command, ModeRequest, parse};
+    use crate::units::Millis;
     use std::format;
     use std::string::String;
 
