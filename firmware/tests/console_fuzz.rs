@@ -274,7 +274,8 @@ fn a_million_random_and_mutated_lines() {
             expected += usize::from(!blank(&line));
             stream.extend_from_slice(&line);
             let ends: [&[u8]; 3] = [b"\r\n", b"\n", b"\r"];
-            stream.extend_from_slice(*r.pick(&ends));
+            let end: &[u8] = ends[r.below(ends.len())];
+            stream.extend_from_slice(end);
         }
         // The command after the garbage.
         let (cmd, want) = *r.pick(&sentinels);
