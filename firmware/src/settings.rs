@@ -645,7 +645,9 @@ impl Settings {
         r[8..12].copy_from_slice(&layout_id().to_le_bytes());
         for (i, p) in PARAMS.iter().enumerate() {
             let at = HEADER_LEN + 4 * i;
-            r[at..at + 4].copy_from_slice(&(p.get)(self).to_le_bytes());
+            // Percent values are fractions inside: ×100 may land one ulp past a bound.
+            let v = (p.get)(self).clamp(p.min, p.max);
+            r[at..at + 4].copy_from_slice(&v.to_le_bytes());
         }
         let crc = crc32(0, &r[..RECORD_LEN - 4]);
         r[RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
