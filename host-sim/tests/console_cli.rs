@@ -233,3 +233,110 @@ fn garbage_then_commands_and_telemetry_over_a_pty() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("ended at t ="));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Random and mutated lines through `host-sim console` on stdin: exactly one reply per complete
+/// non-blank line, and each burst's closing `version` answered properly.
+/// `THERMORPH_FUZZ_LINES` sets the number of lines (default 1 000 000).
+#[test]
+fn random_lines_through_the_console_binary() {
+    let total: usize = std::env::var("THERMORPH_FUZZ_LINES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1_000_000);
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    let mut rnd = move |n: usize| {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % n as u64) as usize
+    };
+    let words = [
+        "help",
+        "status",
+        "mode",
+        "set",
+        "get",
+        "stream",
+        "save",
+        "load",
+        "defaults",
+        "hot_k",
+        "standby",
+        "step-large",
+        "AB",
+        "on",
+        "off",
+        "1e40",
+        "nan",
+        "-3",
+        "360",
+        "x",
+    ];
+    let mut input = Vec::new();
+    let mut expected = 0usize;
+    let mut sentinels = Vec::new();
+    let mut sent = 0;
+    let dir = temp_dir("fuzz");
+    while sent < total {
+        for _ in 0..1 + rnd(40) {
+            let mut line: Vec<u8> = match rnd(5) {
+                0 => (0..rnd(150)).map(|_| rnd(256) as u8).collect(),
+                1 => vec![b'z'; 90 + rnd(20)],
+                2 => b" \t ".to_vec(),
+                3 => (0..1 + rnd(4))
+                    .map(|_| words[rnd(words.len())])
+                    .collect::<Vec<_>>()
+                    .join(" ")
+                    .into_bytes(),
+                _ => {
+                    let mut v = format!("set hot_k {}", 330 + rnd(40)).into_bytes();
+                    let at = rnd(v.len());
+                    v[at] ^= 1 << rnd(8);
+                    v
+                }
+            };
+            line.retain(|&b| b != b'\r' && b != b'\n');
+            // `stream on` would interleave telemetry: replies are counted without `#` lines.
+            expected += usize::from(!line.iter().all(|&b| b == b' ' || b == b'\t'));
+            input.extend_from_slice(&line);
+            input.extend_from_slice([&b"\r\n"[..], b"\n", b"\r"][rnd(3)]);
+            sent += 1;
+        }
+        input.extend_from_slice(b"version\r\n");
+        sentinels.push(expected);
+        expected += 1;
+        sent += 1;
+    }
+    let mut child = host_sim()
+        .args(["console", "--speed", "1000", "--settings"])
+        .arg(dir.join("s.bin"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || stdin.write_all(&input).unwrap());
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.ends_with("\r\n"));
+    let replies: Vec<&str> = text
+        .split_terminator("\r\n")
+        .filter(|l| !l.starts_with('#'))
+        .collect();
+    assert_eq!(replies.len(), expected, "{sent} lines sent");
+    println!(
+        "{sent} lines sent, {expected} replies, {} bursts",
+        sentinels.len()
+    );
+    for r in &replies {
+        assert!(!r.contains(['\r', '\n']));
+        assert!(r.starts_with("ok") || r.starts_with("err "), "{r:?}");
+    }
+    for &i in &sentinels {
+        assert!(replies[i].starts_with("ok thermorph "), "{}", replies[i]);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
