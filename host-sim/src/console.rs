@@ -36,7 +36,7 @@ use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot};
 use thermorph::units::{Kelvin, Millis};
 
-use crate::plant::{Inputs, Plant, PlantConfig};
+use crate::plant::{Plant, PlantConfig};
 use crate::run::{Camera, Control, camera_temps, inputs_of, measurement_of};
 use crate::scenario::{FaultKind, Scenario};
 
@@ -119,7 +119,6 @@ pub struct Block {
     plant: Plant,
     camera: Option<Camera>,
     control: Option<Control>,
-    inputs: Inputs,
     measurement: Option<Measurement>,
     tick_s: f64,
     ticks_per_period: u64,
@@ -151,7 +150,6 @@ impl Block {
             plant,
             camera,
             control: Some(control),
-            inputs: Inputs::default(),
             measurement: None,
             ticks: 0,
         })
@@ -188,10 +186,10 @@ impl Block {
         if d.telemetry {
             write_telemetry(sup, now, out)?;
         }
-        self.inputs = inputs_of(&d.outputs);
-
+        // A line between ticks is stepped at the tick's time, so this step's outputs already
+        // include its effect.
         let t0_s = self.time_s();
-        let mut inputs = self.inputs;
+        let mut inputs = inputs_of(&d.outputs);
         let mut sensor_fault = None;
         for f in self.scenario.faults.iter().filter(|f| f.active(t0_s)) {
             match f.kind {
@@ -268,7 +266,7 @@ impl Session {
             self.lines += 1;
             let now = self.block.now();
             let sup = self.block.supervisor();
-            let (reply, telemetry, outputs) = match parse_read(line) {
+            let (reply, telemetry) = match parse_read(line) {
                 Ok(c) => {
                     let d = sup.step(now, None, Some(c));
                     let reply = match (&d.reply, &d.store) {
@@ -276,17 +274,14 @@ impl Session {
                         (None, Some(req)) => self.store.carry_out(req, sup),
                         (None, None) => Reply::err("internal", "no reply"),
                     };
-                    (reply, d.telemetry, Some(d.outputs))
+                    (reply, d.telemetry)
                 }
-                Err(e) => (Reply::parse_error(e), false, None),
+                Err(e) => (Reply::parse_error(e), false),
             };
             out.write_all(reply.as_str().as_bytes())?;
             out.write_all(b"\r\n")?;
             if telemetry {
                 write_telemetry(sup, now, out)?;
-            }
-            if let Some(o) = outputs {
-                self.block.inputs = inputs_of(&o);
             }
         }
         Ok(())
