@@ -5,6 +5,7 @@
 
 use thermorph::command::{COMMANDS, ParseError};
 use thermorph::settings::{PARAMS, Settings};
+
 use thermorph::supervisor::report::TELEMETRY_FIELDS;
 
 fn readme() -> String {
@@ -57,33 +58,55 @@ fn readme_lists_every_command_with_its_arguments() {
     }
 }
 
+/// The README's parameter rows as they must read (printed when they do not, to paste).
+fn parameter_rows() -> Vec<String> {
+    let d = Settings::DEFAULT;
+    PARAMS
+        .iter()
+        .map(|p| {
+            let unit = if p.unit.is_empty() {
+                "—".to_string()
+            } else {
+                p.unit.replace('*', "·")
+            };
+            format!(
+                "| `{}` | {unit} | {} – {} | {} | {} |",
+                p.name,
+                num(p.min),
+                num(p.max),
+                num((p.get)(&d)),
+                p.help
+            )
+        })
+        .collect()
+}
+
 #[test]
 fn readme_lists_every_parameter_with_unit_range_and_default() {
-    let rows = table(&readme(), "### Commands", "| name | unit |");
-    assert_eq!(rows.len(), PARAMS.len());
-    let d = Settings::DEFAULT;
-    for (p, r) in PARAMS.iter().zip(&rows) {
-        assert_eq!(r[0], format!("`{}`", p.name));
-        let unit = if p.unit.is_empty() {
-            "—".to_string()
-        } else {
-            p.unit.replace('*', "·")
-        };
-        assert_eq!(r[1], unit, "{}", p.name);
-        assert_eq!(
-            r[2],
-            format!("{} – {}", num(p.min), num(p.max)),
-            "{}",
-            p.name
-        );
-        assert_eq!(r[3], num((p.get)(&d)), "default of {}", p.name);
-    }
+    let text = readme();
+    let want = parameter_rows();
+    let rows = table(&text, "### Commands", "| name | unit |");
+    let got: Vec<String> = rows
+        .iter()
+        .map(|r| format!("| {} |", r.join(" | ")))
+        .collect();
+    assert!(
+        got == want,
+        "the README's parameter table differs from PARAMS; its rows should be:\n{}",
+        want.join("\n")
+    );
     let size = format!(
-        "{} bytes\nwith today's {} parameters",
+        "{} bytes with today's {} parameters",
         thermorph::settings::RECORD_LEN,
         PARAMS.len()
     );
-    assert!(readme().contains(&size), "the record's size: {size}");
+    assert!(
+        text.split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ")
+            .contains(&size),
+        "the record's size should read: {size:?}"
+    );
 }
 
 #[test]
