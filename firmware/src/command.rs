@@ -5,6 +5,7 @@
 //! each argument (mode names, spring letters, parameter names, numbers); the supervisor checks
 //! what depends on its state (ranges that involve other settings, a latched fault).
 
+use crate::console::ConsoleError;
 use crate::outputs::SpringMask;
 use crate::settings::PARAMS;
 
@@ -50,6 +51,24 @@ impl ParseError {
             Self::UnknownName => "no such parameter, try `get`",
         }
     }
+}
+
+impl From<ConsoleError> for ParseError {
+    fn from(e: ConsoleError) -> Self {
+        match e {
+            ConsoleError::LineTooLong => ParseError::LineTooLong,
+            ConsoleError::BinaryInput => ParseError::BinaryInput,
+            ConsoleError::UnknownCommand => ParseError::UnknownCommand,
+            ConsoleError::BadArguments => ParseError::BadArguments,
+        }
+    }
+}
+
+/// Parse what [`LineReader::push`](crate::console::LineReader::push) returned for a complete
+/// line: a line the reader refused keeps its reason, a line it accepted is [`parse`]d. This is
+/// the one path from bytes to commands, on the board and in the simulator.
+pub fn parse_read(line: Result<&str, ConsoleError>) -> Result<Command, ParseError> {
+    parse(line?)
 }
 
 /// A mode the console can ask for.
@@ -108,6 +127,12 @@ pub enum Command {
     Stream(bool, Option<f32>),
     /// An emergency stop from the console.
     EStop,
+    /// Store every parameter (the board in flash, the simulator in a file).
+    Save,
+    /// Replace every parameter by the stored ones (the defaults if none or a bad record).
+    Load,
+    /// Every parameter back to its default (in RAM; `save` keeps them).
+    Defaults,
     /// The emergency-stop button's level, sent by the board at start and on every change.
     Button {
         /// The button is pressed.
@@ -197,6 +222,21 @@ pub const COMMANDS: &[CommandSpec] = &[
         args: "",
         help: "emergency stop (latched)",
     },
+    CommandSpec {
+        name: "save",
+        args: "",
+        help: "store every parameter (survives a reset)",
+    },
+    CommandSpec {
+        name: "load",
+        args: "",
+        help: "read the stored parameters (defaults if none)",
+    },
+    CommandSpec {
+        name: "defaults",
+        args: "",
+        help: "every parameter to its default (save to keep)",
+    },
 ];
 
 fn number(word: &str) -> Option<f32> {
@@ -233,6 +273,9 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
         "autotune" => none(Command::Autotune),
         "log" => none(Command::Log),
         "estop" => none(Command::EStop),
+        "save" => none(Command::Save),
+        "load" => none(Command::Load),
+        "defaults" => none(Command::Defaults),
         "mode" => {
             let name = a.ok_or(bad)?;
             let (_, mode) = MODE_NAMES
@@ -327,5 +370,21 @@ mod tests {
         assert_eq!(parse("status now"), Err(ParseError::BadArguments));
         assert_eq!(parse("frobnicate"), Err(ParseError::UnknownCommand));
         assert_eq!(parse("set a b c"), Err(ParseError::BadArguments));
+        assert_eq!(parse("SAVE"), Ok(Command::Save));
+        assert_eq!(parse("load now"), Err(ParseError::BadArguments));
+        assert_eq!(parse("defaults"), Ok(Command::Defaults));
+    }
+
+    #[test]
+    fn reader_refusals_keep_their_reason() {
+        assert_eq!(
+            parse_read(Err(ConsoleError::LineTooLong)),
+            Err(ParseError::LineTooLong)
+        );
+        assert_eq!(
+            parse_read(Err(ConsoleError::BinaryInput)),
+            Err(ParseError::BinaryInput)
+        );
+        assert_eq!(parse_read(Ok("status")), Ok(Command::Status));
     }
 }

@@ -14,6 +14,7 @@
 //! - [`command`]: the command table and the parser of console lines.
 //! - [`settings`]: every tunable parameter (targets, gains, weights, durations, limits).
 //! - [`control`]: the control laws: PID, split range, relay autotune.
+//! - [`storage`]: the settings record in a NOR flash (sequential-storage), for `save`/`load`.
 //! - [`supervisor`]: modes, safety and the fault latch; `Supervisor::step` → `Decision`.
 //! - [`fmath`]: the few float functions the target lacks in `core` (square root).
 #![cfg_attr(not(test), no_std)]
@@ -28,6 +29,7 @@ pub mod mlx90640;
 pub mod mtts;
 pub mod outputs;
 pub mod settings;
+pub mod storage;
 pub mod supervisor;
 pub mod units;
 

@@ -616,6 +616,159 @@ impl Settings {
     }
 }
 
+/// The stored settings record: every [`PARAMS`] value, versioned and CRC-checked.
+///
+/// Layout (little-endian, [`RECORD_LEN`] bytes):
+///
+/// | offset | bytes | field |
+/// |---|---|---|
+/// | 0 | 4 | magic `TMRS` |
+/// | 4 | 2 | record version, [`RECORD_VERSION`] |
+/// | 6 | 2 | number of values, `PARAMS.len()` |
+/// | 8 | 4 | layout id: CRC-32 of the parameter names in [`PARAMS`] order, each ended by NUL |
+/// | 12 | 4 × n | the values as `f32`, in [`PARAMS`] order and console units (`get` shows them) |
+/// | 12 + 4n | 4 | CRC-32 (IEEE) of every byte before it |
+///
+/// The [`PARAMS`] table defines the record: adding, removing, renaming or reordering a
+/// parameter changes the count or the layout id, so a record written by another firmware is
+/// recognised as old and refused ([`RecordError::OtherLayout`]) instead of being read into the
+/// wrong fields.
+pub type Record = [u8; RECORD_LEN];
+
+/// Version of the record format (the header and the encoding of values).
+pub const RECORD_VERSION: u16 = 1;
+/// The record's first four bytes.
+pub const RECORD_MAGIC: [u8; 4] = *b"TMRS";
+const HEADER_LEN: usize = 12;
+/// Length of the stored record, bytes.
+pub const RECORD_LEN: usize = HEADER_LEN + 4 * PARAMS.len() + 4;
+
+/// Why a stored record was not used.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RecordError {
+    /// Too short, or no record magic: nothing (or something else) is stored.
+    NotARecord,
+    /// The record's CRC does not match its bytes.
+    BadCrc,
+    /// Written by another record version.
+    OtherVersion(u16),
+    /// Written for another parameter table (count or names differ).
+    OtherLayout,
+    /// A value is not finite, not whole where it must be, or outside its range.
+    BadValue(&'static str),
+    /// The values contradict each other ([`Settings::check`]).
+    Conflict(&'static str),
+}
+
+impl RecordError {
+    /// Return a short stable code.
+    pub fn code(self) -> &'static str {
+        match self {
+            Self::NotARecord => "not-a-record",
+            Self::BadCrc => "bad-crc",
+            Self::OtherVersion(_) => "other-version",
+            Self::OtherLayout => "other-layout",
+            Self::BadValue(_) => "bad-value",
+            Self::Conflict(_) => "conflict",
+        }
+    }
+}
+
+impl core::fmt::Display for RecordError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NotARecord => f.write_str("no settings record"),
+            Self::BadCrc => f.write_str("CRC mismatch"),
+            Self::OtherVersion(v) => write!(f, "record version {v}, expected {RECORD_VERSION}"),
+            Self::OtherLayout => f.write_str("written for another parameter table"),
+            Self::BadValue(name) => write!(f, "{name} invalid or out of range"),
+            Self::Conflict(why) => write!(f, "values conflict: {why}"),
+        }
+    }
+}
+
+/// CRC-32 (IEEE 802.3, reflected, as zlib's `crc32`) of `bytes`, continuing from `crc` (start
+/// with 0).
+pub fn crc32(crc: u32, bytes: &[u8]) -> u32 {
+    let mut c = !crc;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = (c >> 1) ^ (0xEDB8_8320 & (c & 1).wrapping_neg());
+        }
+    }
+    !c
+}
+
+/// The record's layout id: CRC-32 of the names of [`PARAMS`], in order, each ended by NUL.
+pub fn layout_id() -> u32 {
+    PARAMS
+        .iter()
+        .fold(0, |c, p| crc32(crc32(c, p.name.as_bytes()), &[0]))
+}
+
+impl Settings {
+    /// Encode every [`PARAMS`] value into a [`Record`].
+    pub fn encode(&self) -> Record {
+        let mut r = [0u8; RECORD_LEN];
+        r[0..4].copy_from_slice(&RECORD_MAGIC);
+        r[4..6].copy_from_slice(&RECORD_VERSION.to_le_bytes());
+        r[6..8].copy_from_slice(&(PARAMS.len() as u16).to_le_bytes());
+        r[8..12].copy_from_slice(&layout_id().to_le_bytes());
+        for (i, p) in PARAMS.iter().enumerate() {
+            let at = HEADER_LEN + 4 * i;
+            // Percent values are fractions inside: ×100 may land one ulp past a bound.
+            let v = (p.get)(self).clamp(p.min, p.max);
+            r[at..at + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        let crc = crc32(0, &r[..RECORD_LEN - 4]);
+        r[RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+        r
+    }
+
+    /// Decode a stored record (exactly [`RECORD_LEN`] bytes; longer input is refused too, as
+    /// another layout). Every value is checked as `set` checks it, and the whole with
+    /// [`Settings::check`]; on any error nothing is returned and the caller keeps or falls back
+    /// to the defaults.
+    pub fn decode(bytes: &[u8]) -> Result<Settings, RecordError> {
+        if bytes.len() < HEADER_LEN || bytes[0..4] != RECORD_MAGIC {
+            return Err(RecordError::NotARecord);
+        }
+        let u16_at = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]);
+        let u32_at =
+            |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+        let version = u16_at(4);
+        if version != RECORD_VERSION {
+            return Err(RecordError::OtherVersion(version));
+        }
+        if bytes.len() != RECORD_LEN
+            || u16_at(6) as usize != PARAMS.len()
+            || u32_at(8) != layout_id()
+        {
+            // The CRC decides between a damaged record and another table's record.
+            let n = bytes.len();
+            if n >= HEADER_LEN + 4 && crc32(0, &bytes[..n - 4]) != u32_at(n - 4) {
+                return Err(RecordError::BadCrc);
+            }
+            return Err(RecordError::OtherLayout);
+        }
+        if crc32(0, &bytes[..RECORD_LEN - 4]) != u32_at(RECORD_LEN - 4) {
+            return Err(RecordError::BadCrc);
+        }
+        let mut s = Settings::DEFAULT;
+        for (i, p) in PARAMS.iter().enumerate() {
+            let v = f32::from_bits(u32_at(HEADER_LEN + 4 * i));
+            let whole = !p.integer || v == libm::roundf(v);
+            if !v.is_finite() || !whole || !(p.min..=p.max).contains(&v) {
+                return Err(RecordError::BadValue(p.name));
+            }
+            (p.set)(&mut s, v);
+        }
+        s.check().map_err(RecordError::Conflict)?;
+        Ok(s)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -671,5 +824,108 @@ mod tests {
         assert_eq!(s.set("form_fan_pct", 50.0), Ok(()));
         assert!((s.form_fan - 0.5).abs() < 1e-6);
         assert_eq!(s.hot_k, 360.0, "a refused set changes nothing");
+    }
+    #[test]
+    fn crc32_matches_the_standard_check_value() {
+        // The CRC catalogue's check value of CRC-32/ISO-HDLC ("123456789").
+        assert_eq!(crc32(0, b"123456789"), 0xCBF4_3926);
+        assert_eq!(crc32(crc32(0, b"1234"), b"56789"), 0xCBF4_3926);
+        assert_eq!(crc32(0, b""), 0);
+    }
+
+    #[test]
+    fn record_round_trips_every_parameter() {
+        assert_eq!(RECORD_LEN, 12 + 4 * PARAMS.len() + 4);
+        let d = Settings::DEFAULT;
+        assert_eq!(Settings::decode(&d.encode()), Ok(d));
+        // Every parameter moved to the other end of its range (where the relations allow).
+        let mut s = d;
+        for p in PARAMS {
+            for v in [p.max, p.min, 0.5 * (p.min + p.max)] {
+                let v = if p.integer { libm::roundf(v) } else { v };
+                if s.set(p.name, v).is_ok() {
+                    break;
+                }
+            }
+        }
+        assert_ne!(s, d);
+        let back = Settings::decode(&s.encode()).unwrap();
+        for p in PARAMS {
+            let (a, b) = ((p.get)(&s), (p.get)(&back));
+            assert!(
+                (a - b).abs() <= 1e-6 * a.abs().max(1.0),
+                "{}: {a} vs {b}",
+                p.name
+            );
+        }
+        // Stored once more it is the same record.
+        assert_eq!(
+            back.encode(),
+            Settings::decode(&back.encode()).unwrap().encode()
+        );
+    }
+
+    #[test]
+    fn damaged_old_and_foreign_records_are_refused() {
+        let good = Settings::DEFAULT.encode();
+        assert_eq!(Settings::decode(&[]), Err(RecordError::NotARecord));
+        assert_eq!(
+            Settings::decode(&[0xFF; RECORD_LEN]),
+            Err(RecordError::NotARecord)
+        );
+        // Every single-bit flip after the magic is caught.
+        for byte in 4..RECORD_LEN {
+            for bit in 0..8 {
+                let mut r = good;
+                r[byte] ^= 1 << bit;
+                let e = Settings::decode(&r).unwrap_err();
+                assert!(
+                    matches!(e, RecordError::BadCrc | RecordError::OtherVersion(_)),
+                    "byte {byte} bit {bit}: {e:?}"
+                );
+            }
+        }
+        // A truncated record.
+        assert_eq!(
+            Settings::decode(&good[..RECORD_LEN - 1]),
+            Err(RecordError::BadCrc)
+        );
+        // Version 0 with a valid CRC.
+        let mut old = good;
+        old[4..6].copy_from_slice(&0u16.to_le_bytes());
+        assert_eq!(Settings::decode(&old), Err(RecordError::OtherVersion(0)));
+        // A table with one parameter more, correctly CRC'd: another layout.
+        let mut longer = [0u8; RECORD_LEN + 4];
+        longer[..RECORD_LEN - 4].copy_from_slice(&good[..RECORD_LEN - 4]);
+        longer[6..8].copy_from_slice(&(PARAMS.len() as u16 + 1).to_le_bytes());
+        let crc = crc32(0, &longer[..RECORD_LEN]);
+        longer[RECORD_LEN..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(Settings::decode(&longer), Err(RecordError::OtherLayout));
+        // Same length, names renamed: the layout id differs.
+        let mut renamed = good;
+        renamed[8..12].copy_from_slice(&(layout_id() ^ 1).to_le_bytes());
+        let crc = crc32(0, &renamed[..RECORD_LEN - 4]);
+        renamed[RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(Settings::decode(&renamed), Err(RecordError::OtherLayout));
+    }
+
+    #[test]
+    fn out_of_range_and_conflicting_values_are_refused_with_a_valid_crc() {
+        let with = |name: &str, v: f32| {
+            let i = PARAMS.iter().position(|p| p.name == name).unwrap();
+            let mut r = Settings::DEFAULT.encode();
+            r[12 + 4 * i..16 + 4 * i].copy_from_slice(&v.to_le_bytes());
+            let crc = crc32(0, &r[..RECORD_LEN - 4]);
+            r[RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+            Settings::decode(&r)
+        };
+        assert_eq!(with("hot_k", 400.0), Err(RecordError::BadValue("hot_k")));
+        assert_eq!(with("hot_k", f32::NAN), Err(RecordError::BadValue("hot_k")));
+        assert_eq!(
+            with("large_steps", 2.5),
+            Err(RecordError::BadValue("large_steps"))
+        );
+        assert!(matches!(with("step_s", 9.0), Err(RecordError::Conflict(_))));
+        assert_eq!(with("hot_k", 360.0).map(|s| s.hot_k), Ok(360.0));
     }
 }

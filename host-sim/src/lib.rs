@@ -1,6 +1,7 @@
 //! Thermorph's simulator library: models that stand in for the board's peripherals.
 //!
 //! - [`dump`]: reading MLX90640 EEPROM and frame dumps (the shared test-data format).
+//! - [`console`]: `host-sim console`, the block behind the board's console (stdin or a pty).
 //! - [`data`]: where the shared sensor dumps live.
 //! - [`eeprom`]: MLX90640 EEPROM fields, their exact encoding, a realistic sensor.
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files.
@@ -16,6 +17,7 @@
 //! - [`to_roots`]: root variants of the To calculation and its f64 reference.
 //! - [`virtual_mlx`]: the virtual MLX90640 on a simulated I2C bus.
 
+pub mod console;
 pub mod data;
 pub mod decode;
 pub mod dump;

@@ -3,6 +3,8 @@
 //! - `host-sim` (or `host-sim run [SCENE] [--out DIR]`): the main job — a scene (default: the
 //!   bundled `cycle`) played against the simulated block, writing a CSV time series, a summary
 //!   JSON and a PNG plot, and printing the summary.
+//! - `host-sim console [--speed X] [--pty] [--settings FILE] [SCENE]`: the simulated block
+//!   behind the board's console, on stdin/stdout or on a pseudo-terminal (its path printed).
 //! - `host-sim sensor`: the virtual MLX90640 on a simulated I2C bus, read and decoded by the
 //!   firmware's own driver, with a summary.
 //! - `host-sim decode --eeprom FILE --frame FILE [...]`: decode real sensor dumps to CSV.
@@ -47,6 +49,9 @@ enum Command {
     },
     /// Play a scene against the simulated block; write timeseries.csv, summary.json, plot.png.
     Run(host_sim::run::RunArgs),
+    /// The simulated block behind the board's console, in real time (or `--speed` times it), on
+    /// stdin/stdout or on a pseudo-terminal whose path is printed; Ctrl-C ends it.
+    Console(host_sim::console::ConsoleArgs),
     /// Run the virtual MLX90640 through the firmware's driver and print a summary.
     Sensor(host_sim::sensor_demo::SensorArgs),
     /// Find the five region temperatures of a 24×32 image (CSV, K, `nan` = broken pixel) and
@@ -124,6 +129,7 @@ fn main() -> ExitCode {
             })
         }
         Command::Run(args) => host_sim::run::cli(&args),
+        Command::Console(args) => host_sim::console::cli(&args),
         Command::Sensor(args) => host_sim::sensor_demo::run(&args),
         Command::Mtts {
             image,

@@ -96,19 +96,19 @@ pub struct FaultRecord {
 }
 
 /// The camera chain: renderer → virtual MLX90640 → firmware driver → MTTS.
-struct Camera {
+pub(crate) struct Camera {
     rig: Rig,
-    mtts: Mtts,
+    pub(crate) mtts: Mtts,
     scratch: Box<Scratch>,
     params: DecodeParams,
     subpages: u64,
-    frames: u64,
+    pub(crate) frames: u64,
     errors: u64,
     last: Option<[f64; REGIONS]>,
 }
 
 impl Camera {
-    fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
+    pub(crate) fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
         let rig = Rig::realistic(seed, SensorConfig::default())?;
         rig.set_noise(noise_k);
         Ok(Camera {
@@ -125,7 +125,7 @@ impl Camera {
 
     /// Show the sensor the block as it is now, read subpages until the sensor's clock reaches
     /// `t_s`, and return the latest region temperatures.
-    fn update(
+    pub(crate) fn update(
         &mut self,
         obs: &Observation,
         fault: Option<crate::virtual_mlx::Fault>,
@@ -268,7 +268,7 @@ pub fn inputs_of(o: &Outputs) -> Inputs {
 }
 
 /// A measurement of region temperatures taken at `t_s` (frame number `seq`).
-fn measurement_of(
+pub(crate) fn measurement_of(
     regions_k: &[f64; REGIONS],
     cylinder_max: Option<Kelvin>,
     t_s: f64,

@@ -55,6 +55,7 @@
 pub mod events;
 pub mod report;
 pub mod safety;
+pub mod store;
 
 use crate::command::{Command, ModeRequest};
 use crate::control::{
@@ -241,6 +242,9 @@ pub struct Decision {
     /// The step used a measurement at most `sensor_timeout_s` old, or sensor loss is latched:
     /// the control loop is alive, so the board may feed its watchdog.
     pub alive: bool,
+    /// A `save` or `load` to carry out: then `reply` is `None`, and the caller gives the
+    /// outcome to [`Supervisor::finish_store`] for the command's reply ([`store`]).
+    pub store: Option<store::StoreRequest>,
 }
 
 /// The supervisor.
@@ -264,6 +268,7 @@ pub struct Supervisor {
     springs: SpringMask,
     stream: Option<Stream>,
     button_pressed: bool,
+    store: Option<store::StoreRequest>,
 }
 
 fn pid_config(s: &Settings) -> PidConfig {
@@ -320,6 +325,7 @@ impl Supervisor {
             springs: SpringMask::from_bits(1),
             stream: None,
             button_pressed: false,
+            store: None,
         }
     }
 
@@ -472,10 +478,12 @@ impl Supervisor {
         }
 
         let sensor_lost = matches!(self.fault, Some(f) if f.kind == FaultKind::SensorLoss);
+        let store = self.store.take();
         Decision {
             outputs,
             sensing: self.sensing_hint(),
-            reply,
+            reply: if store.is_some() { None } else { reply },
+            store,
             telemetry,
             alive: age_s <= self.settings.sensor_timeout_s || sensor_lost,
         }
@@ -856,6 +864,9 @@ impl Supervisor {
                 })
             }
             Command::Reset => self.reset(now),
+            Command::Save => self.save(),
+            Command::Load => self.load(),
+            Command::Defaults => self.defaults(),
             _ if self.fault.is_some() => Reply::fault_latched(self.fault),
             Command::Stop => {
                 self.enter(now, Mode::Stopped);

@@ -1,0 +1,233 @@
+//! `save`, `load` and `defaults`: the supervisor decides, the board (or host-sim) stores.
+//!
+//! The supervisor stays pure: it never touches flash or a file. A `save` or `load` command
+//! makes its step return [`Decision::store`](super::Decision::store) = a [`StoreRequest`]
+//! instead of a reply; the caller carries it out (the board on its flash, host-sim in a file)
+//! and hands the outcome to [`Supervisor::finish_store`], which returns the command's one reply.
+//! `defaults` needs no storage and replies at once. At power-up the caller reads the stored
+//! record once and starts the supervisor with [`settings_at_boot`]: a bad or old record falls
+//! back to the defaults with a `# warning` line.
+//!
+//! `save` is refused while a mode drives the block (stepping, forming, recovery, autotune): on
+//! the F446 a flash erase stalls the CPU for up to a second or two, longer than the sensor-loss
+//! window, so it is done only in standby, stopped or with a fault latched.
+
+use core::fmt::Write;
+
+use super::report::Reply;
+use super::{Mode, Supervisor, pid_config};
+use crate::control::{Pid, SplitRange};
+use crate::settings::{PARAMS, RECORD_LEN, RECORD_VERSION, Record, Settings};
+
+/// What the caller must do for a `save` or `load`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum StoreRequest {
+    /// Write this record, replacing the stored one.
+    Save(Record),
+    /// Read the stored record.
+    Load,
+}
+
+/// What came of a [`StoreRequest`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StoreOutcome<'a> {
+    /// The record was written (and read back equal, where the storage can check).
+    Saved,
+    /// The stored bytes (`None`: nothing is stored).
+    Loaded(Option<&'a [u8]>),
+    /// The storage failed; why.
+    Failed(&'static str),
+}
+
+/// The settings to start with: the stored record's (`stored`: its bytes, `None` when nothing is
+/// stored) or, for a bad or old record, the defaults after writing a `# warning: …` line (with
+/// CR LF) to `console`.
+pub fn settings_at_boot(stored: Option<&[u8]>, console: &mut impl Write) -> Settings {
+    match stored.map(Settings::decode) {
+        None => Settings::DEFAULT,
+        Some(Ok(s)) => s,
+        Some(Err(e)) => {
+            let _ = write!(
+                console,
+                "# warning: stored settings not used ({e}); defaults in use\r\n"
+            );
+            Settings::DEFAULT
+        }
+    }
+}
+
+impl Supervisor {
+    /// `save`: ask for the record to be written (refused while a mode drives the block).
+    pub(super) fn save(&mut self) -> Reply {
+        match self.mode {
+            Mode::Standby | Mode::Stopped | Mode::Faulted => {
+                self.store = Some(StoreRequest::Save(self.settings.encode()));
+                // Replaced by `finish_store`'s reply.
+                Reply::ok("saving")
+            }
+            _ => Reply::err(
+                "bad-state",
+                "save only in standby, stopped or fault (a flash write stalls the board)",
+            ),
+        }
+    }
+
+    /// `load`: ask for the stored record.
+    pub(super) fn load(&mut self) -> Reply {
+        self.store = Some(StoreRequest::Load);
+        Reply::ok("loading")
+    }
+
+    /// `defaults`: every parameter back to its default, in RAM.
+    pub(super) fn defaults(&mut self) -> Reply {
+        self.apply_settings(Settings::DEFAULT);
+        Reply::ok("defaults in use (`save` keeps them)")
+    }
+
+    /// Finish a `save` or `load` the last step asked for ([`Decision::store`](super::Decision));
+    /// return the command's reply. A loaded record that is bad or old puts the defaults in use,
+    /// as at power-up; a failed read changes nothing.
+    pub fn finish_store(&mut self, outcome: StoreOutcome<'_>) -> Reply {
+        match outcome {
+            StoreOutcome::Saved => {
+                let mut r = Reply::ok("");
+                let _ = write!(
+                    r,
+                    "saved {} parameters (record v{RECORD_VERSION}, {RECORD_LEN} bytes)",
+                    PARAMS.len()
+                );
+                r
+            }
+            StoreOutcome::Loaded(None) => {
+                self.apply_settings(Settings::DEFAULT);
+                Reply::ok("nothing stored, defaults in use")
+            }
+            StoreOutcome::Loaded(Some(bytes)) => match Settings::decode(bytes) {
+                Ok(s) => {
+                    self.apply_settings(s);
+                    let mut r = Reply::ok("");
+                    let _ = write!(r, "loaded {} parameters", PARAMS.len());
+                    r
+                }
+                Err(e) => {
+                    self.apply_settings(Settings::DEFAULT);
+                    let mut r = Reply::err("bad-record", "");
+                    let _ = write!(r, "{e}; defaults in use");
+                    r
+                }
+            },
+            StoreOutcome::Failed(why) => Reply::err("store-failed", why),
+        }
+    }
+
+    /// Put checked settings in use, continuing the loop from its last output (bumpless).
+    pub(super) fn apply_settings(&mut self, s: Settings) {
+        if s.check().is_err() {
+            return;
+        }
+        self.settings = s;
+        self.split = SplitRange::new(s.fan_deadband);
+        let u = self.pid.output();
+        self.pid = Pid::new(pid_config(&s), self.target_k);
+        self.pid.reset_to(u);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::Decision;
+    use super::*;
+    use crate::command::{Command, ModeRequest, parse};
+    use crate::units::Millis;
+    use std::format;
+    use std::string::String;
+
+    fn run(s: &mut Supervisor, line: &str) -> Decision {
+        s.step(Millis(10), None, Some(parse(line).unwrap()))
+    }
+
+    #[test]
+    fn save_then_load_restores_every_parameter() {
+        let mut s = Supervisor::new(Millis(0), Settings::DEFAULT);
+        assert!(run(&mut s, "set hot_k 360").reply.unwrap().is_ok());
+        assert!(run(&mut s, "set kp 0.2").reply.unwrap().is_ok());
+        let d = run(&mut s, "save");
+        assert_eq!(d.reply, None, "the reply comes from finish_store");
+        let Some(StoreRequest::Save(record)) = d.store else {
+            panic!("no save request: {d:?}");
+        };
+        let r = s.finish_store(StoreOutcome::Saved);
+        let n = PARAMS.len();
+        assert_eq!(
+            r.as_str(),
+            format!("ok saved {n} parameters (record v1, {} bytes)", 16 + 4 * n)
+        );
+
+        let d = run(&mut s, "defaults");
+        assert!(d.store.is_none());
+        assert_eq!(s.settings().hot_k, Settings::DEFAULT.hot_k);
+        assert!(d.reply.unwrap().is_ok());
+
+        let d = run(&mut s, "load");
+        assert_eq!((d.reply, d.store), (None, Some(StoreRequest::Load)));
+        let r = s.finish_store(StoreOutcome::Loaded(Some(&record)));
+        assert_eq!(r.as_str(), format!("ok loaded {n} parameters"));
+        assert_eq!(s.settings().hot_k, 360.0);
+        assert_eq!(s.settings().gains.kp_per_k, 0.2);
+    }
+
+    #[test]
+    fn bad_or_missing_records_fall_back_to_defaults() {
+        let mut s = Supervisor::new(Millis(0), Settings::DEFAULT);
+        run(&mut s, "set hot_k 360");
+        let mut bad = s.settings().encode();
+        bad[20] ^= 4;
+        run(&mut s, "load");
+        let r = s.finish_store(StoreOutcome::Loaded(Some(&bad)));
+        assert_eq!(r.as_str(), "err bad-record: CRC mismatch; defaults in use");
+        assert_eq!(*s.settings(), Settings::DEFAULT);
+
+        run(&mut s, "set hot_k 360");
+        let r = s.finish_store(StoreOutcome::Loaded(None));
+        assert_eq!(r.as_str(), "ok nothing stored, defaults in use");
+        assert_eq!(*s.settings(), Settings::DEFAULT);
+
+        run(&mut s, "set hot_k 360");
+        let r = s.finish_store(StoreOutcome::Failed("flash read error"));
+        assert_eq!(r.as_str(), "err store-failed: flash read error");
+        assert_eq!(s.settings().hot_k, 360.0, "a failed read changes nothing");
+    }
+
+    #[test]
+    fn save_is_refused_while_a_mode_drives_the_block() {
+        let mut s = Supervisor::new(Millis(0), Settings::DEFAULT);
+        s.step(
+            Millis(5),
+            None,
+            Some(Command::Mode(ModeRequest::StepLarge, None)),
+        );
+        let d = run(&mut s, "save");
+        assert!(d.store.is_none());
+        assert!(d.reply.unwrap().as_str().starts_with("err bad-state:"));
+        run(&mut s, "stop");
+        assert!(run(&mut s, "save").store.is_some());
+    }
+
+    #[test]
+    fn boot_uses_a_good_record_and_warns_on_a_bad_one() {
+        let mut good = Settings::DEFAULT;
+        good.hot_k = 361.0;
+        let rec = good.encode();
+        let mut out = String::new();
+        assert_eq!(settings_at_boot(Some(&rec), &mut out), good);
+        assert_eq!(settings_at_boot(None, &mut out), Settings::DEFAULT);
+        assert!(out.is_empty());
+        let mut old = rec;
+        old[4] = 0;
+        assert_eq!(settings_at_boot(Some(&old), &mut out), Settings::DEFAULT);
+        assert_eq!(
+            out,
+            "# warning: stored settings not used (record version 0, expected 1); defaults in use\r\n"
+        );
+    }
+}
