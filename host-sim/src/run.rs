@@ -30,6 +30,7 @@ use thermorph::outputs::Outputs;
 use thermorph::settings::Settings;
 use thermorph::supervisor::events::EventKind;
 use thermorph::supervisor::report::Reply;
+use thermorph::supervisor::store::{StoreOutcome, StoreRequest};
 use thermorph::supervisor::{Decision, Supervisor};
 use thermorph::units::{Kelvin, Millis};
 
@@ -191,6 +192,8 @@ pub struct Control {
     /// Every fault it latched.
     pub faults: Vec<FaultRecord>,
     seen_events: u32,
+    /// The settings record `save` wrote in this run.
+    stored: Option<Vec<u8>>,
 }
 
 impl Control {
@@ -200,6 +203,7 @@ impl Control {
             supervisor: Supervisor::new(now, Settings::DEFAULT),
             faults: Vec::new(),
             seen_events: 0,
+            stored: None,
         }
     }
 
@@ -222,6 +226,22 @@ impl Control {
                     ..d
                 },
             };
+            // A scene's `save` and `load` use a record kept for the run (the board's flash,
+            // the console's file).
+            if let Some(req) = d.store.take() {
+                let reply = match req {
+                    StoreRequest::Save(record) => {
+                        self.stored = Some(record.to_vec());
+                        self.supervisor.finish_store(StoreOutcome::Saved)
+                    }
+                    StoreRequest::Load => {
+                        let stored = self.stored.clone();
+                        self.supervisor
+                            .finish_store(StoreOutcome::Loaded(stored.as_deref()))
+                    }
+                };
+                d.reply = Some(reply);
+            }
             replies.push(ReplyRecord {
                 at_s: l.at_s,
                 line: l.line.clone(),
