@@ -9,8 +9,8 @@
 //! - camera on: the plant's surface temperatures are rendered into the camera's view
 //!   ([`crate::scene::render`]; the column's tilt in the image is half its bending angle —
 //!   the chord of a constant-curvature arc — projected on the image plane), encoded by the
-//!   virtual MLX90640, read over the simulated I2C bus by the firmware's own driver at 8 Hz
-//!   subpages, and turned into region temperatures by the firmware's MTTS on every whole frame.
+//!   virtual MLX90640, read over the simulated I2C bus at 8 Hz subpages by the firmware's own
+//!   sensing pipeline ([`thermorph::sensing`]: driver, subpage pairing, error policy, MTTS).
 //!
 //! A sensor fault with the camera off means no measurement at all (`nan` in the CSV). Outputs,
 //! written by [`write_outputs`] into one folder: `timeseries.csv` (one row a period),
@@ -21,14 +21,19 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
+use embassy_futures::block_on;
 use serde::Serialize;
-use thermorph::mlx90640::{Config as SensorConfig, DecodeParams};
-use thermorph::mtts::{self, Mtts, REGIONS, Scratch};
+use thermorph::measurement::Measurement;
+use thermorph::mlx90640::Config as SensorConfig;
+use thermorph::mtts::REGIONS;
+use thermorph::sensing::{Buffers, Outcome, Pipeline, PipelineConfig, Sensor};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 use crate::scenario::{FaultKind, Scenario};
 use crate::scene::{self, Geometry, Temps};
 use crate::sensor_demo::Rig;
+use crate::sim_time::{SimClock, SimDelay};
+use crate::virtual_mlx::VirtualBus;
 
 /// One control period of a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,36 +53,41 @@ pub struct Row {
     pub faults: u32,
 }
 
-/// The camera chain: renderer → virtual MLX90640 → firmware driver → MTTS.
+/// The camera chain: renderer → virtual MLX90640 → the firmware's sensing pipeline (driver,
+/// subpage pairing, MTTS) — the same policy as the board's sensor task.
 struct Camera {
     rig: Rig,
-    mtts: Mtts,
-    scratch: Box<Scratch>,
-    params: DecodeParams,
-    subpages: u64,
+    sensor: Sensor<VirtualBus, SimDelay, SimClock, Box<Buffers>>,
     frames: u64,
     errors: u64,
-    last: Option<[f64; REGIONS]>,
+    /// The latest measurement; `None` after an error until the next frame.
+    last: Option<Measurement>,
 }
 
 impl Camera {
     fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
         let rig = Rig::realistic(seed, SensorConfig::default())?;
         rig.set_noise(noise_k);
+        let pipeline = Pipeline::new(PipelineConfig::default()).map_err(|e| e.to_string())?;
+        let sensor = Sensor::new(
+            rig.bus.clone(),
+            SimDelay::new(rig.clock.clone()),
+            rig.clock.clone(),
+            thermorph::mlx90640::ADDRESS,
+            pipeline,
+            Box::new(Buffers::new()),
+        );
         Ok(Camera {
             rig,
-            mtts: Mtts::new(mtts::Config::default()).map_err(|e| e.to_string())?,
-            scratch: Box::new(Scratch::new()),
-            params: DecodeParams::default(),
-            subpages: 0,
+            sensor,
             frames: 0,
             errors: 0,
             last: None,
         })
     }
 
-    /// Show the sensor the block as it is now, read subpages until the sensor's clock reaches
-    /// `t_s`, and return the latest region temperatures.
+    /// Show the sensor the block as it is now, run the sensing pipeline until the sensor's
+    /// clock reaches `t_s`, and return the latest region temperatures.
     fn update(
         &mut self,
         obs: &Observation,
@@ -103,37 +113,23 @@ impl Camera {
         self.rig.set_field(&r.image_k);
         self.rig.bus.0.borrow_mut().set_fault(fault);
         let t_end_us = (t_s * 1e6) as u64;
+        // Every action advances the simulated clock (bus time, a pause or a timeout).
         while self.rig.clock.now_us() < t_end_us {
-            match self.rig.step(&self.params) {
-                Ok(subpage) => {
-                    self.subpages += 1;
-                    if subpage == 1 && self.subpages >= 2 {
-                        self.frames += 1;
-                        self.last = match self.mtts.process(&self.rig.image.to_k, &mut self.scratch)
-                        {
-                            Ok(out) => {
-                                Some(core::array::from_fn(|i| out.regions[i].temp.k() as f64))
-                            }
-                            Err(_) => {
-                                self.errors += 1;
-                                None
-                            }
-                        };
-                    }
+            match block_on(self.sensor.step()) {
+                Outcome::Frame(m) => {
+                    self.frames += 1;
+                    self.last = Some(m);
                 }
-                Err(_) => {
-                    // The board's sensor task reports the error and the controller sees no
-                    // measurement until a good frame comes; a refused transfer takes no time
-                    // here, so wait for the next period.
+                Outcome::Error(_) => {
+                    // The supervisor sees no measurement until a good frame comes.
                     self.errors += 1;
                     self.last = None;
-                    self.rig
-                        .clock
-                        .advance_us(t_end_us - self.rig.clock.now_us());
                 }
+                _ => {}
             }
         }
         self.last
+            .map(|m| core::array::from_fn(|i| m.regions[i].k() as f64))
     }
 }
 
