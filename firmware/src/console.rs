@@ -30,6 +30,8 @@ pub enum ConsoleError {
     BinaryInput,
     /// Bytes of the line were lost on the way in (receive overrun or a full buffer).
     LostBytes,
+    /// Too many commands were waiting for their replies: the line was not run.
+    Busy,
     /// The first word is not a command.
     UnknownCommand,
     /// The command's arguments are wrong.
@@ -43,6 +45,7 @@ impl ConsoleError {
             Self::LineTooLong => "line-too-long",
             Self::BinaryInput => "binary-input",
             Self::LostBytes => "lost-bytes",
+            Self::Busy => "busy",
             Self::UnknownCommand => "unknown-command",
             Self::BadArguments => "bad-arguments",
         }
@@ -54,6 +57,7 @@ impl ConsoleError {
             Self::LineTooLong => "line longer than 96 bytes discarded",
             Self::BinaryInput => "line holds non-printable bytes",
             Self::LostBytes => "bytes of this line were lost on input, line discarded",
+            Self::Busy => "too many commands waiting for replies, line discarded",
             Self::UnknownCommand => "unknown command, try `help`",
             Self::BadArguments => "wrong arguments, try `help`",
         }
@@ -209,6 +213,8 @@ pub enum SensorError {
     Driver(mlx90640::Error),
     /// From MTTS.
     Mtts(MttsError),
+    /// From the sensing pipeline.
+    Sensing(crate::sensing::SensingError),
 }
 
 impl fmt::Display for SensorError {
@@ -216,6 +222,7 @@ impl fmt::Display for SensorError {
         match self {
             Self::Driver(e) => write!(f, "{e}"),
             Self::Mtts(e) => write!(f, "{e}"),
+            Self::Sensing(e) => write!(f, "{e}"),
         }
     }
 }
@@ -520,6 +527,7 @@ mod tests {
             (ConsoleError::LineTooLong, "line-too-long"),
             (ConsoleError::BinaryInput, "binary-input"),
             (ConsoleError::LostBytes, "lost-bytes"),
+            (ConsoleError::Busy, "busy"),
             (ConsoleError::UnknownCommand, "unknown-command"),
             (ConsoleError::BadArguments, "bad-arguments"),
         ];

@@ -29,14 +29,12 @@
 //! - The [`SensingHint`] from the supervisor sets the MTTS prior and the weights of Tc for the
 //!   frames that follow.
 
-use core::ops::DerefMut;
-
 use embedded_hal_async::delay::DelayNs;
 use embedded_hal_async::i2c::I2c;
 
 use crate::measurement::{Measurement, Quality, SensingHint};
 use crate::mlx90640::{
-    self, Calibration, DecodeParams, FrameError, Image, Mlx90640, PIXELS, SubpageFrame,
+    self, Calibration, DecodeParams, FrameError, Image, Mlx90640, PIXELS, SubpageFrame, SubpageInfo,
 };
 use crate::mtts::{self, Mtts, MttsError, PLAUSIBLE_K, Weights};
 use crate::units::{Kelvin, Millis};
@@ -285,6 +283,53 @@ impl Buffers {
     }
 }
 
+/// The pipeline's working memory, borrowed part by part.
+pub struct Parts<'a> {
+    /// The sensor's calibration.
+    pub cal: &'a mut Calibration,
+    /// The last subpage read.
+    pub frame: &'a mut SubpageFrame,
+    /// The image merged from the last subpages.
+    pub image: &'a mut Image,
+    /// MTTS working memory.
+    pub scratch: &'a mut mtts::Scratch,
+}
+
+/// Where the pipeline's working memory lives: [`Buffers`] in one piece (a `Box` on the host),
+/// or four separate `static`s on the board, so the zero-initialised parts stay in `.bss`
+/// instead of being copied from flash with the image's NaNs.
+pub trait Storage {
+    /// Return the parts, mutably.
+    fn parts(&mut self) -> Parts<'_>;
+    /// Return the image.
+    fn image(&self) -> &Image;
+}
+
+impl Storage for Buffers {
+    fn parts(&mut self) -> Parts<'_> {
+        Parts {
+            cal: &mut self.cal,
+            frame: &mut self.frame,
+            image: &mut self.image,
+            scratch: &mut self.scratch,
+        }
+    }
+
+    fn image(&self) -> &Image {
+        &self.image
+    }
+}
+
+impl<S: Storage + ?Sized> Storage for &mut S {
+    fn parts(&mut self) -> Parts<'_> {
+        (**self).parts()
+    }
+
+    fn image(&self) -> &Image {
+        (**self).image()
+    }
+}
+
 /// FNV-1a digest of words, to spot repeated subpages without keeping a copy.
 fn digest(words: &[u16]) -> u32 {
     words.iter().fold(0x811C_9DC5u32, |h, &w| {
@@ -351,6 +396,7 @@ pub struct Pipeline {
     half: Option<Half>,
     digests: [Option<u32>; 2],
     seq: u32,
+    last_subpage: Option<SubpageInfo>,
 }
 
 impl Pipeline {
@@ -366,6 +412,7 @@ impl Pipeline {
             half: None,
             digests: [None, None],
             seq: 0,
+            last_subpage: None,
         })
     }
 
@@ -391,6 +438,11 @@ impl Pipeline {
     /// Return the number of frames published so far (the next frame's `seq` is this).
     pub fn frames(&self) -> u32 {
         self.seq
+    }
+
+    /// Return the sensor temperature and supply of the last subpage decoded.
+    pub fn last_subpage(&self) -> Option<SubpageInfo> {
+        self.last_subpage
     }
 
     /// Return whether the sensor is set up.
@@ -492,8 +544,9 @@ impl Pipeline {
         if repeated {
             return self.fail(SensingError::Frozen { subpage: sp });
         }
-        if let Err(e) = image.update(frame, cal, &self.config.decode) {
-            return self.fail(SensingError::Implausible(Implausible::Frame(e)));
+        match image.update(frame, cal, &self.config.decode) {
+            Ok(info) => self.last_subpage = Some(info),
+            Err(e) => return self.fail(SensingError::Implausible(Implausible::Frame(e))),
         }
         let held = self.half.take();
         if sp == 0 {
@@ -529,7 +582,7 @@ impl Pipeline {
 
 /// The sensor, its driver and the pipeline: one [`Sensor::step`] performs one action.
 ///
-/// `B` holds the [`Buffers`]: a `&'static mut Buffers` on the board, a `Box` on the host.
+/// `B` holds the working memory ([`Storage`]).
 pub struct Sensor<I2C, D, C, B> {
     driver: Mlx90640<I2C, D>,
     delay: D,
@@ -543,7 +596,7 @@ where
     I2C: I2c + RecoverBus,
     D: DelayNs + Clone,
     C: Clock,
-    B: DerefMut<Target = Buffers>,
+    B: Storage,
 {
     /// Make the sensor at 7-bit `address` on `i2c`, with `pipeline` and its buffers.
     pub fn new(i2c: I2C, delay: D, clock: C, address: u8, pipeline: Pipeline, bufs: B) -> Self {
@@ -566,9 +619,9 @@ where
         self.pipeline.set_hint(hint);
     }
 
-    /// Return the buffers (the last image, for status and telemetry).
-    pub fn buffers(&self) -> &Buffers {
-        &self.bufs
+    /// Return the last image (for status and telemetry).
+    pub fn image(&self) -> &Image {
+        self.bufs.image()
     }
 
     /// Return the driver (for tests and diagnostics).
@@ -589,21 +642,21 @@ where
             }
             Action::Setup => {
                 let sensor = self.pipeline.config().sensor;
-                let r = match self.driver.calibrate(&mut self.bufs.cal).await {
+                let r = match self.driver.calibrate(self.bufs.parts().cal).await {
                     Ok(()) => self.driver.configure(sensor).await,
                     Err(e) => Err(e),
                 };
                 self.pipeline.on_setup(r)
             }
-            Action::ReadSubpage => match self.driver.read_subpage(&mut self.bufs.frame).await {
+            Action::ReadSubpage => match self.driver.read_subpage(self.bufs.parts().frame).await {
                 Ok(()) => {
                     let at = self.clock.now();
-                    let Buffers {
+                    let Parts {
                         cal,
                         frame,
                         image,
                         scratch,
-                    } = &mut *self.bufs;
+                    } = self.bufs.parts();
                     self.pipeline.on_subpage(at, frame, cal, image, scratch)
                 }
                 Err(e) => self.pipeline.on_read_error(e),

@@ -26,14 +26,14 @@ use serde::Serialize;
 use thermorph::measurement::Measurement;
 use thermorph::mlx90640::Config as SensorConfig;
 use thermorph::mtts::REGIONS;
-use thermorph::sensing::{Buffers, Outcome, Pipeline, PipelineConfig, Sensor};
+use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 use crate::scenario::{FaultKind, Scenario};
 use crate::scene::{self, Geometry, Temps};
 use crate::sensor_demo::Rig;
 use crate::sim_time::{SimClock, SimDelay};
-use crate::virtual_mlx::VirtualBus;
+use crate::virtual_mlx::{HeapBuffers, VirtualBus};
 
 /// One control period of a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,7 +57,7 @@ pub struct Row {
 /// subpage pairing, MTTS) — the same policy as the board's sensor task.
 struct Camera {
     rig: Rig,
-    sensor: Sensor<VirtualBus, SimDelay, SimClock, Box<Buffers>>,
+    sensor: Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>,
     frames: u64,
     errors: u64,
     /// The latest measurement; `None` after an error until the next frame.
@@ -75,7 +75,7 @@ impl Camera {
             rig.clock.clone(),
             thermorph::mlx90640::ADDRESS,
             pipeline,
-            Box::new(Buffers::new()),
+            HeapBuffers::new(),
         );
         Ok(Camera {
             rig,

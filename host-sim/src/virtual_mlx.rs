@@ -36,7 +36,8 @@ use thermorph::mlx90640::{
     RAM_START, Status, SubpageFrame,
 };
 
-use thermorph::sensing::{BusStuck, Clock, RecoverBus};
+use thermorph::mlx90640::Image;
+use thermorph::sensing::{Buffers, BusStuck, Clock, Parts, RecoverBus, Storage};
 use thermorph::units::Millis;
 
 use crate::sim_time::SimClock;
@@ -597,5 +598,31 @@ impl RecoverBus for VirtualBus {
 impl Clock for SimClock {
     fn now(&self) -> Millis {
         Millis(self.now_us() / 1000)
+    }
+}
+
+/// The sensing pipeline's working memory on the heap (≈ 60 KB).
+pub struct HeapBuffers(pub Box<Buffers>);
+
+impl HeapBuffers {
+    /// Zeroed buffers.
+    pub fn new() -> Self {
+        HeapBuffers(Box::new(Buffers::new()))
+    }
+}
+
+impl Default for HeapBuffers {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Storage for HeapBuffers {
+    fn parts(&mut self) -> Parts<'_> {
+        self.0.parts()
+    }
+
+    fn image(&self) -> &Image {
+        self.0.image()
     }
 }

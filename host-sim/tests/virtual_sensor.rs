@@ -5,19 +5,19 @@ use embassy_futures::block_on;
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 use host_sim::sensor_demo::{Rig, round_trip};
 use host_sim::sim_time::{SimClock, SimDelay};
-use host_sim::virtual_mlx::{Fault, VirtualBus};
+use host_sim::virtual_mlx::{Fault, HeapBuffers, VirtualBus};
 use thermorph::measurement::Measurement;
 use thermorph::mlx90640::calc::FrameError;
 use thermorph::mlx90640::{
     Config, DecodeParams, Error, ReadingPattern, RefreshRate, Resolution, SubpageFrame,
 };
-use thermorph::sensing::{Buffers, Outcome, Pipeline, PipelineConfig, SensingError, Sensor};
+use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, SensingError, Sensor};
 
 fn rig(config: Config) -> Rig {
     Rig::realistic(7, config).unwrap()
 }
 
-type TestSensor = Sensor<VirtualBus, SimDelay, SimClock, Box<Buffers>>;
+type TestSensor = Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>;
 
 /// The library's sensing pipeline on the rig's bus (it sets the sensor up itself).
 fn sensor(r: &Rig) -> TestSensor {
@@ -28,7 +28,7 @@ fn sensor(r: &Rig) -> TestSensor {
         r.clock.clone(),
         thermorph::mlx90640::ADDRESS,
         Pipeline::new(PipelineConfig::default()).unwrap(),
-        Box::new(Buffers::new()),
+        HeapBuffers::new(),
     )
 }
 
