@@ -24,8 +24,11 @@
 //!   a few bus transfers every 200 ms and never stops the loop. Stale data, frozen data and a control register that lost its settings (a
 //!   power-cycled sensor) also set it up again. Implausible data only drops the frame.
 //! - T1, T2 and Tc must be finite and within [`mtts::PLAUSIBLE_K`]; regions 3–5 may be NaN
-//!   (a zone no cluster was given, as in a uniform scene). More than
+//!   (a zone no cluster was given). A uniform block has no lattice, so MTTS may give T1 or T2
+//!   no cluster: the other stands for both, quality `Fallback` ([`to_measurement`]). More than
 //!   [`PipelineConfig::max_filled_pixels`] broken pixels in a frame is an error.
+//! - Every error is a [`SensingError`] with a stable [`SensingError::code`]: the supervisor's
+//!   sensor-loss fault reads them (and the age of the last [`Measurement`]).
 //! - The [`SensingHint`] from the supervisor sets the MTTS prior and the weights of Tc for the
 //!   frames that follow.
 
