@@ -56,8 +56,9 @@ pub struct SensorReport {
     pub error: Option<SensingError>,
     /// Errors since the last take.
     pub errors: u32,
-    /// When the sensor task last reported anything (a measurement or an error).
-    pub last_report: Option<Millis>,
+    /// When the sensor task last finished a step (every step is bounded in time by the
+    /// driver's timeouts, so a task that stops stepping has stalled).
+    pub last_step: Option<Millis>,
 }
 
 /// The sensor task's reports; the control task takes them each tick.
@@ -66,7 +67,7 @@ static SENSOR: Mutex<CriticalSectionRawMutex, RefCell<SensorReport>> =
         measurement: None,
         error: None,
         errors: 0,
-        last_report: None,
+        last_step: None,
     }));
 /// Wakes the control task when a measurement arrives.
 static MEASURED: Signal<CriticalSectionRawMutex, ()> = Signal::new();
@@ -122,7 +123,7 @@ impl Storage for BoardStorage {
 
 /// Control loop period.
 const TICK: Duration = Duration::from_millis(100);
-/// The watchdog is fed only while the sensor task reported within this window, ms.
+/// The watchdog is fed only while the sensor task finished a step within this window, ms.
 const SENSOR_ALIVE_MS: u64 = 1_000;
 
 /// Time since boot for the pipeline's timestamps.
@@ -168,12 +169,12 @@ async fn sensor_task(bus: pins::SensorBus) {
         }
         let outcome = sensor.step().await;
         let at = now();
+        SENSOR.lock(|r| r.borrow_mut().last_step = Some(at));
         match outcome {
             Outcome::Frame(m) => {
                 SENSOR.lock(|r| {
                     let mut r = r.borrow_mut();
                     r.measurement = Some(m);
-                    r.last_report = Some(at);
                 });
                 MEASURED.signal(());
                 let info = sensor.pipeline().last_subpage();
@@ -194,7 +195,6 @@ async fn sensor_task(bus: pins::SensorBus) {
                     let mut r = r.borrow_mut();
                     r.error = Some(e);
                     r.errors = r.errors.saturating_add(1);
-                    r.last_report = Some(at);
                 });
                 STATUS.lock(|s| {
                     let mut s = s.borrow_mut();
@@ -397,10 +397,11 @@ async fn main(spawner: Spawner) {
         outputs.apply(&decided);
         HINT.signal(SensingHint::default());
 
-        // Feed the watchdog only while the sensor task reports (a measurement or an error)
-        // within the last second: a stalled sensor task resets the chip, a missing sensor
-        // (errors every few hundred ms) does not.
-        if let Some(at) = report.last_report {
+        // Feed the watchdog only while the sensor task finished a step within the last
+        // second: a stalled sensor task (or control loop) resets the chip, a missing sensor
+        // (an error every few hundred ms) does not. The supervisor's rule replaces this: feed
+        // after a step that used a measurement at most 1 s old or has latched sensor loss.
+        if let Some(at) = report.last_step {
             sensor_seen = at;
         }
         if now().0.saturating_sub(sensor_seen.0) <= SENSOR_ALIVE_MS {

@@ -9,8 +9,8 @@
 //!   error and the e-stop event, and applies one `Outputs` through `pins::Outputs::apply` (the
 //!   only path that drives a load; until the supervisor is connected it applies
 //!   `Outputs::OFF`). It feeds the independent watchdog (500 ms, started before any task) only
-//!   while the sensor task has reported — a measurement or an error — within the last second,
-//!   and blinks LD2: 1 Hz heartbeat, 5 Hz while the sensor reports an error or the e-stop was
+//!   while the sensor task has finished a step (each is bounded by the driver's timeouts)
+//!   within the last second, and blinks LD2: 1 Hz heartbeat, 5 Hz while the sensor reports an error or the e-stop was
 //!   pressed.
 //! - `sensor_task`: the library's sensing pipeline (`thermorph::sensing::Sensor`) on I2C1 —
 //!   setup, bus recovery after I2C errors (nine SCL clocks, STOP, I2C1 rebuilt), subpage
