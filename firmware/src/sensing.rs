@@ -39,7 +39,7 @@ use crate::measurement::{Measurement, Quality, SensingHint};
 use crate::mlx90640::{
     self, Calibration, DecodeParams, FrameError, Image, Mlx90640, PIXELS, SubpageFrame, SubpageInfo,
 };
-use crate::mtts::{self, Mtts, MttsError, PLAUSIBLE_K, Weights};
+use crate::mtts::{self, Mtts, MttsError, PLAUSIBLE_K};
 use crate::units::{Kelvin, Millis};
 
 /// Default limit of broken pixels filled in a frame: 5 % of the 768.
@@ -350,7 +350,7 @@ fn digest(words: &[u16]) -> u32 {
 /// other one stands for both and the quality is `Fallback`.
 pub fn to_measurement(
     out: &mtts::Output,
-    weights: Weights,
+    hint: &SensingHint,
     at: Millis,
     seq: u32,
 ) -> Option<Measurement> {
@@ -362,7 +362,7 @@ pub fn to_measurement(
         regions[0] = t;
         regions[1] = t;
     }
-    let tc = weights.apply(regions[0], regions[1]);
+    let tc = hint.weights.apply(regions[0], regions[1]);
     let plausible = |t: Kelvin| t.k() >= PLAUSIBLE_K.0 && t.k() <= PLAUSIBLE_K.1;
     if !(plausible(regions[0]) && plausible(regions[1]) && plausible(tc)) {
         return None;
@@ -392,7 +392,7 @@ pub fn to_measurement(
 pub struct Pipeline {
     config: PipelineConfig,
     mtts: Mtts,
-    weights: Weights,
+    hint: SensingHint,
     ready: bool,
     recover: bool,
     pause: bool,
@@ -407,7 +407,7 @@ impl Pipeline {
     pub fn new(config: PipelineConfig) -> Result<Self, MttsError> {
         Ok(Pipeline {
             mtts: Mtts::new(config.mtts)?,
-            weights: SensingHint::default().weights,
+            hint: SensingHint::default(),
             config,
             ready: false,
             recover: false,
@@ -427,15 +427,12 @@ impl Pipeline {
     /// Apply the supervisor's hint to the frames that follow: MTTS prior and Tc weights.
     pub fn set_hint(&mut self, hint: SensingHint) {
         self.mtts.set_prior(hint.prior);
-        self.weights = hint.weights;
+        self.hint = hint;
     }
 
     /// Return the hint in force.
     pub fn hint(&self) -> SensingHint {
-        SensingHint {
-            prior: self.mtts.prior(),
-            weights: self.weights,
-        }
+        self.hint
     }
 
     /// Return the number of frames published so far (the next frame's `seq` is this).
@@ -573,7 +570,7 @@ impl Pipeline {
                 limit: self.config.max_filled_pixels,
             });
         }
-        match to_measurement(&out, self.weights, at, self.seq) {
+        match to_measurement(&out, &self.hint, at, self.seq) {
             Some(m) => {
                 self.seq = self.seq.wrapping_add(1);
                 Outcome::Frame(m)
@@ -672,6 +669,7 @@ where
 mod tests {
     use super::*;
     use crate::mlx90640::Error as E;
+    use crate::mtts::Weights;
     use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 
     fn pipeline() -> Pipeline {
@@ -815,8 +813,11 @@ mod tests {
         let mut img = [300.0f32; mtts::IMG_PIXELS];
         img[5] = f32::NAN;
         let out = m.process(&img, &mut scratch).unwrap();
-        let w = Weights { w1: 0.5, w2: 0.5 };
-        let got = to_measurement(&out, w, Millis(1234), 7).unwrap();
+        let hint = SensingHint {
+            prior: mtts::Prior::Unknown,
+            weights: Weights { w1: 0.5, w2: 0.5 },
+        };
+        let got = to_measurement(&out, &hint, Millis(1234), 7).unwrap();
         assert_eq!((got.at, got.seq), (Millis(1234), 7));
         assert_eq!(got.quality, Quality::Fallback);
         assert!(out.t2().k().is_nan(), "no lattice: no T2 cluster");
@@ -825,8 +826,11 @@ mod tests {
         assert!((got.tc.k() - 300.0).abs() < 1e-3);
         assert_eq!(got.cylinder_max, Some(out.cylinder_max));
         // Tc out of the plausible range (weights that do not sum to 1) is refused.
-        let bad = Weights { w1: 3.0, w2: 3.0 };
-        assert_eq!(to_measurement(&out, bad, Millis(0), 0), None);
+        let bad = SensingHint {
+            weights: Weights { w1: 3.0, w2: 3.0 },
+            ..hint
+        };
+        assert_eq!(to_measurement(&out, &bad, Millis(0), 0), None);
     }
 
     #[test]
