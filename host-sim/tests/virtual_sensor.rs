@@ -319,6 +319,7 @@ fn a_bus_stuck_low_is_recovered_and_frames_come_again() {
     assert_eq!(r.bus.0.borrow().recoveries(), 1);
     assert_eq!(r.bus.0.borrow().fault(), None);
     let back_us = got[0].at.ms() * 1000 - t0;
+    eprintln!("bus stuck low: first frame again {back_us} µs later");
     assert!(
         back_us < 1_000_000,
         "first frame {back_us} µs after the bus stuck (inside the 1 s loss window)"

@@ -257,7 +257,7 @@ async fn console_rx_task(mut rx: BufferedUartRx<'static>) {
                 continue;
             }
         };
-        losses.took(n);
+        losses.add(serial::took(n));
         for &b in &buf[..n] {
             if losses.next_byte_lost() {
                 reader.mark_lost();

@@ -33,6 +33,11 @@
 #[cfg(target_os = "none")]
 mod board;
 
+// The console's loss bookkeeping is pure: its tests run on the host.
+#[cfg(all(test, not(target_os = "none")))]
+#[path = "loss.rs"]
+mod loss;
+
 #[cfg(not(target_os = "none"))]
 fn main() {
     eprintln!(

@@ -17,6 +17,10 @@ use embassy_stm32::interrupt;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 
+#[path = "loss.rs"]
+mod loss;
+pub use loss::LossTracker;
+
 /// Size of the console's receive ring, bytes.
 pub const RX_BUF: usize = 1024;
 
@@ -28,12 +32,7 @@ static TAKEN: AtomicU32 = AtomicU32::new(0);
 static LOST: Mutex<CriticalSectionRawMutex, Cell<Option<(u32, u32)>>> = Mutex::new(Cell::new(None));
 
 fn record_loss(at: u32) {
-    LOST.lock(|l| {
-        l.set(Some(match l.get() {
-            Some((first, _)) => (first, at),
-            None => (at, at),
-        }))
-    });
+    LOST.lock(|l| l.set(loss::merge(l.get(), at)));
 }
 
 /// The USART2 interrupt's first handler: detects a full ring and hardware overruns.
@@ -46,64 +45,25 @@ impl interrupt::typelevel::Handler<interrupt::typelevel::USART2> for RxLossWatch
         if !sr.rxne() {
             return;
         }
-        let accepted = ACCEPTED.load(Ordering::Relaxed);
-        let waiting = accepted.wrapping_sub(TAKEN.load(Ordering::Relaxed));
-        if waiting as usize >= RX_BUF {
-            // embassy drops this byte: it is missing before the next accepted one.
-            record_loss(accepted);
-        } else {
-            ACCEPTED.store(accepted.wrapping_add(1), Ordering::Relaxed);
-            if sr.ore() {
-                // This byte is kept; what came after it while it waited was lost.
-                record_loss(accepted.wrapping_add(1));
-            }
-        }
-    }
-}
-
-/// The reader's side: where it is in the stream and which positions lost bytes.
-pub struct LossTracker {
-    pos: u32,
-    pending: Option<(u32, u32)>,
-}
-
-impl LossTracker {
-    /// A tracker at the start of the stream.
-    pub const fn new() -> Self {
-        LossTracker {
-            pos: 0,
-            pending: None,
-        }
-    }
-
-    /// Record that a read took `n` bytes out of the ring, and fetch the losses recorded.
-    pub fn took(&mut self, n: usize) {
-        TAKEN.store(
-            TAKEN.load(Ordering::Relaxed).wrapping_add(n as u32),
-            Ordering::Relaxed,
+        let (accepted, lost) = loss::on_receive(
+            ACCEPTED.load(Ordering::Relaxed),
+            TAKEN.load(Ordering::Relaxed),
+            sr.ore(),
+            RX_BUF,
         );
-        if let Some((a, b)) = LOST.lock(|l| l.take()) {
-            self.pending = Some(match self.pending {
-                Some((first, _)) => (first, b),
-                None => (a, b),
-            });
+        ACCEPTED.store(accepted, Ordering::Relaxed);
+        if let Some(at) = lost {
+            record_loss(at);
         }
     }
+}
 
-    /// Advance past the next byte; return whether bytes were lost just before it (or between
-    /// two losses), so its line must be marked lost.
-    pub fn next_byte_lost(&mut self) -> bool {
-        let pos = self.pos;
-        self.pos = pos.wrapping_add(1);
-        match self.pending {
-            // Positions wrap after 4 GiB: compare distances, not values.
-            Some((a, b)) if pos.wrapping_sub(a) <= b.wrapping_sub(a) => {
-                if pos == b {
-                    self.pending = None;
-                }
-                true
-            }
-            _ => false,
-        }
-    }
+/// Record that a read took `n` bytes out of the ring, and return the losses recorded since
+/// the last call (for [`LossTracker::add`]).
+pub fn took(n: usize) -> Option<(u32, u32)> {
+    TAKEN.store(
+        TAKEN.load(Ordering::Relaxed).wrapping_add(n as u32),
+        Ordering::Relaxed,
+    );
+    LOST.lock(|l| l.take())
 }
