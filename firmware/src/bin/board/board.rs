@@ -321,11 +321,22 @@ async fn estop_task(mut button: ExtiInput<'static, Async>) {
     }
 }
 
-/// Turn the outputs off first, then report, then halt for the debugger or reset the chip.
+/// Set by the first panic or fault: a second one (say, a panic inside the logger while it
+/// prints the first) skips the printing.
+static FAILING: AtomicBool = AtomicBool::new(false);
+
+/// Turn the outputs off first, then report (once), then halt for the debugger or reset the
+/// chip.
 fn fail_safe(what: &str) -> ! {
     // SAFETY: called only from the panic and fault handlers, after which no task runs.
     unsafe { pins::force_outputs_off() };
-    error!("{}: outputs off", what);
+    if !FAILING.swap(true, Ordering::AcqRel) {
+        error!("{}: outputs off", what);
+    }
+    halt_or_reset()
+}
+
+fn halt_or_reset() -> ! {
     if cortex_m::peripheral::DCB::is_debugger_attached() {
         // probe-rs stops here and prints the backtrace.
         cortex_m::asm::bkpt();
@@ -339,8 +350,10 @@ fn fail_safe(what: &str) -> ! {
 fn panic(info: &core::panic::PanicInfo) -> ! {
     // SAFETY: as in `fail_safe`; the outputs go off before the message is formatted.
     unsafe { pins::force_outputs_off() };
-    error!("panic: {}", defmt::Display2Format(info));
-    fail_safe("panic")
+    if !FAILING.swap(true, Ordering::AcqRel) {
+        error!("panic, outputs off: {}", defmt::Display2Format(info));
+    }
+    halt_or_reset()
 }
 
 /// A fault (including a stack overflow: flip-link puts the stack below the statics, so an
@@ -355,8 +368,10 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 unsafe fn DefaultHandler(irqn: i16) -> ! {
     // SAFETY: as in `fail_safe`.
     unsafe { pins::force_outputs_off() };
-    error!("unexpected interrupt or exception {}", irqn);
-    fail_safe("unexpected exception")
+    if !FAILING.swap(true, Ordering::AcqRel) {
+        error!("unexpected interrupt or exception {}, outputs off", irqn);
+    }
+    halt_or_reset()
 }
 
 #[embassy_executor::main]
