@@ -25,6 +25,8 @@ pub enum ParseError {
     BadArguments,
     /// `get` or `set` named no parameter.
     UnknownName,
+    /// Too many commands were waiting for their replies (the board's bound).
+    Busy,
 }
 
 impl ParseError {
@@ -37,6 +39,7 @@ impl ParseError {
             Self::UnknownCommand => "unknown-command",
             Self::BadArguments => "bad-arguments",
             Self::UnknownName => "unknown-name",
+            Self::Busy => "busy",
         }
     }
 
@@ -49,6 +52,7 @@ impl ParseError {
             Self::UnknownCommand => "unknown command, try `help`",
             Self::BadArguments => "wrong arguments, try `help`",
             Self::UnknownName => "no such parameter, try `get`",
+            Self::Busy => "too many commands waiting for replies, line discarded",
         }
     }
 }
@@ -60,6 +64,8 @@ impl From<ConsoleError> for ParseError {
             ConsoleError::BinaryInput => ParseError::BinaryInput,
             ConsoleError::UnknownCommand => ParseError::UnknownCommand,
             ConsoleError::BadArguments => ParseError::BadArguments,
+            ConsoleError::LostBytes => ParseError::LostBytes,
+            ConsoleError::Busy => ParseError::Busy,
         }
     }
 }

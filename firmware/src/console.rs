@@ -28,6 +28,10 @@ pub enum ConsoleError {
     LineTooLong,
     /// The line held a byte that is not printable ASCII or TAB.
     BinaryInput,
+    /// Bytes of the line were lost on the way in (receive overrun or a full buffer).
+    LostBytes,
+    /// Too many commands were waiting for their replies: the line was not run.
+    Busy,
     /// The first word is not a command.
     UnknownCommand,
     /// The command's arguments are wrong.
@@ -40,6 +44,8 @@ impl ConsoleError {
         match self {
             Self::LineTooLong => "line-too-long",
             Self::BinaryInput => "binary-input",
+            Self::LostBytes => "lost-bytes",
+            Self::Busy => "busy",
             Self::UnknownCommand => "unknown-command",
             Self::BadArguments => "bad-arguments",
         }
@@ -50,6 +56,8 @@ impl ConsoleError {
         match self {
             Self::LineTooLong => "line longer than 96 bytes discarded",
             Self::BinaryInput => "line holds non-printable bytes",
+            Self::LostBytes => "bytes of this line were lost on input, line discarded",
+            Self::Busy => "too many commands waiting for replies, line discarded",
             Self::UnknownCommand => "unknown command, try `help`",
             Self::BadArguments => "wrong arguments, try `help`",
         }
@@ -57,12 +65,20 @@ impl ConsoleError {
 }
 
 /// Assembles bytes into lines.
+///
+/// Backspace (0x08) and DEL (0x7F) erase the last byte stored, so a person typing at a
+/// terminal can correct a line; on an empty line they do nothing. They cannot undo a byte
+/// that made the line binary or overlong. [`LineReader::mark_lost`] tells the reader that
+/// input bytes were lost (a receive overrun or a full buffer): the line they belonged to is
+/// answered `err lost-bytes` instead of being run with bytes missing. If the lost bytes held a
+/// line end, the two lines merge into that one `err`.
 #[derive(Debug)]
 pub struct LineReader<const N: usize = MAX_LINE> {
     buf: [u8; N],
     len: usize,
     overflow: bool,
     binary: bool,
+    lost: bool,
     after_cr: bool,
     done: bool,
 }
@@ -81,6 +97,7 @@ impl<const N: usize> LineReader<N> {
             len: 0,
             overflow: false,
             binary: false,
+            lost: false,
             after_cr: false,
             done: false,
         }
@@ -90,11 +107,22 @@ impl<const N: usize> LineReader<N> {
         self.len = 0;
         self.overflow = false;
         self.binary = false;
+        self.lost = false;
         self.done = false;
     }
 
+    /// Record that input bytes were lost before the next byte pushed: the line being
+    /// assembled (or, between lines, the next one) ends in `err lost-bytes`.
+    pub fn mark_lost(&mut self) {
+        if self.done {
+            self.clear();
+        }
+        self.lost = true;
+        self.after_cr = false;
+    }
+
     /// Feed one byte; return a complete line (or why it is refused) when `byte` ends one.
-    /// Empty and blank lines return `None`.
+    /// Empty and blank lines return `None` (unless bytes of them were lost).
     pub fn push(&mut self, byte: u8) -> Option<Result<&str, ConsoleError>> {
         if self.done {
             self.clear();
@@ -104,7 +132,9 @@ impl<const N: usize> LineReader<N> {
             b'\n' if after_cr => None,
             b'\r' | b'\n' => {
                 self.done = true;
-                if self.overflow {
+                if self.lost {
+                    Some(Err(ConsoleError::LostBytes))
+                } else if self.overflow {
                     Some(Err(ConsoleError::LineTooLong))
                 } else if self.binary {
                     Some(Err(ConsoleError::BinaryInput))
@@ -120,6 +150,12 @@ impl<const N: usize> LineReader<N> {
                             .map_err(|_| ConsoleError::BinaryInput),
                     )
                 }
+            }
+            0x08 | 0x7F => {
+                if !self.overflow {
+                    self.len = self.len.saturating_sub(1);
+                }
+                None
             }
             _ => {
                 if !(byte == b'\t' || (0x20..0x7F).contains(&byte)) {
@@ -177,6 +213,8 @@ pub enum SensorError {
     Driver(mlx90640::Error),
     /// From MTTS.
     Mtts(MttsError),
+    /// From the sensing pipeline.
+    Sensing(crate::sensing::SensingError),
 }
 
 impl fmt::Display for SensorError {
@@ -184,6 +222,7 @@ impl fmt::Display for SensorError {
         match self {
             Self::Driver(e) => write!(f, "{e}"),
             Self::Mtts(e) => write!(f, "{e}"),
+            Self::Sensing(e) => write!(f, "{e}"),
         }
     }
 }
@@ -403,6 +442,73 @@ mod tests {
         assert!(r[2].starts_with("ok ta_k="));
     }
 
+    /// Feed bytes to a reader; return each line's outcome.
+    fn lines(r: &mut LineReader, input: &[u8]) -> Vec<Result<String, ConsoleError>> {
+        input
+            .iter()
+            .filter_map(|&b| r.push(b).map(|l| l.map(String::from)))
+            .collect()
+    }
+
+    #[test]
+    fn backspace_and_del_edit_the_line() {
+        let mut r: LineReader = LineReader::new();
+        assert_eq!(
+            lines(&mut r, b"statsu\x08\x08us\r\n"),
+            [Ok("status".into())]
+        );
+        assert_eq!(lines(&mut r, b"helo\x7fp\n"), [Ok("help".into())]);
+        // More erasures than bytes: an empty line, no reply; the next line is whole.
+        assert_eq!(lines(&mut r, b"ab\x08\x08\x08\x7f\n"), []);
+        assert_eq!(lines(&mut r, b"\x08version\n"), [Ok("version".into())]);
+        // Erasing does not undo a binary byte or an overlong line.
+        assert_eq!(
+            lines(&mut r, b"ver\x01\x08sion\n"),
+            [Err(ConsoleError::BinaryInput)]
+        );
+        let mut long = std::vec![b'x'; MAX_LINE + 1];
+        long.extend_from_slice(b"\x08\x08\n");
+        assert_eq!(lines(&mut r, &long), [Err(ConsoleError::LineTooLong)]);
+        // Editing a full line back below the cap is fine.
+        let mut full = std::vec![b'x'; MAX_LINE];
+        full.extend_from_slice(b"\x08\n");
+        assert_eq!(lines(&mut r, &full), [Ok("x".repeat(MAX_LINE - 1))]);
+    }
+
+    #[test]
+    fn lost_bytes_turn_the_affected_line_into_an_err() {
+        let mut r: LineReader = LineReader::new();
+        // `set target 358` with the `5` lost: refused, never run as `set target 38`.
+        let mut got = lines(&mut r, b"set target 3");
+        r.mark_lost();
+        got.extend(lines(&mut r, b"8\r\nstatus\r\n"));
+        assert_eq!(got, [Err(ConsoleError::LostBytes), Ok("status".into())]);
+        // Lost between lines: the next line is the affected one, even if blank.
+        r.mark_lost();
+        assert_eq!(
+            lines(&mut r, b"\nhelp\n"),
+            [Err(ConsoleError::LostBytes), Ok("help".into())]
+        );
+        // After a CR, a loss then LF: the LF ends the damaged line, it is not swallowed.
+        let mut got = lines(&mut r, b"help\r");
+        r.mark_lost();
+        got.extend(lines(&mut r, b"\nversion\n"));
+        assert_eq!(
+            got,
+            [
+                Ok("help".into()),
+                Err(ConsoleError::LostBytes),
+                Ok("version".into())
+            ]
+        );
+        let mut out = String::new();
+        respond_error(ConsoleError::LostBytes, &mut out).unwrap();
+        assert_eq!(
+            out,
+            "err lost-bytes: bytes of this line were lost on input, line discarded\r\n"
+        );
+    }
+
     #[test]
     fn parse_words() {
         assert_eq!(parse("help"), Ok(Command::Help));
@@ -420,6 +526,8 @@ mod tests {
         let all = [
             (ConsoleError::LineTooLong, "line-too-long"),
             (ConsoleError::BinaryInput, "binary-input"),
+            (ConsoleError::LostBytes, "lost-bytes"),
+            (ConsoleError::Busy, "busy"),
             (ConsoleError::UnknownCommand, "unknown-command"),
             (ConsoleError::BadArguments, "bad-arguments"),
         ];

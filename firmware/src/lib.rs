@@ -7,6 +7,8 @@
 //! - [`mlx90640`]: the MLX90640 thermal camera — typed registers, calibration extraction, the
 //!   Melexis temperature calculation, and an async driver generic over the I2C trait.
 //! - [`mtts`]: multi-target thermal sensing — five region temperatures from a frame.
+//! - [`sensing`]: the sensor policy (setup, bus recovery, subpage pairing, frozen and
+//!   implausible data) from subpages to one [`measurement::Measurement`] a frame.
 //! - [`measurement`]: what sensing hands control, one [`measurement::Measurement`] a frame.
 //! - [`outputs`]: heater and fan duty and the spring gates, the only things a decision drives.
 //! - [`block`]: the block's geometry.
@@ -28,6 +30,7 @@ pub mod measurement;
 pub mod mlx90640;
 pub mod mtts;
 pub mod outputs;
+pub mod sensing;
 pub mod settings;
 pub mod storage;
 pub mod supervisor;

@@ -218,6 +218,7 @@ impl Console {
             tc: Kelvin(t_k),
             cylinder_max: Some(Kelvin(t_k + 3.0)),
             filled_pixels: 0,
+            bound: Kelvin(0.5),
             quality: Quality::Resolved,
         };
         self.sup.step(Millis(self.now_ms), Some(&m), None);

@@ -12,7 +12,7 @@
 //! lines are not played: the person at the console drives the block), advanced in ticks of at
 //! most [`TICK_S`] so that telemetry runs at up to 20 Hz; the supervisor gets a measurement once
 //! per scene period, as in `host-sim run` ([`crate::run`]'s `Control`, camera chain,
-//! [`measurement_of`] and [`inputs_of`]). `save` writes the settings record
+//! [`measure`] and [`inputs_of`]). `save` writes the settings record
 //! ([`thermorph::settings::Record`]) to the settings file, `load` reads it, and the console
 //! starts with the file's settings (a bad or old file: the defaults and a `# warning` line).
 //!
@@ -34,10 +34,11 @@ use thermorph::settings::Settings;
 use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot};
-use thermorph::units::{Kelvin, Millis};
+use thermorph::measurement::SensingHint;
+use thermorph::units::Millis;
 
 use crate::plant::{Plant, PlantConfig};
-use crate::run::{Camera, Control, camera_temps, inputs_of, measurement_of};
+use crate::run::{Camera, Control, inputs_of, measure};
 use crate::scenario::{FaultKind, Scenario};
 
 /// Longest tick of the simulated block, s: the supervisor steps at least this often (telemetry
@@ -206,24 +207,12 @@ impl Block {
         let t1_s = self.time_s();
         let obs = self.plant.observe();
         let period = self.ticks / self.ticks_per_period;
-        self.measurement = match self.camera.as_mut() {
-            Some(c) => {
-                let frames = c.frames;
-                if let Some(ctl) = &self.control {
-                    c.mtts.set_prior(ctl.supervisor.sensing_hint().prior);
-                }
-                let m = c.update(&obs, sensor_fault, t1_s);
-                (c.frames > frames)
-                    .then(|| m.map(|r| measurement_of(&r, None, t1_s, c.frames, &self.control)))
-                    .flatten()
-            }
-            None if sensor_fault.is_some() => None,
-            None => {
-                let truth_k = camera_temps(&obs).regions();
-                let cyl = Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32));
-                Some(measurement_of(&truth_k, cyl, t1_s, period, &self.control))
-            }
-        };
+        let hint = self
+            .control
+            .as_ref()
+            .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
+        self.measurement =
+            measure(self.camera.as_mut(), &obs, sensor_fault, t1_s, period, hint).1;
         Ok(())
     }
 }

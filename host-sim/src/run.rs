@@ -9,8 +9,8 @@
 //! - camera on: the plant's surface temperatures are rendered into the camera's view
 //!   ([`crate::scene::render`]; the column's tilt in the image is half its bending angle —
 //!   the chord of a constant-curvature arc — projected on the image plane), encoded by the
-//!   virtual MLX90640, read over the simulated I2C bus by the firmware's own driver at 8 Hz
-//!   subpages, and turned into region temperatures by the firmware's MTTS on every whole frame.
+//!   virtual MLX90640, read over the simulated I2C bus at 8 Hz subpages by the firmware's own
+//!   sensing pipeline ([`thermorph::sensing`]: driver, subpage pairing, error policy, MTTS).
 //!
 //! A sensor fault with the camera off means no measurement at all (`nan` in the CSV). Outputs,
 //! written by [`write_outputs`] into one folder: `timeseries.csv` (one row a period),
@@ -21,9 +21,11 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
+use embassy_futures::block_on;
 use serde::Serialize;
-use thermorph::mlx90640::{Config as SensorConfig, DecodeParams};
-use thermorph::mtts::{self, Mtts, REGIONS, Scratch};
+use thermorph::mlx90640::Config as SensorConfig;
+use thermorph::mtts::REGIONS;
+use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 
 use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
 use thermorph::outputs::Outputs;
@@ -38,6 +40,8 @@ use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 use crate::scenario::{FaultKind, Scenario};
 use crate::scene::{self, Geometry, Temps};
 use crate::sensor_demo::Rig;
+use crate::sim_time::{SimClock, SimDelay};
+use crate::virtual_mlx::{HeapBuffers, VirtualBus};
 
 /// One control period of a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,42 +100,50 @@ pub struct FaultRecord {
     pub reason: String,
 }
 
-/// The camera chain: renderer → virtual MLX90640 → firmware driver → MTTS.
+/// The camera chain: renderer → virtual MLX90640 → the firmware's sensing pipeline (driver,
+/// subpage pairing, MTTS) — the same policy as the board's sensor task.
 pub(crate) struct Camera {
     rig: Rig,
-    pub(crate) mtts: Mtts,
-    scratch: Box<Scratch>,
-    params: DecodeParams,
-    subpages: u64,
+    pub(crate) sensor: Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>,
     pub(crate) frames: u64,
     errors: u64,
-    last: Option<[f64; REGIONS]>,
+    /// The latest measurement; `None` after an error until the next frame.
+    last: Option<Measurement>,
 }
 
 impl Camera {
     pub(crate) fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
         let rig = Rig::realistic(seed, SensorConfig::default())?;
         rig.set_noise(noise_k);
+        let pipeline = Pipeline::new(PipelineConfig::default()).map_err(|e| e.to_string())?;
+        let sensor = Sensor::new(
+            rig.bus.clone(),
+            SimDelay::new(rig.clock.clone()),
+            rig.clock.clone(),
+            thermorph::mlx90640::ADDRESS,
+            pipeline,
+            HeapBuffers::new(),
+        );
         Ok(Camera {
             rig,
-            mtts: Mtts::new(mtts::Config::default()).map_err(|e| e.to_string())?,
-            scratch: Box::new(Scratch::new()),
-            params: DecodeParams::default(),
-            subpages: 0,
+            sensor,
             frames: 0,
             errors: 0,
             last: None,
         })
     }
 
-    /// Show the sensor the block as it is now, read subpages until the sensor's clock reaches
-    /// `t_s`, and return the latest region temperatures.
+    /// Show the sensor the block as it is now, run the sensing pipeline until the sensor's
+    /// clock reaches `t_s`, and return the latest region temperatures.
     pub(crate) fn update(
         &mut self,
         obs: &Observation,
         fault: Option<crate::virtual_mlx::Fault>,
         t_s: f64,
-    ) -> Option<[f64; REGIONS]> {
+        hint: SensingHint,
+    ) -> Option<Measurement> {
+        self.sensor.set_hint(hint);
+        let frames = self.frames;
         let temps = camera_temps(obs);
         let plane = obs.bend_plane_deg.to_radians();
         let geometry = Geometry {
@@ -151,37 +163,52 @@ impl Camera {
         self.rig.set_field(&r.image_k);
         self.rig.bus.0.borrow_mut().set_fault(fault);
         let t_end_us = (t_s * 1e6) as u64;
+        // Every action advances the simulated clock (bus time, a pause or a timeout).
         while self.rig.clock.now_us() < t_end_us {
-            match self.rig.step(&self.params) {
-                Ok(subpage) => {
-                    self.subpages += 1;
-                    if subpage == 1 && self.subpages >= 2 {
-                        self.frames += 1;
-                        self.last = match self.mtts.process(&self.rig.image.to_k, &mut self.scratch)
-                        {
-                            Ok(out) => {
-                                Some(core::array::from_fn(|i| out.regions[i].temp.k() as f64))
-                            }
-                            Err(_) => {
-                                self.errors += 1;
-                                None
-                            }
-                        };
-                    }
+            match block_on(self.sensor.step()) {
+                Outcome::Frame(m) => {
+                    self.frames += 1;
+                    self.last = Some(m);
                 }
-                Err(_) => {
-                    // The board's sensor task reports the error and the controller sees no
-                    // measurement until a good frame comes; a refused transfer takes no time
-                    // here, so wait for the next period.
+                Outcome::Error(_) => {
+                    // The supervisor sees no measurement until a good frame comes.
                     self.errors += 1;
                     self.last = None;
-                    self.rig
-                        .clock
-                        .advance_us(t_end_us - self.rig.clock.now_us());
                 }
+                _ => {}
             }
         }
-        self.last
+        self.last.filter(|_| self.frames > frames)
+    }
+}
+
+/// Measure the block at the end of a period, as the supervisor will see it: through the camera
+/// chain, or (camera off) the true temperatures — nothing while a sensor fault is injected.
+/// Returns the region temperatures to record (the latest frame's) and the measurement for the
+/// supervisor if a new frame came in this period.
+pub(crate) fn measure(
+    camera: Option<&mut Camera>,
+    obs: &Observation,
+    sensor_fault: Option<crate::virtual_mlx::Fault>,
+    t_s: f64,
+    period: u64,
+    hint: SensingHint,
+) -> (Option<[f64; REGIONS]>, Option<Measurement>) {
+    match camera {
+        Some(c) => {
+            let new = c.update(obs, sensor_fault, t_s, hint);
+            let regions = c
+                .last
+                .map(|m| core::array::from_fn(|i| m.regions[i].k() as f64));
+            (regions, new)
+        }
+        None if sensor_fault.is_some() => (None, None),
+        None => {
+            let truth_k = camera_temps(obs).regions();
+            let cyl = Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32));
+            let m = truth_measurement(&truth_k, cyl, t_s, period, &hint);
+            (Some(truth_k), Some(m))
+        }
     }
 }
 
@@ -288,28 +315,24 @@ pub fn inputs_of(o: &Outputs) -> Inputs {
 }
 
 /// A measurement of region temperatures taken at `t_s` (frame number `seq`).
-pub(crate) fn measurement_of(
+fn truth_measurement(
     regions_k: &[f64; REGIONS],
     cylinder_max: Option<Kelvin>,
     t_s: f64,
     seq: u64,
-    control: &Option<Control>,
+    hint: &SensingHint,
 ) -> Measurement {
-    let regions = regions_k.map(|t| Kelvin(t as f32));
-    let hint = control
-        .as_ref()
-        .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
     let mut m = Measurement {
         at: Millis((t_s * 1000.0).round() as u64),
         seq: seq as u32,
-        regions,
+        regions: regions_k.map(|t| Kelvin(t as f32)),
         tc: Kelvin(f32::NAN),
         cylinder_max,
         filled_pixels: 0,
         quality: Quality::Resolved,
         bound: Kelvin(0.0),
     };
-    m.tc = controlled_temperature(&m, &hint);
+    m.tc = controlled_temperature(&m, hint);
     m
 }
 
@@ -514,25 +537,18 @@ pub fn run_with(
         plant.step(&inputs, t1_s - t0_s);
         let obs = plant.observe();
         let truth_k = camera_temps(&obs).regions();
-        let measured_k = match camera.as_mut() {
-            Some(c) => {
-                let frames = c.frames;
-                if let Some(ctl) = &control {
-                    c.mtts.set_prior(ctl.supervisor.sensing_hint().prior);
-                }
-                let m = c.update(&obs, sensor_fault, t1_s);
-                if c.frames > frames {
-                    measurement = m.map(|r| measurement_of(&r, None, t1_s, c.frames, &control));
-                }
-                m
-            }
-            None if sensor_fault.is_some() => None,
-            None => {
-                let cyl = Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32));
-                measurement = Some(measurement_of(&truth_k, cyl, t1_s, k as u64 + 1, &control));
-                Some(truth_k)
-            }
-        };
+        let hint = control
+            .as_ref()
+            .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
+        let (measured_k, new) = measure(
+            camera.as_mut(),
+            &obs,
+            sensor_fault,
+            t1_s,
+            k as u64 + 1,
+            hint,
+        );
+        measurement = new;
         rows.push(Row {
             inputs,
             springs_cmd: cmd.springs_on,

@@ -13,9 +13,11 @@
 //! 573 K, twice that per resolution bit less, half per bit more. Ta and Vdd round too (PTAT and
 //! Vbe are chosen together to put Ta within a few mK).
 //!
-//! Injectable faults ([`Fault`]): NACK, bus timeout (a transfer that never completes), stuck
-//! (no new data), 0x7FFF corruption, and a frozen frame (RAM stops changing while the
-//! new-data flag keeps coming).
+//! Injectable faults ([`Fault`]): NACK, bus timeout (a transfer that never completes), a bus
+//! held low (every transfer hangs until a bus recovery, [`VirtualBus`]'s
+//! [`RecoverBus`] implementation, clocks it free), stuck (no new data), 0x7FFF corruption, and
+//! a frozen frame (RAM stops changing while the new-data flag keeps coming). A power cycle
+//! ([`VirtualMlx90640::power_cycle`]) puts the control register back to its 2 Hz default.
 //!
 //! Bus time: every transfer advances the simulated clock by its duration at 400 kHz
 //! (9 bit times per byte), so reading a subpage costs ≈ 40 ms as on the board.
@@ -34,6 +36,10 @@ use thermorph::mlx90640::{
     RAM_START, Status, SubpageFrame,
 };
 
+use thermorph::mlx90640::Image;
+use thermorph::sensing::{Buffers, BusStuck, Clock, Parts, RecoverBus, Storage};
+use thermorph::units::Millis;
+
 use crate::sim_time::SimClock;
 
 /// Bit time on the simulated bus, ns (400 kHz).
@@ -46,6 +52,9 @@ pub enum Fault {
     Nack,
     /// Every transfer hangs forever (the driver's timeout must fire).
     BusTimeout,
+    /// The sensor holds SDA low (a transfer abandoned midway): every transfer hangs until a
+    /// bus recovery (nine SCL clocks and a STOP) releases it, which clears this fault.
+    BusStuckLow,
     /// Measurement stops: the new-data flag never comes.
     Stuck,
     /// Measurements write 0x7FFF into an aux word and a checked pixel word.
@@ -107,6 +116,7 @@ pub struct VirtualMlx90640 {
     fault: Option<Fault>,
     rng: Rng,
     measurements: u64,
+    recoveries: u64,
 }
 
 /// Default sensor temperature, K (a camera a few kelvin above a 298 K room).
@@ -144,6 +154,7 @@ impl VirtualMlx90640 {
             fault: None,
             rng: Rng::new(seed),
             measurements: 0,
+            recoveries: 0,
         })
     }
 
@@ -160,6 +171,31 @@ impl VirtualMlx90640 {
     /// Return the active fault.
     pub fn fault(&self) -> Option<Fault> {
         self.fault
+    }
+
+    /// Return how many bus recoveries were run.
+    pub fn recoveries(&self) -> u64 {
+        self.recoveries
+    }
+
+    /// Turn the device off and on: the control register back to its power-on value (2 Hz),
+    /// no new data, measurement restarting with subpage 0 one period later.
+    pub fn power_cycle(&mut self) {
+        self.control = POWER_ON_CONTROL;
+        self.status = 0;
+        self.next_subpage = 0;
+        let period = self.control().refresh_rate().period_us() as u64;
+        self.next_measurement_us = self.clock.now_us() + period;
+    }
+
+    /// A bus recovery as the board runs it: up to nine SCL clocks and a STOP at 100 kHz
+    /// (≈ 100 µs); releases a bus held low.
+    fn recover_bus(&mut self) {
+        self.recoveries += 1;
+        self.clock.advance_us(100);
+        if self.fault == Some(Fault::BusStuckLow) {
+            self.fault = None;
+        }
     }
 
     /// Return how many subpages have been measured.
@@ -535,13 +571,58 @@ impl I2c for VirtualBus {
         address: u8,
         operations: &mut [Operation<'_>],
     ) -> Result<(), Self::Error> {
-        if self.0.borrow().fault == Some(Fault::BusTimeout) {
-            // A held-down SCL: the transfer never completes.
+        if matches!(
+            self.0.borrow().fault,
+            Some(Fault::BusTimeout | Fault::BusStuckLow)
+        ) {
+            // A held-down line: the transfer never completes.
             core::future::pending::<()>().await;
         }
         self.0
             .borrow_mut()
             .transaction(address, operations)
             .map_err(BusError)
+    }
+}
+
+impl RecoverBus for VirtualBus {
+    async fn recover(&mut self) -> Result<(), BusStuck> {
+        let mut dev = self.0.borrow_mut();
+        dev.recover_bus();
+        // A bus that times out without being held low stays as it is: recovery succeeds, the
+        // next transfer times out again.
+        Ok(())
+    }
+}
+
+impl Clock for SimClock {
+    fn now(&self) -> Millis {
+        Millis(self.now_us() / 1000)
+    }
+}
+
+/// The sensing pipeline's working memory on the heap (≈ 60 KB).
+pub struct HeapBuffers(pub Box<Buffers>);
+
+impl HeapBuffers {
+    /// Zeroed buffers.
+    pub fn new() -> Self {
+        HeapBuffers(Box::new(Buffers::new()))
+    }
+}
+
+impl Default for HeapBuffers {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Storage for HeapBuffers {
+    fn parts(&mut self) -> Parts<'_> {
+        self.0.parts()
+    }
+
+    fn image(&self) -> &Image {
+        self.0.image()
     }
 }

@@ -1,17 +1,62 @@
-//! The firmware's MLX90640 driver against the virtual sensor: round trips, configuration,
-//! timing and every injectable fault.
+//! The firmware's MLX90640 driver and sensing pipeline against the virtual sensor: round trips,
+//! configuration, timing, every injectable fault, bus recovery and a power-cycled sensor.
 
 use embassy_futures::block_on;
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 use host_sim::sensor_demo::{Rig, round_trip};
-use host_sim::virtual_mlx::Fault;
+use host_sim::sim_time::{SimClock, SimDelay};
+use host_sim::virtual_mlx::{Fault, HeapBuffers, VirtualBus};
+use thermorph::measurement::Measurement;
 use thermorph::mlx90640::calc::FrameError;
 use thermorph::mlx90640::{
     Config, DecodeParams, Error, ReadingPattern, RefreshRate, Resolution, SubpageFrame,
 };
+use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, SensingError, Sensor};
 
 fn rig(config: Config) -> Rig {
     Rig::realistic(7, config).unwrap()
+}
+
+type TestSensor = Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>;
+
+/// The library's sensing pipeline on the rig's bus (it sets the sensor up itself).
+fn sensor(r: &Rig) -> TestSensor {
+    r.bus.0.borrow_mut().field_k = host_sim::sensor_demo::demo_scene();
+    Sensor::new(
+        r.bus.clone(),
+        SimDelay::new(r.clock.clone()),
+        r.clock.clone(),
+        thermorph::mlx90640::ADDRESS,
+        Pipeline::new(PipelineConfig::default()).unwrap(),
+        HeapBuffers::new(),
+    )
+}
+
+/// Step the sensor for `us` of simulated time; return the frames and the errors (with the
+/// time they came, µs).
+fn run_for(s: &mut TestSensor, r: &Rig, us: u64) -> (Vec<Measurement>, Vec<(u64, SensingError)>) {
+    let end = r.clock.now_us() + us;
+    let (mut frames, mut errors) = (Vec::new(), Vec::new());
+    while r.clock.now_us() < end {
+        match block_on(s.step()) {
+            Outcome::Frame(m) => frames.push(m),
+            Outcome::Error(e) => errors.push((r.clock.now_us(), e)),
+            _ => {}
+        }
+    }
+    (frames, errors)
+}
+
+/// Step the sensor until `n` frames came or `us` of simulated time passed.
+fn run_until_frames(s: &mut TestSensor, r: &Rig, n: usize, us: u64) -> Vec<Measurement> {
+    let end = r.clock.now_us() + us;
+    let mut frames = Vec::new();
+    while frames.len() < n && r.clock.now_us() < end {
+        if let Outcome::Frame(m) = block_on(s.step()) {
+            frames.push(m);
+        }
+    }
+    frames
 }
 
 #[test]
@@ -103,16 +148,60 @@ fn configure_sets_the_device_and_timing_follows_the_rate() {
             "subpages alternate"
         );
     }
-    // Above 16 Hz a 400 kHz bus cannot keep pace (SPEC section 2): subpages are still read,
-    // just not every one.
+    // Above 16 Hz a 400 kHz bus cannot keep pace (SPEC section 2): the sensor overwrites each
+    // subpage while the driver reads it (≈ 40 ms against 15.6 ms), and the driver refuses it.
     let mut r = rig(Config {
         refresh: RefreshRate::Hz64,
         ..Config::default()
     });
     assert_eq!(r.bus.0.borrow().control().refresh_rate(), RefreshRate::Hz64);
     for _ in 0..6 {
+        assert!(matches!(
+            r.step(&DecodeParams::default()),
+            Err(Error::Overwritten { .. })
+        ));
+    }
+}
+
+#[test]
+fn a_subpage_overwritten_during_its_read_is_refused() {
+    // 32 Hz: a subpage every 31.25 ms, a read takes ≈ 40 ms — always torn.
+    let mut r = rig(Config {
+        refresh: RefreshRate::Hz32,
+        ..Config::default()
+    });
+    let e = r.step(&DecodeParams::default()).unwrap_err();
+    assert!(matches!(e, Error::Overwritten { .. }), "{e:?}");
+    // At 16 Hz (62.5 ms) the read fits between two measurements: never refused.
+    let mut r = rig(Config {
+        refresh: RefreshRate::Hz16,
+        ..Config::default()
+    });
+    for _ in 0..8 {
         r.step(&DecodeParams::default()).unwrap();
     }
+}
+
+#[test]
+fn a_power_cycled_sensor_is_reported_and_configured_again() {
+    let mut r = rig(Config::default());
+    let params = DecodeParams::default();
+    r.step(&params).unwrap();
+    r.bus.0.borrow_mut().power_cycle();
+    assert_eq!(r.bus.0.borrow().control().refresh_rate(), RefreshRate::Hz2);
+    // Waiting for 8 Hz data from a 2 Hz sensor times out, and the control register shows why;
+    // a 2 Hz subpage that does come carries the wrong control register.
+    let e = r.step(&params).unwrap_err();
+    assert!(
+        matches!(e, Error::ControlReset { read } if read == 0x1901),
+        "{e:?}"
+    );
+    // The pipeline sets it up again and frames follow.
+    let mut s = sensor(&r);
+    r.bus.0.borrow_mut().power_cycle();
+    let frames = run_until_frames(&mut s, &r, 2, 5_000_000);
+    assert_eq!(frames.len(), 2);
+    assert_eq!(r.bus.0.borrow().control().refresh_rate(), RefreshRate::Hz8);
 }
 
 #[test]
@@ -200,21 +289,82 @@ fn corrupt_words_are_rejected() {
 
 #[test]
 fn frozen_frame_is_rejected() {
-    let mut r = rig(Config::default());
-    let params = DecodeParams::default();
-    r.step(&params).unwrap();
-    r.step(&params).unwrap();
+    let r = rig(Config::default());
+    let mut s = sensor(&r);
+    assert_eq!(run_until_frames(&mut s, &r, 2, 2_000_000).len(), 2);
     r.bus.0.borrow_mut().set_fault(Some(Fault::Frozen));
-    let mut got = None;
-    for _ in 0..4 {
-        if let Err(e) = r.step(&params) {
-            got = Some(e);
-            break;
-        }
-    }
-    assert!(matches!(got, Some(Error::FrozenFrame { .. })), "{got:?}");
+    let t0 = r.clock.now_us();
+    let (frames, errors) = run_for(&mut s, &r, 1_000_000);
+    // At most the frame whose subpages were measured before the fault.
+    assert!(frames.len() <= 1, "{frames:?}");
+    let first = errors.first().map(|(t, e)| (*t - t0, *e));
+    assert!(
+        matches!(first, Some((dt, SensingError::Frozen { .. })) if dt < 500_000),
+        "{first:?}"
+    );
     r.bus.0.borrow_mut().set_fault(None);
-    r.step(&params).unwrap();
+    assert_eq!(run_until_frames(&mut s, &r, 1, 2_000_000).len(), 1);
+}
+
+#[test]
+fn a_bus_stuck_low_is_recovered_and_frames_come_again() {
+    let r = rig(Config::default());
+    let mut s = sensor(&r);
+    assert_eq!(run_until_frames(&mut s, &r, 2, 2_000_000).len(), 2);
+    r.bus.0.borrow_mut().set_fault(Some(Fault::BusStuckLow));
+    let t0 = r.clock.now_us();
+    // One timeout, then the recovery frees the bus: a pause, a setup, and frames again.
+    let got = run_until_frames(&mut s, &r, 2, 2_000_000);
+    assert_eq!(got.len(), 2, "frames again after the recovery");
+    assert_eq!(r.bus.0.borrow().recoveries(), 1);
+    assert_eq!(r.bus.0.borrow().fault(), None);
+    let back_us = got[0].at.ms() * 1000 - t0;
+    eprintln!("bus stuck low: first frame again {back_us} µs later");
+    assert!(
+        back_us < 1_000_000,
+        "first frame {back_us} µs after the bus stuck (inside the 1 s loss window)"
+    );
+    // Without the recovery the bus stays stuck: every transfer times out.
+    r.bus.0.borrow_mut().set_fault(Some(Fault::BusStuckLow));
+    let mut frame = SubpageFrame::new();
+    assert!(matches!(
+        block_on(s.driver().read_subpage(&mut frame)),
+        Err(Error::Timeout { .. })
+    ));
+    assert!(matches!(
+        block_on(s.driver().read_subpage(&mut frame)),
+        Err(Error::Timeout { .. })
+    ));
+}
+
+#[test]
+fn nack_and_timeout_recover_the_bus_then_set_up_again() {
+    for fault in [Fault::Nack, Fault::BusTimeout] {
+        let r = rig(Config::default());
+        let mut s = sensor(&r);
+        assert_eq!(run_until_frames(&mut s, &r, 1, 2_000_000).len(), 1);
+        r.bus.0.borrow_mut().set_fault(Some(fault));
+        let (frames, errors) = run_for(&mut s, &r, 1_000_000);
+        assert!(frames.len() <= 1);
+        assert!(!errors.is_empty());
+        assert!(
+            errors
+                .iter()
+                .all(|(_, e)| matches!(e, SensingError::I2c(_))),
+            "{errors:?}"
+        );
+        // A recovery after every I2C error (the last may still be in its pause), a pause
+        // between attempts: a bounded rate.
+        let recoveries = r.bus.0.borrow().recoveries();
+        let n = errors.len() as u64;
+        assert!(
+            recoveries == n || recoveries + 1 == n,
+            "{fault:?}: {recoveries} for {n}"
+        );
+        assert!(recoveries <= 6, "{fault:?}: {recoveries} recoveries in 1 s");
+        r.bus.0.borrow_mut().set_fault(None);
+        assert_eq!(run_until_frames(&mut s, &r, 1, 2_000_000).len(), 1);
+    }
 }
 
 #[test]

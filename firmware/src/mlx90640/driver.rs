@@ -3,9 +3,12 @@
 //! Generic over `embedded_hal_async::i2c::I2c` and `embedded_hal_async::delay::DelayNs`, so the
 //! same code runs on embassy's I2C and on the simulator's virtual bus. Every bus call races a
 //! timeout; waiting for a subpage polls the status register and gives up after two refresh
-//! periods (stale data); a subpage identical word for word to the previous one of the same
-//! number is refused (a frozen sensor: real frames always carry noise). The driver never
-//! panics and never loops without a bound.
+//! periods (stale data); after reading a subpage the status register is read again, and a
+//! subpage the sensor overwrote during the read (new data flagged again) is refused; a control
+//! register that no longer holds the configured settings (the sensor power-cycled to its 2 Hz
+//! default) is reported so the caller configures it again. Which subpages form a frame, frozen
+//! data and what to do after an error are the sensing pipeline's ([`crate::sensing`]). The
+//! driver never panics and never loops without a bound.
 
 use embassy_futures::select::{Either, select};
 use embedded_hal::i2c::{Error as _, ErrorKind};
@@ -67,10 +70,17 @@ pub enum Error {
         /// How long the driver waited, ms.
         waited_ms: u32,
     },
-    /// The subpage equals the previous one of the same number word for word.
-    FrozenFrame {
-        /// Subpage number.
+    /// New data arrived while the subpage was being read: its words may mix two measurements,
+    /// so it was discarded.
+    Overwritten {
+        /// Subpage number that was being read.
         subpage: u8,
+    },
+    /// The control register no longer holds the configured settings: the sensor lost them (a
+    /// power cycle puts it back to chess, 18 bit, 2 Hz) and must be configured again.
+    ControlReset {
+        /// The control register as read.
+        read: u16,
     },
     /// The control register did not read back what was written.
     ConfigMismatch {
@@ -105,9 +115,16 @@ impl core::fmt::Display for Error {
             }
             Self::Timeout { register } => write!(f, "I2C timeout at 0x{register:04X}"),
             Self::Stale { waited_ms } => write!(f, "no new frame for {waited_ms} ms"),
-            Self::FrozenFrame { subpage } => {
-                write!(f, "subpage {subpage} repeated unchanged (frozen sensor)")
+            Self::Overwritten { subpage } => {
+                write!(
+                    f,
+                    "subpage {subpage} overwritten during its read (discarded)"
+                )
             }
+            Self::ControlReset { read } => write!(
+                f,
+                "control register 0x{read:04X} lost its settings (sensor power-cycled?)"
+            ),
             Self::ConfigMismatch { wrote, read } => {
                 write!(f, "control register wrote 0x{wrote:04X}, read 0x{read:04X}")
             }
@@ -117,21 +134,13 @@ impl core::fmt::Display for Error {
     }
 }
 
-/// FNV-1a digest of a frame's words, to spot repeated frames without keeping a copy.
-fn digest(words: &[u16]) -> u32 {
-    words.iter().fold(0x811C_9DC5u32, |h, &w| {
-        let h = (h ^ (w & 0xFF) as u32).wrapping_mul(0x0100_0193);
-        (h ^ (w >> 8) as u32).wrapping_mul(0x0100_0193)
-    })
-}
-
 /// The MLX90640 on an async I2C bus.
 pub struct Mlx90640<I2C, D> {
     i2c: I2C,
     delay: D,
     address: u8,
     config: Config,
-    last_digest: [Option<u32>; 2],
+    configured: bool,
 }
 
 impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
@@ -142,7 +151,7 @@ impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
             delay,
             address,
             config: Config::default(),
-            last_digest: [None, None],
+            configured: false,
         }
     }
 
@@ -154,6 +163,26 @@ impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
     /// Return the configuration last written.
     pub fn config(&self) -> Config {
         self.config
+    }
+
+    /// Return the bus, for a recovery in place (see [`crate::sensing::RecoverBus`]).
+    pub fn bus_mut(&mut self) -> &mut I2C {
+        &mut self.i2c
+    }
+
+    /// Return whether `control` holds the settings last written (always true before
+    /// [`Mlx90640::configure`] succeeded: nothing to compare with).
+    fn holds_config(&self, control: Control) -> bool {
+        !self.configured
+            || (
+                control.refresh_rate(),
+                control.resolution(),
+                control.pattern(),
+            ) == (
+                self.config.refresh,
+                self.config.resolution,
+                self.config.pattern,
+            )
     }
 
     /// Read `out.len()` words starting at `register`, in chunks, each under a timeout.
@@ -216,9 +245,9 @@ impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
         Ok(())
     }
 
-    /// Write the measurement settings (read-modify-write, verified by reading back) and
-    /// forget the previous frames' digests.
+    /// Write the measurement settings (read-modify-write, verified by reading back).
     pub async fn configure(&mut self, config: Config) -> Result<(), Error> {
+        self.configured = false;
         let old = Control(self.read_word(Control::ADDRESS).await?);
         let new = old.with(config.refresh, config.resolution, config.pattern);
         self.write_word(Control::ADDRESS, new.0).await?;
@@ -227,7 +256,7 @@ impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
             return Err(Error::ConfigMismatch { wrote: new.0, read });
         }
         self.config = config;
-        self.last_digest = [None, None];
+        self.configured = true;
         Ok(())
     }
 
@@ -238,8 +267,12 @@ impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
 
     /// Wait for the next subpage and read it into `frame` (the library's
     /// `MLX90640_GetFrameData`): poll the status register until new data (at most two refresh
-    /// periods), acknowledge it, read the pixels, the aux words and the control register,
-    /// then check the frame for the 0x7FFF marker and for a frozen sensor.
+    /// periods), acknowledge it, read the pixels, the aux words and the control register, read
+    /// the status again (new data flagged again: the subpage was overwritten during the read,
+    /// [`Error::Overwritten`]), then check the control register against the configuration
+    /// ([`Error::ControlReset`]) and the frame for the 0x7FFF marker. On a timeout waiting for
+    /// data the control register is read too: a sensor that power-cycled to 2 Hz shows as
+    /// [`Error::ControlReset`], not as stale data.
     pub async fn read_subpage(&mut self, frame: &mut SubpageFrame) -> Result<(), Error> {
         let period_us = self.config.refresh.period_us();
         let limit_us = 2 * period_us;
@@ -251,6 +284,10 @@ impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
                 break status;
             }
             if waited_us >= limit_us {
+                let control = self.read_control().await?;
+                if !self.holds_config(control) {
+                    return Err(Error::ControlReset { read: control.0 });
+                }
                 return Err(Error::Stale {
                     waited_ms: waited_us / 1000,
                 });
@@ -264,19 +301,22 @@ impl<I2C: I2c, D: DelayNs> Mlx90640<I2C, D> {
         self.read_words(AUX_START, &mut frame.words[PIXELS..PIXELS + AUX_WORDS])
             .await?;
         frame.words[IDX_CONTROL] = self.read_word(Control::ADDRESS).await?;
-        frame.words[IDX_SUBPAGE] = status.subpage() as u16;
+        let sp = status.subpage();
+        frame.words[IDX_SUBPAGE] = sp as u16;
+        if Status(self.read_word(Status::ADDRESS).await?).new_data() {
+            return Err(Error::Overwritten { subpage: sp });
+        }
+        if !self.holds_config(frame.control()) {
+            return Err(Error::ControlReset {
+                read: frame.words[IDX_CONTROL],
+            });
+        }
         if let Some(index) = frame.find_invalid_marker() {
             return Err(FrameError::InvalidMarker {
                 index: index as u16,
             }
             .into());
         }
-        let sp = status.subpage();
-        let d = digest(&frame.words);
-        if self.last_digest[sp as usize] == Some(d) {
-            return Err(Error::FrozenFrame { subpage: sp });
-        }
-        self.last_digest[sp as usize] = Some(d);
         Ok(())
     }
 }

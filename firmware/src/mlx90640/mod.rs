@@ -7,7 +7,8 @@
 //! - [`calc`]: the per-subpage temperature calculation (Vdd, Ta, To with emissivity, reflected
 //!   temperature and the extended ranges), subpage merging and bad-pixel correction;
 //! - [`driver`]: a thin async driver over `embedded_hal_async::i2c::I2c` with a timeout on every
-//!   bus call and frame checks (new data, stale, repeated, corrupt).
+//!   bus call and subpage checks (new data, stale, overwritten during the read, corrupt, lost
+//!   configuration); the policy over subpages is [`crate::sensing`]'s.
 
 pub mod calc;
 pub mod calibration;

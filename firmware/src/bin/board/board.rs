@@ -1,28 +1,40 @@
-//! The board's tasks and shared state (see the crate docs).
+//! The board's tasks, the data they share, and the fault handlers (see the crate docs).
 
 #[path = "pins.rs"]
 pub mod pins;
+#[path = "serial.rs"]
+pub mod serial;
 
 use core::cell::RefCell;
 use core::fmt::Write as _;
+use core::sync::atomic::{AtomicBool, Ordering};
 
-use defmt::{info, unwrap, warn};
+use defmt::{error, info, unwrap, warn};
 use embassy_executor::Spawner;
+use embassy_futures::select::{Either, select};
 use embassy_stm32::exti::ExtiInput;
-use embassy_stm32::i2c::{I2c, Master};
 use embassy_stm32::mode::Async;
-use embassy_stm32::usart::BufferedUart;
+use embassy_stm32::usart::{BufferedUartRx, BufferedUartTx};
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_time::{Delay, Duration, Ticker, Timer};
+use embassy_sync::channel::Channel;
+use embassy_sync::signal::Signal;
+use embassy_time::{Delay, Duration, Instant, Ticker, Timer};
 use embedded_io_async::{Read as _, Write as _};
 use static_cell::ConstStaticCell;
-use thermorph::console::{self, LineReader, MAX_LINE, SensorError, Status};
-use thermorph::mlx90640::{self, Calibration, DecodeParams, Image, Mlx90640, SubpageFrame};
-use thermorph::mtts::{self, Mtts};
-use {defmt_rtt as _, panic_probe as _};
+use thermorph::console::{self, ConsoleError, LineReader, MAX_LINE, SensorError, Status};
+use thermorph::measurement::{Measurement, SensingHint};
+use thermorph::mlx90640::{Calibration, Image, SubpageFrame};
+use thermorph::mtts;
+use thermorph::outputs::Outputs;
+use thermorph::sensing::{
+    Clock, Outcome, Parts, Pipeline, PipelineConfig, SensingError, Sensor, Storage,
+};
+use thermorph::units::Millis;
 
-/// What the console reports, written by the sensor task.
+use defmt_rtt as _;
+
+/// What the console's `status` reports (display only: no decision reads it).
 static STATUS: Mutex<CriticalSectionRawMutex, RefCell<Status>> = Mutex::new(RefCell::new(Status {
     ta: None,
     vdd_v: None,
@@ -34,137 +46,262 @@ static STATUS: Mutex<CriticalSectionRawMutex, RefCell<Status>> = Mutex::new(RefC
     estop: false,
 }));
 
+/// What the sensor task hands the control task: the newest measurement and error not yet
+/// taken.
+#[derive(Clone, Copy, Default)]
+pub struct SensorReport {
+    /// The newest measurement since the last take.
+    pub measurement: Option<Measurement>,
+    /// The newest sensing error since the last take.
+    pub error: Option<SensingError>,
+    /// Errors since the last take.
+    pub errors: u32,
+    /// When the sensor task last finished a step (every step is bounded in time by the
+    /// driver's timeouts, so a task that stops stepping has stalled).
+    pub last_step: Option<Millis>,
+}
+
+/// The sensor task's reports; the control task takes them each tick.
+static SENSOR: Mutex<CriticalSectionRawMutex, RefCell<SensorReport>> =
+    Mutex::new(RefCell::new(SensorReport {
+        measurement: None,
+        error: None,
+        errors: 0,
+        last_step: None,
+    }));
+/// Wakes the control task when a measurement arrives.
+static MEASURED: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+/// The supervisor's sensing hint for the frames to come (the control task signals it).
+static HINT: Signal<CriticalSectionRawMutex, SensingHint> = Signal::new();
+/// The emergency-stop button was pressed (held at start or pressed since): set by the e-stop
+/// task, taken by the control task, which hands it to the supervisor (the latch is the
+/// supervisor's).
+static ESTOP_PRESSED: AtomicBool = AtomicBool::new(false);
+
+/// A console line waiting for its reply.
+enum Item {
+    /// A line to run.
+    Line(heapless::String<MAX_LINE>),
+    /// A line refused by the reader.
+    Refused(ConsoleError),
+    /// This many lines refused because the queue was full.
+    Busy(u16),
+}
+
+/// Commands waiting for their replies, at most this many (the bound on outstanding commands).
+const OUTSTANDING: usize = 4;
+static LINES: Channel<CriticalSectionRawMutex, Item, OUTSTANDING> = Channel::new();
+
+// The pipeline's working memory, one static per part: the zero ones stay in .bss.
 static CALIBRATION: ConstStaticCell<Calibration> = ConstStaticCell::new(Calibration::new());
 static FRAME: ConstStaticCell<SubpageFrame> = ConstStaticCell::new(SubpageFrame::new());
 static IMAGE: ConstStaticCell<Image> = ConstStaticCell::new(Image::new());
 static MTTS_SCRATCH: ConstStaticCell<mtts::Scratch> = ConstStaticCell::new(mtts::Scratch::new());
 
-/// Pause after a sensor error before trying again.
-const SENSOR_RETRY: Duration = Duration::from_millis(200);
-/// Control loop period; the watchdog timeout is five of these.
-const TICK: Duration = Duration::from_millis(100);
+/// The pipeline's working memory in its statics.
+struct BoardStorage {
+    cal: &'static mut Calibration,
+    frame: &'static mut SubpageFrame,
+    image: &'static mut Image,
+    scratch: &'static mut mtts::Scratch,
+}
 
-fn record_error(e: SensorError) {
-    warn!("sensor: {}", e);
-    STATUS.lock(|s| {
-        let mut s = s.borrow_mut();
-        s.sensor_error = Some(e);
-        s.sensor_errors = s.sensor_errors.wrapping_add(1);
-    });
+impl Storage for BoardStorage {
+    fn parts(&mut self) -> Parts<'_> {
+        Parts {
+            cal: self.cal,
+            frame: self.frame,
+            image: self.image,
+            scratch: self.scratch,
+        }
+    }
+
+    fn image(&self) -> &Image {
+        self.image
+    }
+}
+
+/// Control loop period.
+const TICK: Duration = Duration::from_millis(100);
+/// The watchdog is fed only while the sensor task finished a step within this window, ms.
+const SENSOR_ALIVE_MS: u64 = 1_000;
+
+/// Time since boot for the pipeline's timestamps.
+#[derive(Clone, Copy)]
+struct BoardClock;
+
+impl Clock for BoardClock {
+    fn now(&self) -> Millis {
+        Millis(Instant::now().as_millis())
+    }
+}
+
+fn now() -> Millis {
+    BoardClock.now()
 }
 
 #[embassy_executor::task]
-async fn sensor_task(i2c: I2c<'static, Async, Master>) {
-    let cal = CALIBRATION.take();
-    let frame = FRAME.take();
-    let image = IMAGE.take();
-    let scratch = MTTS_SCRATCH.take();
-    let mut mtts = match Mtts::new(mtts::Config::default()) {
-        Ok(m) => Some(m),
+async fn sensor_task(bus: pins::SensorBus) {
+    let pipeline = match Pipeline::new(PipelineConfig::default()) {
+        Ok(p) => p,
         Err(e) => {
-            record_error(SensorError::Mtts(e));
-            None
+            // Unreachable with the default settings; without reports the watchdog resets.
+            error!("sensing pipeline refused its settings: {}", e);
+            return;
         }
     };
-    let mut driver = Mlx90640::new(i2c, Delay, mlx90640::ADDRESS);
-    let params = DecodeParams::default();
-    let mut ready = false;
+    let mut sensor = Sensor::new(
+        bus,
+        Delay,
+        BoardClock,
+        thermorph::mlx90640::ADDRESS,
+        pipeline,
+        BoardStorage {
+            cal: CALIBRATION.take(),
+            frame: FRAME.take(),
+            image: IMAGE.take(),
+            scratch: MTTS_SCRATCH.take(),
+        },
+    );
     loop {
-        if !ready {
-            let setup = async {
-                driver.calibrate(cal).await?;
-                driver.configure(mlx90640::Config::default()).await
-            };
-            match setup.await {
-                Ok(()) => {
-                    info!("MLX90640 calibrated and configured");
-                    ready = true;
-                }
-                Err(e) => {
-                    record_error(SensorError::Driver(e));
-                    Timer::after(SENSOR_RETRY).await;
-                    continue;
-                }
-            }
+        if let Some(h) = HINT.try_take() {
+            sensor.set_hint(h);
         }
-        let decoded = match driver.read_subpage(frame).await {
-            Ok(()) => image
-                .update(frame, cal, &params)
-                .map_err(mlx90640::Error::from),
-            Err(e) => Err(e),
-        };
-        match decoded {
-            Ok(info) => {
-                let stats = image.stats();
-                let regions = match mtts.as_mut() {
-                    Some(m) if info.subpage == 1 && image.complete() => {
-                        match m.process(&image.to_k, scratch) {
-                            Ok(out) => Some(out.regions.map(|r| r.temp)),
-                            Err(e) => {
-                                record_error(SensorError::Mtts(e));
-                                None
-                            }
-                        }
-                    }
-                    _ => None,
-                };
+        let outcome = sensor.step().await;
+        let at = now();
+        SENSOR.lock(|r| r.borrow_mut().last_step = Some(at));
+        match outcome {
+            Outcome::Frame(m) => {
+                SENSOR.lock(|r| {
+                    let mut r = r.borrow_mut();
+                    r.measurement = Some(m);
+                });
+                MEASURED.signal(());
+                let info = sensor.pipeline().last_subpage();
+                let stats = sensor.image().stats();
                 STATUS.lock(|s| {
                     let mut s = s.borrow_mut();
-                    s.ta = Some(info.ta);
-                    s.vdd_v = Some(info.vdd_v);
-                    s.frames = s.frames.wrapping_add(1);
+                    s.ta = info.map(|i| i.ta);
+                    s.vdd_v = info.map(|i| i.vdd_v);
+                    s.frames = m.seq.wrapping_add(1);
                     s.image = stats;
-                    if regions.is_some() {
-                        s.regions = regions;
-                        s.sensor_error = None;
-                    }
+                    s.regions = Some(m.regions);
+                    s.sensor_error = None;
                 });
             }
-            Err(e) => {
-                // A bus error may mean the sensor was unplugged: calibrate again.
-                if matches!(
-                    e,
-                    mlx90640::Error::Bus { .. } | mlx90640::Error::Timeout { .. }
-                ) {
-                    ready = false;
-                }
-                record_error(SensorError::Driver(e));
-                Timer::after(SENSOR_RETRY).await;
+            Outcome::Error(e) => {
+                warn!("sensor: {}", e);
+                SENSOR.lock(|r| {
+                    let mut r = r.borrow_mut();
+                    r.error = Some(e);
+                    r.errors = r.errors.saturating_add(1);
+                });
+                STATUS.lock(|s| {
+                    let mut s = s.borrow_mut();
+                    s.sensor_error = Some(SensorError::Sensing(e));
+                    s.sensor_errors = s.sensor_errors.wrapping_add(1);
+                });
             }
+            Outcome::Ready => info!("MLX90640 calibrated and configured"),
+            Outcome::Recovered => info!("I2C bus recovered"),
+            Outcome::Paused | Outcome::Half | Outcome::Discarded(_) => {}
         }
     }
 }
 
+/// Queue `item`, or count it as refused if the queue is full or lines refused before it still
+/// wait to be queued (replies keep the order of the lines).
+fn queue(item: Item, busy: &mut u16) {
+    flush_busy(busy);
+    if *busy > 0 || LINES.try_send(item).is_err() {
+        *busy = busy.saturating_add(1);
+    }
+}
+
+fn flush_busy(busy: &mut u16) {
+    if *busy > 0 && LINES.try_send(Item::Busy(*busy)).is_ok() {
+        *busy = 0;
+    }
+}
+
+/// Console input: bytes → lines → the reply queue. It waits only for input (never for a
+/// reply to be written), so the receive ring drains as fast as bytes come; lines beyond
+/// [`OUTSTANDING`] waiting commands are refused `err busy`, lines that lost bytes `err
+/// lost-bytes` (see [`serial`]).
 #[embassy_executor::task]
-async fn console_task(uart: BufferedUart<'static>) {
-    let (mut tx, mut rx) = uart.split();
+async fn console_rx_task(mut rx: BufferedUartRx<'static>) {
     let mut reader: LineReader<MAX_LINE> = LineReader::new();
+    let mut losses = serial::LossTracker::new();
+    let mut busy: u16 = 0;
     let mut buf = [0u8; 64];
     loop {
-        let n = match rx.read(&mut buf).await {
+        let read = if busy > 0 {
+            // Refused lines wait for room in the queue: look again soon even without input.
+            match select(rx.read(&mut buf), Timer::after_millis(10)).await {
+                Either::First(r) => r,
+                Either::Second(()) => {
+                    flush_busy(&mut busy);
+                    continue;
+                }
+            }
+        } else {
+            rx.read(&mut buf).await
+        };
+        let n = match read {
             Ok(n) => n,
             Err(e) => {
-                // embassy logs framing, noise and overrun errors itself and returns none from
-                // a buffered read today; should one come, the bytes are lost and the line
-                // reader carries on to the next line end.
+                // The buffered reader reports no receive errors today; should one come, the
+                // bytes may be gone: the line they belonged to is refused.
                 warn!("console: {}", e);
+                reader.mark_lost();
                 continue;
             }
         };
+        losses.add(serial::took(n));
         for &b in &buf[..n] {
-            let Some(line) = reader.push(b) else {
-                continue;
-            };
-            let mut out: heapless::String<384> = heapless::String::new();
-            let status = STATUS.lock(|s| *s.borrow());
-            let written = match line.and_then(console::parse) {
-                Ok(cmd) => console::respond(cmd, &status, &mut out),
-                Err(e) => console::respond_error(e, &mut out),
-            };
-            if written.is_err() {
-                out.clear();
-                let _ = out.write_str("err internal: reply too long\r\n");
+            if losses.next_byte_lost() {
+                reader.mark_lost();
             }
+            let item = match reader.push(b) {
+                None => continue,
+                Some(Ok(line)) => match heapless::String::try_from(line) {
+                    Ok(s) => Item::Line(s),
+                    // The reader caps lines at MAX_LINE bytes, as the string does.
+                    Err(_) => Item::Refused(ConsoleError::LineTooLong),
+                },
+                Some(Err(e)) => Item::Refused(e),
+            };
+            queue(item, &mut busy);
+        }
+    }
+}
+
+/// Console output: one reply per queued line, in order.
+#[embassy_executor::task]
+async fn console_tx_task(mut tx: BufferedUartTx<'static>) {
+    loop {
+        let item = LINES.receive().await;
+        let mut out: heapless::String<384> = heapless::String::new();
+        let mut repeat = 1;
+        let written = match item {
+            Item::Line(line) => {
+                let status = STATUS.lock(|s| *s.borrow());
+                match console::parse(&line) {
+                    Ok(cmd) => console::respond(cmd, &status, &mut out),
+                    Err(e) => console::respond_error(e, &mut out),
+                }
+            }
+            Item::Refused(e) => console::respond_error(e, &mut out),
+            Item::Busy(n) => {
+                repeat = n;
+                console::respond_error(ConsoleError::Busy, &mut out)
+            }
+        };
+        if written.is_err() {
+            out.clear();
+            let _ = out.write_str("err internal: reply too long\r\n");
+        }
+        for _ in 0..repeat {
             if tx.write_all(out.as_bytes()).await.is_err() {
                 warn!("console: write failed");
             }
@@ -172,27 +309,69 @@ async fn console_task(uart: BufferedUart<'static>) {
     }
 }
 
+/// The emergency stop: publishes every press, including a button already held at start
+/// (`wait_for_low` returns at once if the level is low).
 #[embassy_executor::task]
 async fn estop_task(mut button: ExtiInput<'static, Async>) {
     loop {
-        button.wait_for_falling_edge().await;
-        warn!("emergency stop");
-        STATUS.lock(|s| s.borrow_mut().estop = true);
+        button.wait_for_low().await;
+        warn!("emergency stop pressed");
+        ESTOP_PRESSED.store(true, Ordering::Release);
+        button.wait_for_high().await;
     }
 }
 
-/// Turn every output off, then wait for the watchdog to reset the chip.
-///
-/// Every panic ends here (panic-probe prints it over RTT, then executes `udf`), as does any
-/// fault. Under `probe-rs run` the probe halts the core on entry to print a backtrace; the
-/// watchdog, which keeps counting, then resets the chip and the pull-downs hold the gates low.
+/// Set by the first panic or fault: a second one (say, a panic inside the logger while it
+/// prints the first) skips the printing.
+static FAILING: AtomicBool = AtomicBool::new(false);
+
+/// Turn the outputs off first, then report (once), then halt for the debugger or reset the
+/// chip.
+fn fail_safe(what: &str) -> ! {
+    // SAFETY: called only from the panic and fault handlers, after which no task runs.
+    unsafe { pins::force_outputs_off() };
+    if !FAILING.swap(true, Ordering::AcqRel) {
+        error!("{}: outputs off", what);
+    }
+    halt_or_reset()
+}
+
+fn halt_or_reset() -> ! {
+    if cortex_m::peripheral::DCB::is_debugger_attached() {
+        // probe-rs stops here and prints the backtrace.
+        cortex_m::asm::bkpt();
+    }
+    // No debugger (or it resumed): reset at once rather than wait for a watchdog that may
+    // not be running yet. The gate pull-downs hold the loads off through the reset.
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    // SAFETY: as in `fail_safe`; the outputs go off before the message is formatted.
+    unsafe { pins::force_outputs_off() };
+    if !FAILING.swap(true, Ordering::AcqRel) {
+        error!("panic, outputs off: {}", defmt::Display2Format(info));
+    }
+    halt_or_reset()
+}
+
+/// A fault (including a stack overflow: flip-link puts the stack below the statics, so an
+/// overflow runs off the start of RAM into a fault instead of over the data).
 #[cortex_m_rt::exception]
 unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
-    // SAFETY: nothing else runs after a hard fault; the pins are never handed back.
+    fail_safe("hard fault")
+}
+
+/// An interrupt or exception without a handler.
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(irqn: i16) -> ! {
+    // SAFETY: as in `fail_safe`.
     unsafe { pins::force_outputs_off() };
-    loop {
-        cortex_m::asm::nop();
+    if !FAILING.swap(true, Ordering::AcqRel) {
+        error!("unexpected interrupt or exception {}, outputs off", irqn);
     }
+    halt_or_reset()
 }
 
 #[embassy_executor::main]
@@ -206,19 +385,43 @@ async fn main(spawner: Spawner) {
         mut led,
         mut watchdog,
     } = pins::Board::new(p);
-    outputs.all_off();
+    outputs.apply(&Outputs::OFF);
+    // Start the watchdog before any task runs: from here a stall resets the chip.
+    watchdog.unleash();
     info!("thermorph {} up", thermorph::VERSION);
+    let (tx, rx) = console.split();
     spawner.spawn(unwrap!(sensor_task(i2c)));
-    spawner.spawn(unwrap!(console_task(console)));
+    spawner.spawn(unwrap!(console_rx_task(rx)));
+    spawner.spawn(unwrap!(console_tx_task(tx)));
     spawner.spawn(unwrap!(estop_task(estop)));
 
-    watchdog.unleash();
+    let mut sensor_seen = now();
     let mut ticker = Ticker::every(TICK);
     let mut tick: u32 = 0;
     loop {
-        watchdog.pet();
-        // Nothing drives an output at this stage; keep them off every tick.
-        outputs.all_off();
+        // The control step: everything the supervisor needs, then one `apply`.
+        let report = SENSOR.lock(|r| core::mem::take(&mut *r.borrow_mut()));
+        MEASURED.reset();
+        if ESTOP_PRESSED.swap(false, Ordering::AcqRel) {
+            // Until the supervisor holds the latch, the console shows it.
+            STATUS.lock(|s| s.borrow_mut().estop = true);
+        }
+        // The supervisor's decision goes here: `Supervisor::step(now, report.measurement,
+        // command)` → outputs and the sensing hint. Until then nothing drives a load.
+        let decided = Outputs::OFF;
+        outputs.apply(&decided);
+        HINT.signal(SensingHint::default());
+
+        // Feed the watchdog only while the sensor task finished a step within the last
+        // second: a stalled sensor task (or control loop) resets the chip, a missing sensor
+        // (an error every few hundred ms) does not. The supervisor's rule replaces this: feed
+        // after a step that used a measurement at most 1 s old or has latched sensor loss.
+        if let Some(at) = report.last_step {
+            sensor_seen = at;
+        }
+        if now().0.saturating_sub(sensor_seen.0) <= SENSOR_ALIVE_MS {
+            watchdog.pet();
+        }
         let (fault, estop) = STATUS.lock(|s| {
             let s = s.borrow();
             (s.sensor_error.is_some(), s.estop)

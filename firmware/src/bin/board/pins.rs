@@ -3,18 +3,26 @@
 //! | signal | pin | peripheral |
 //! |---|---|---|
 //! | MLX90640 SCL / SDA | PB8 / PB9 | I2C1, 400 kHz, DMA1 stream 6 (TX) / 0 (RX) |
-//! | PI heater gate | PA6 | TIM3 CH1 PWM, 1 kHz |
-//! | fan gate | PB6 | TIM4 CH1 PWM, 25 kHz |
-//! | SMA spring A / B / C | PB4 / PB5 / PB10 | GPIO, active high |
+//! | PI heater gate | PA6 (D12) | TIM3 CH1 PWM, 1 kHz |
+//! | fan gate | PB6 (D10) | TIM4 CH1 PWM, 25 kHz |
+//! | SMA spring A / B / C | PA8 / PB5 / PB10 (D7 / D4 / D6) | GPIO, active high |
 //! | console | PA2 / PA3 | USART2, 115200 8N1 (ST-LINK virtual COM port) |
 //! | emergency stop | PC13 | user button B1, EXTI13, active low |
 //! | status LED | PA5 | LD2 |
+//!
+//! Every MOSFET gate needs a pull-down of at most 10 kΩ to ground: from reset until
+//! [`Board::new`] drives them, the gate pins are floating inputs, and only the pull-downs keep
+//! the loads off. Spring A is not on PB4: that is JTAG NJTRST, pulled *up* inside the chip
+//! during and after reset, which would switch the spring on before the firmware runs.
+//!
+//! The gate pins are listed once, in [`gate_pins!`]; [`Board::new`] and [`force_outputs_off`]
+//! both expand it.
 //!
 //! Clocks: HSE 8 MHz bypass (the ST-LINK's MCO), PLL M 4 · N 180 · P 2 → SYSCLK 180 MHz,
 //! AHB 180 MHz, APB1 45 MHz, APB2 90 MHz.
 
 use embassy_stm32::exti::{self, ExtiInput};
-use embassy_stm32::gpio::{Level, Output, OutputType, Pin, Pull, Speed};
+use embassy_stm32::gpio::{Level, Output, OutputOpenDrain, OutputType, Pin, Pull, Speed};
 use embassy_stm32::i2c::{self, I2c, Master};
 use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals;
@@ -24,19 +32,36 @@ use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::usart::{self, BufferedUart};
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{Config, Peri, Peripherals, bind_interrupts, dma, interrupt};
+use embassy_time::Timer;
+use embedded_hal::i2c::{ErrorType, Operation};
 use static_cell::ConstStaticCell;
+use thermorph::outputs::{Duty, Outputs as OutputState, SPRINGS};
+use thermorph::sensing::{BusStuck, RecoverBus};
+
+use super::serial;
+
+/// The gate pins, the one table: `(heater, fan, [spring A, spring B, spring C])`. Expands to
+/// `$then!(…)` so every place that needs them reads this list.
+macro_rules! gate_pins {
+    ($then:ident) => {
+        $then!(PA6, PB6, [PA8, PB5, PB10])
+    };
+}
 
 bind_interrupts!(struct Irqs {
     I2C1_EV => i2c::EventInterruptHandler<peripherals::I2C1>;
     I2C1_ER => i2c::ErrorInterruptHandler<peripherals::I2C1>;
     DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
     DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
-    USART2 => usart::BufferedInterruptHandler<peripherals::USART2>;
+    // The loss watch runs first, before embassy's handler takes the byte.
+    USART2 => serial::RxLossWatch, usart::BufferedInterruptHandler<peripherals::USART2>;
     EXTI15_10 => exti::InterruptHandler<interrupt::typelevel::EXTI15_10>;
 });
 
 /// I2C clock for the MLX90640 (the F446's I2C1 is a Fast-mode peripheral: 400 kHz at most).
 pub const I2C_HZ: u32 = 400_000;
+/// Half a clock period of the bus recovery's bit-banged SCL, µs (100 kHz).
+pub const RECOVERY_HALF_PERIOD_US: u64 = 5;
 /// Console baud rate.
 pub const CONSOLE_BAUD: u32 = 115_200;
 /// Heater PWM frequency.
@@ -46,11 +71,13 @@ pub const FAN_PWM_HZ: u32 = 25_000;
 /// Independent watchdog timeout, µs.
 pub const WATCHDOG_TIMEOUT_US: u32 = 500_000;
 
-// The ST-LINK's virtual COM port has no flow control, and the buffered UART drops what does not
-// fit: these hold about 90 ms of input and of replies, so a host may send a burst of commands
-// without waiting for each reply.
+// The ST-LINK's virtual COM port has no flow control: these hold about 90 ms of input and of
+// replies. The console reader never waits for anything but input, so the receive buffer only
+// fills if the executor stalls; `serial` detects it (and hardware overruns) and the affected
+// line is refused.
 static CONSOLE_TX: ConstStaticCell<[u8; 1024]> = ConstStaticCell::new([0; 1024]);
-static CONSOLE_RX: ConstStaticCell<[u8; 1024]> = ConstStaticCell::new([0; 1024]);
+static CONSOLE_RX: ConstStaticCell<[u8; serial::RX_BUF]> =
+    ConstStaticCell::new([0; serial::RX_BUF]);
 
 /// The clock tree: 180 MHz from the 8 MHz HSE bypass.
 pub fn clocks() -> Config {
@@ -78,30 +105,48 @@ pub fn clocks() -> Config {
     config
 }
 
-/// The heater, fan and spring outputs.
+/// The heater, fan and spring outputs: driven only by [`Outputs::apply`].
 pub struct Outputs {
     heater: SimplePwm<'static, peripherals::TIM3>,
     fan: SimplePwm<'static, peripherals::TIM4>,
-    springs: [Output<'static>; 3],
+    springs: [Output<'static>; SPRINGS],
 }
 
 impl Outputs {
-    /// Turn every output off: heater and fan at 0 % duty, spring gates low.
-    pub fn all_off(&mut self) {
-        self.heater.ch1().set_duty_cycle_fully_off();
-        self.fan.ch1().set_duty_cycle_fully_off();
-        for s in &mut self.springs {
-            s.set_low();
+    /// Drive every output as `state` says: heater and fan duty, spring gates. The only
+    /// function that switches a load on.
+    pub fn apply(&mut self, state: &OutputState) {
+        fn duty(
+            ch: &mut embassy_stm32::timer::simple_pwm::SimplePwmChannel<
+                '_,
+                impl embassy_stm32::timer::GeneralInstance4Channel,
+            >,
+            d: Duty,
+        ) {
+            if d.fraction() <= 0.0 {
+                ch.set_duty_cycle_fully_off();
+            } else {
+                let max = ch.max_duty_cycle();
+                // Duty is within [0, 1]: the product is within [0, max].
+                ch.set_duty_cycle((d.fraction() * max as f32) as u32);
+            }
+        }
+        duty(&mut self.heater.ch1(), state.heater);
+        duty(&mut self.fan.ch1(), state.fan);
+        for (i, s) in self.springs.iter_mut().enumerate() {
+            if state.springs.contains(i) {
+                s.set_high();
+            } else {
+                s.set_low();
+            }
         }
     }
 }
 
 /// Drive the heater, fan and spring gates low, whoever holds them.
 ///
-/// For the hard-fault handler, where every panic ends (panic-probe's `udf`): the pins are taken
-/// back from their drivers and made plain low outputs, so a panic or a fault turns the outputs
-/// off at once instead of leaving them as they were until the watchdog resets the chip. Keep
-/// the pins in step with [`Board::new`].
+/// For the panic, hard-fault and default handlers: the pins are taken back from their drivers
+/// and made plain low outputs, so every fault turns the outputs off before anything else.
 ///
 /// # Safety
 ///
@@ -111,20 +156,133 @@ pub unsafe fn force_outputs_off() {
         // Dropping the driver would disconnect (float) the pin: keep it driven low.
         core::mem::forget(Output::new(pin, Level::Low, Speed::Low));
     }
-    // SAFETY: the caller guarantees that nothing uses these pins any more.
-    unsafe {
-        low(peripherals::PA6::steal());
-        low(peripherals::PB6::steal());
-        low(peripherals::PB4::steal());
-        low(peripherals::PB5::steal());
-        low(peripherals::PB10::steal());
+    macro_rules! all_low {
+        ($h:ident, $f:ident, [$($s:ident),*]) => {
+            // SAFETY: the caller guarantees that nothing uses these pins any more.
+            unsafe {
+                $(low(peripherals::$s::steal());)*
+                low(peripherals::$h::steal());
+                low(peripherals::$f::steal());
+            }
+        };
+    }
+    gate_pins!(all_low);
+}
+
+/// I2C1 on PB8 / PB9 with its DMA streams, at [`I2C_HZ`].
+fn sensor_i2c(
+    i2c: Peri<'static, peripherals::I2C1>,
+    scl: Peri<'static, peripherals::PB8>,
+    sda: Peri<'static, peripherals::PB9>,
+    tx_dma: Peri<'static, peripherals::DMA1_CH6>,
+    rx_dma: Peri<'static, peripherals::DMA1_CH0>,
+) -> I2c<'static, Async, Master> {
+    let mut config = i2c::Config::default();
+    config.frequency = Hertz(I2C_HZ);
+    I2c::new(i2c, scl, sda, tx_dma, rx_dma, Irqs, config)
+}
+
+/// The sensor's bus: I2C1, rebuilt by a recovery ([`RecoverBus`]).
+pub struct SensorBus {
+    i2c: Option<I2c<'static, Async, Master>>,
+}
+
+impl ErrorType for SensorBus {
+    type Error = i2c::Error;
+}
+
+impl embedded_hal_async::i2c::I2c for SensorBus {
+    async fn read(&mut self, address: u8, read: &mut [u8]) -> Result<(), i2c::Error> {
+        match self.i2c.as_mut() {
+            Some(b) => b.read(address, read).await,
+            None => Err(i2c::Error::Bus),
+        }
+    }
+
+    async fn write(&mut self, address: u8, write: &[u8]) -> Result<(), i2c::Error> {
+        match self.i2c.as_mut() {
+            Some(b) => b.write(address, write).await,
+            None => Err(i2c::Error::Bus),
+        }
+    }
+
+    async fn write_read(
+        &mut self,
+        address: u8,
+        write: &[u8],
+        read: &mut [u8],
+    ) -> Result<(), i2c::Error> {
+        match self.i2c.as_mut() {
+            Some(b) => b.write_read(address, write, read).await,
+            None => Err(i2c::Error::Bus),
+        }
+    }
+
+    async fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), i2c::Error> {
+        match self.i2c.as_mut() {
+            Some(b) => b.transaction(address, operations).await,
+            None => Err(i2c::Error::Bus),
+        }
+    }
+}
+
+impl RecoverBus for SensorBus {
+    /// Drop the peripheral (its pins disconnect, its clock stops), clock SCL as an open-drain
+    /// GPIO until the sensor lets SDA go (at most nine clocks: one byte and its ACK), send a
+    /// STOP, and build I2C1 again (enabled and reset).
+    async fn recover(&mut self) -> Result<(), BusStuck> {
+        self.i2c = None;
+        // SAFETY: the I2C driver that owned these pins was just dropped; nothing else uses
+        // them, and the GPIO drivers are dropped before the peripheral is built again.
+        let (mut scl, mut sda) = unsafe {
+            (
+                OutputOpenDrain::new(peripherals::PB8::steal(), Level::High, Speed::Low),
+                OutputOpenDrain::new(peripherals::PB9::steal(), Level::High, Speed::Low),
+            )
+        };
+        Timer::after_micros(RECOVERY_HALF_PERIOD_US).await;
+        for _ in 0..9 {
+            if sda.is_high() {
+                break;
+            }
+            scl.set_low();
+            Timer::after_micros(RECOVERY_HALF_PERIOD_US).await;
+            scl.set_high();
+            Timer::after_micros(RECOVERY_HALF_PERIOD_US).await;
+        }
+        // STOP: SDA rises while SCL is high.
+        scl.set_low();
+        Timer::after_micros(RECOVERY_HALF_PERIOD_US).await;
+        sda.set_low();
+        Timer::after_micros(RECOVERY_HALF_PERIOD_US).await;
+        scl.set_high();
+        Timer::after_micros(RECOVERY_HALF_PERIOD_US).await;
+        sda.set_high();
+        Timer::after_micros(RECOVERY_HALF_PERIOD_US).await;
+        let free = sda.is_high() && scl.is_high();
+        drop((scl, sda));
+        // SAFETY: as above; the previous driver is gone, so this is the only I2C1 driver.
+        self.i2c = Some(unsafe {
+            sensor_i2c(
+                peripherals::I2C1::steal(),
+                peripherals::PB8::steal(),
+                peripherals::PB9::steal(),
+                peripherals::DMA1_CH6::steal(),
+                peripherals::DMA1_CH0::steal(),
+            )
+        });
+        if free { Ok(()) } else { Err(BusStuck) }
     }
 }
 
 /// Every peripheral the firmware uses, configured.
 pub struct Board {
     /// I2C1 to the MLX90640.
-    pub i2c: I2c<'static, Async, Master>,
+    pub i2c: SensorBus,
     /// USART2, the console.
     pub console: BufferedUart<'static>,
     /// Heater, fan and springs.
@@ -141,14 +299,19 @@ impl Board {
     /// Take the peripherals and configure them; every output starts off.
     pub fn new(p: Peripherals) -> Self {
         // Gates first, low, before anything else can run.
-        let springs = [
-            Output::new(p.PB4, Level::Low, Speed::Low),
-            Output::new(p.PB5, Level::Low, Speed::Low),
-            Output::new(p.PB10, Level::Low, Speed::Low),
-        ];
+        macro_rules! take_gates {
+            ($h:ident, $f:ident, [$($s:ident),*]) => {
+                (
+                    [$(Output::new(p.$s, Level::Low, Speed::Low)),*],
+                    p.$h,
+                    p.$f,
+                )
+            };
+        }
+        let (springs, heater_pin, fan_pin) = gate_pins!(take_gates);
         let mut heater = SimplePwm::new(
             p.TIM3,
-            Some(PwmPin::new(p.PA6, OutputType::PushPull)),
+            Some(PwmPin::new(heater_pin, OutputType::PushPull)),
             None,
             None,
             None,
@@ -159,7 +322,7 @@ impl Board {
         heater.ch1().enable();
         let mut fan = SimplePwm::new(
             p.TIM4,
-            Some(PwmPin::new(p.PB6, OutputType::PushPull)),
+            Some(PwmPin::new(fan_pin, OutputType::PushPull)),
             None,
             None,
             None,
@@ -169,11 +332,9 @@ impl Board {
         fan.ch1().set_duty_cycle_fully_off();
         fan.ch1().enable();
 
-        let mut i2c_config = i2c::Config::default();
-        i2c_config.frequency = Hertz(I2C_HZ);
-        let i2c = I2c::new(
-            p.I2C1, p.PB8, p.PB9, p.DMA1_CH6, p.DMA1_CH0, Irqs, i2c_config,
-        );
+        let i2c = SensorBus {
+            i2c: Some(sensor_i2c(p.I2C1, p.PB8, p.PB9, p.DMA1_CH6, p.DMA1_CH0)),
+        };
 
         let mut uart_config = usart::Config::default();
         uart_config.baudrate = CONSOLE_BAUD;
