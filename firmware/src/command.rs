@@ -43,10 +43,10 @@ impl ParseError {
         }
     }
 
-    /// Return the human message.
+    /// Return the human message (the 96 is [`crate::console::MAX_LINE`], checked by a test).
     pub fn message(self) -> &'static str {
         match self {
-            Self::LineTooLong => "line too long, discarded",
+            Self::LineTooLong => "line longer than 96 bytes, discarded",
             Self::BinaryInput => "line holds non-printable bytes",
             Self::LostBytes => "bytes of this line were lost, line discarded",
             Self::UnknownCommand => "unknown command, try `help`",
@@ -62,8 +62,6 @@ impl From<ConsoleError> for ParseError {
         match e {
             ConsoleError::LineTooLong => ParseError::LineTooLong,
             ConsoleError::BinaryInput => ParseError::BinaryInput,
-            ConsoleError::UnknownCommand => ParseError::UnknownCommand,
-            ConsoleError::BadArguments => ParseError::BadArguments,
             ConsoleError::LostBytes => ParseError::LostBytes,
             ConsoleError::Busy => ParseError::Busy,
         }

@@ -800,7 +800,10 @@ mod tests {
         assert!(got.t1().k().is_finite() && got.t2().k().is_finite());
         assert_eq!(got.bound, out.bound);
         assert_eq!(got.filled_pixels, 1);
-        assert!((got.tc.k() - 300.0).abs() < 1e-3 + 0.5 * got.bound.k(), "{got:?}");
+        assert!(
+            (got.tc.k() - 300.0).abs() < 1e-3 + 0.5 * got.bound.k(),
+            "{got:?}"
+        );
         assert_eq!(got.cylinder_max, out.cylinder_max);
         // Tc out of the plausible range (weights that do not sum to 1) is refused.
         let bad = SensingHint {

@@ -30,11 +30,11 @@ use std::time::{Duration, Instant};
 use thermorph::command::parse_read;
 use thermorph::console::{LineReader, MAX_LINE};
 use thermorph::measurement::Measurement;
+use thermorph::measurement::SensingHint;
 use thermorph::settings::Settings;
 use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot};
-use thermorph::measurement::SensingHint;
 use thermorph::units::Millis;
 
 use crate::plant::{Plant, PlantConfig};
@@ -211,8 +211,7 @@ impl Block {
             .control
             .as_ref()
             .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
-        self.measurement =
-            measure(self.camera.as_mut(), &obs, sensor_fault, t1_s, period, hint).1;
+        self.measurement = measure(self.camera.as_mut(), &obs, sensor_fault, t1_s, period, hint).1;
         Ok(())
     }
 }

@@ -909,7 +909,10 @@ mod tests {
         for (name, text) in BUNDLED {
             let s = parse(text, name, name).unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(s.name, name);
-            assert!(!s.actions.is_empty());
+            assert!(
+                s.actions.is_empty() != s.commands.is_empty(),
+                "{name}: timed duties or console lines, exactly one of them"
+            );
         }
         assert!(load("cycle").is_ok());
         assert!(

@@ -6,12 +6,12 @@ pub mod pins;
 pub mod serial;
 
 use core::cell::RefCell;
-use core::fmt::Write as _;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use defmt::{error, info, unwrap, warn};
+use embassy_embedded_hal::adapter::BlockingAsync;
 use embassy_executor::Spawner;
-use embassy_futures::select::{Either, select};
+use embassy_futures::select::{Either, Either3, select, select3};
 use embassy_stm32::exti::ExtiInput;
 use embassy_stm32::mode::Async;
 use embassy_stm32::usart::{BufferedUartRx, BufferedUartTx};
@@ -22,7 +22,8 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Delay, Duration, Instant, Ticker, Timer};
 use embedded_io_async::{Read as _, Write as _};
 use static_cell::ConstStaticCell;
-use thermorph::console::{self, ConsoleError, LineReader, MAX_LINE, SensorError, Status};
+use thermorph::command::{self, Command, ParseError};
+use thermorph::console::{ConsoleError, LineReader, MAX_LINE};
 use thermorph::measurement::{Measurement, SensingHint};
 use thermorph::mlx90640::{Calibration, Image, SubpageFrame};
 use thermorph::mtts;
@@ -30,21 +31,12 @@ use thermorph::outputs::Outputs;
 use thermorph::sensing::{
     Clock, Outcome, Parts, Pipeline, PipelineConfig, SensingError, Sensor, Storage,
 };
+use thermorph::storage::FlashStore;
+use thermorph::supervisor::report::Reply;
+use thermorph::supervisor::{Decision, Supervisor};
 use thermorph::units::Millis;
 
 use defmt_rtt as _;
-
-/// What the console's `status` reports (display only: no decision reads it).
-static STATUS: Mutex<CriticalSectionRawMutex, RefCell<Status>> = Mutex::new(RefCell::new(Status {
-    ta: None,
-    vdd_v: None,
-    frames: 0,
-    image: None,
-    regions: None,
-    sensor_error: None,
-    sensor_errors: 0,
-    estop: false,
-}));
 
 /// What the sensor task hands the control task: the newest measurement and error not yet
 /// taken.
@@ -77,6 +69,8 @@ static HINT: Signal<CriticalSectionRawMutex, SensingHint> = Signal::new();
 /// task, taken by the control task, which hands it to the supervisor (the latch is the
 /// supervisor's).
 static ESTOP_PRESSED: AtomicBool = AtomicBool::new(false);
+/// The button was released since (so `reset` may clear the e-stop).
+static ESTOP_RELEASED: AtomicBool = AtomicBool::new(false);
 
 /// A console line waiting for its reply.
 enum Item {
@@ -91,6 +85,22 @@ enum Item {
 /// Commands waiting for their replies, at most this many (the bound on outstanding commands).
 const OUTSTANDING: usize = 4;
 static LINES: Channel<CriticalSectionRawMutex, Item, OUTSTANDING> = Channel::new();
+
+/// A line for the console's transmitter.
+enum Out {
+    /// The reply to one line.
+    Reply(Reply),
+    /// `n` lines refused because the queue was full: `n` times `err busy`.
+    Busy(u16),
+    /// A telemetry line (with its `#` and CR LF).
+    Telemetry(heapless::String<TELEMETRY_CAP>),
+}
+
+/// Longest telemetry line, bytes.
+const TELEMETRY_CAP: usize = 192;
+/// Replies and telemetry waiting to be written. The control loop takes a line only when a
+/// reply slot is free, so a reply always fits; telemetry is dropped when the port is behind.
+static OUT: Channel<CriticalSectionRawMutex, Out, { OUTSTANDING + 2 }> = Channel::new();
 
 // The pipeline's working memory, one static per part: the zero ones stay in .bss.
 static CALIBRATION: ConstStaticCell<Calibration> = ConstStaticCell::new(Calibration::new());
@@ -121,10 +131,45 @@ impl Storage for BoardStorage {
     }
 }
 
-/// Control loop period.
-const TICK: Duration = Duration::from_millis(100);
-/// The watchdog is fed only while the sensor task finished a step within this window, ms.
-const SENSOR_ALIVE_MS: u64 = 1_000;
+/// Control loop tick (besides every measurement and console line): spring timing resolution
+/// and the sensor-loss check run at least this often.
+const TICK: Duration = Duration::from_millis(50);
+
+/// Where the settings live in the flash region of sectors 5-7 (`pins::Board::flash`):
+/// sectors 6 and 7, which memory.x keeps out of the program.
+const SETTINGS_RANGE: core::ops::Range<u32> = 0x2_0000..0x6_0000;
+
+/// Give the independent watchdog its longest period (≈ 32 s) while the flash is written or
+/// erased — an erase of a 128 KiB sector stalls the core for up to 2 s, longer than the
+/// 500 ms period — or restore `period`, then reload it. The watchdog keeps running throughout.
+fn watchdog_period(prescaler: embassy_stm32::pac::iwdg::vals::Pr, reload: u16) {
+    use embassy_stm32::pac::IWDG;
+    use embassy_stm32::pac::iwdg::vals::Key;
+    IWDG.kr().write(|w| w.set_key(Key::ENABLE));
+    IWDG.pr().write(|w| w.set_pr(prescaler));
+    IWDG.rlr().write(|w| w.set_rl(reload));
+    // The new values reach the watchdog's clock domain within a few 32 kHz cycles.
+    while IWDG.sr().read().0 != 0 {}
+    IWDG.kr().write(|w| w.set_key(Key::RESET));
+}
+
+/// Run a flash operation with the watchdog's period stretched, then restore it.
+async fn with_long_watchdog<R>(
+    watchdog: &mut embassy_stm32::wdg::IndependentWatchdog<
+        'static,
+        embassy_stm32::peripherals::IWDG,
+    >,
+    op: impl core::future::Future<Output = R>,
+) -> R {
+    use embassy_stm32::pac::IWDG;
+    let (pr, rl) = (IWDG.pr().read().pr(), IWDG.rlr().read().rl());
+    watchdog.pet();
+    watchdog_period(embassy_stm32::pac::iwdg::vals::Pr::DIVIDE_BY256, 0x0FFF);
+    let r = op.await;
+    watchdog_period(pr, rl);
+    watchdog.pet();
+    r
+}
 
 /// Time since boot for the pipeline's timestamps.
 #[derive(Clone, Copy)]
@@ -177,17 +222,6 @@ async fn sensor_task(bus: pins::SensorBus) {
                     r.measurement = Some(m);
                 });
                 MEASURED.signal(());
-                let info = sensor.pipeline().last_subpage();
-                let stats = sensor.image().stats();
-                STATUS.lock(|s| {
-                    let mut s = s.borrow_mut();
-                    s.ta = info.map(|i| i.ta);
-                    s.vdd_v = info.map(|i| i.vdd_v);
-                    s.frames = m.seq.wrapping_add(1);
-                    s.image = stats;
-                    s.regions = Some(m.regions);
-                    s.sensor_error = None;
-                });
             }
             Outcome::Error(e) => {
                 warn!("sensor: {}", e);
@@ -195,11 +229,6 @@ async fn sensor_task(bus: pins::SensorBus) {
                     let mut r = r.borrow_mut();
                     r.error = Some(e);
                     r.errors = r.errors.saturating_add(1);
-                });
-                STATUS.lock(|s| {
-                    let mut s = s.borrow_mut();
-                    s.sensor_error = Some(SensorError::Sensing(e));
-                    s.sensor_errors = s.sensor_errors.wrapping_add(1);
                 });
             }
             Outcome::Ready => info!("MLX90640 calibrated and configured"),
@@ -276,36 +305,31 @@ async fn console_rx_task(mut rx: BufferedUartRx<'static>) {
     }
 }
 
-/// Console output: one reply per queued line, in order.
+/// Console output: the control loop's replies (one per line, in line order) and telemetry
+/// lines, each written whole, so the two never break each other.
 #[embassy_executor::task]
 async fn console_tx_task(mut tx: BufferedUartTx<'static>) {
     loop {
-        let item = LINES.receive().await;
-        let mut out: heapless::String<384> = heapless::String::new();
-        let mut repeat = 1;
-        let written = match item {
-            Item::Line(line) => {
-                let status = STATUS.lock(|s| *s.borrow());
-                match console::parse(&line) {
-                    Ok(cmd) => console::respond(cmd, &status, &mut out),
-                    Err(e) => console::respond_error(e, &mut out),
+        match &OUT.receive().await {
+            Out::Reply(r) => write_line(&mut tx, r.as_str().as_bytes()).await,
+            Out::Busy(n) => {
+                let r = Reply::parse_error(ParseError::Busy);
+                for _ in 0..*n {
+                    write_line(&mut tx, r.as_str().as_bytes()).await;
                 }
             }
-            Item::Refused(e) => console::respond_error(e, &mut out),
-            Item::Busy(n) => {
-                repeat = n;
-                console::respond_error(ConsoleError::Busy, &mut out)
-            }
-        };
-        if written.is_err() {
-            out.clear();
-            let _ = out.write_str("err internal: reply too long\r\n");
-        }
-        for _ in 0..repeat {
-            if tx.write_all(out.as_bytes()).await.is_err() {
-                warn!("console: write failed");
+            Out::Telemetry(t) => {
+                if tx.write_all(t.as_bytes()).await.is_err() {
+                    warn!("console: write failed");
+                }
             }
         }
+    }
+}
+
+async fn write_line(tx: &mut BufferedUartTx<'static>, line: &[u8]) {
+    if tx.write_all(line).await.is_err() || tx.write_all(b"\r\n").await.is_err() {
+        warn!("console: write failed");
     }
 }
 
@@ -318,6 +342,7 @@ async fn estop_task(mut button: ExtiInput<'static, Async>) {
         warn!("emergency stop pressed");
         ESTOP_PRESSED.store(true, Ordering::Release);
         button.wait_for_high().await;
+        ESTOP_RELEASED.store(true, Ordering::Release);
     }
 }
 
@@ -384,6 +409,7 @@ async fn main(spawner: Spawner) {
         estop,
         mut led,
         mut watchdog,
+        flash,
     } = pins::Board::new(p);
     outputs.apply(&Outputs::OFF);
     // Start the watchdog before any task runs: from here a stall resets the chip.
@@ -395,38 +421,91 @@ async fn main(spawner: Spawner) {
     spawner.spawn(unwrap!(console_tx_task(tx)));
     spawner.spawn(unwrap!(estop_task(estop)));
 
-    let mut sensor_seen = now();
+    // The settings record: the stored one, or the defaults with a warning on the console.
+    let mut store = unwrap!(FlashStore::new(BlockingAsync::new(flash), SETTINGS_RANGE).ok());
+    let mut boot_line = heapless::String::<TELEMETRY_CAP>::new();
+    let settings = with_long_watchdog(&mut watchdog, store.boot_settings(&mut boot_line)).await;
+    if !boot_line.is_empty() {
+        let _ = OUT.try_send(Out::Telemetry(boot_line));
+    }
+    let mut supervisor = Supervisor::new(now(), settings);
     let mut ticker = Ticker::every(TICK);
     let mut tick: u32 = 0;
     loop {
-        // The control step: everything the supervisor needs, then one `apply`.
+        // Wake on a measurement, a console line (only while a reply slot is free, so the
+        // reply cannot block this loop) or the tick.
+        let line = if OUT.free_capacity() > 1 {
+            match select3(MEASURED.wait(), LINES.receive(), ticker.next()).await {
+                Either3::Second(item) => Some(item),
+                _ => None,
+            }
+        } else {
+            match select(MEASURED.wait(), ticker.next()).await {
+                Either::First(()) | Either::Second(()) => None,
+            }
+        };
         let report = SENSOR.lock(|r| core::mem::take(&mut *r.borrow_mut()));
-        MEASURED.reset();
-        if ESTOP_PRESSED.swap(false, Ordering::AcqRel) {
-            // Until the supervisor holds the latch, the console shows it.
-            STATUS.lock(|s| s.borrow_mut().estop = true);
-        }
-        // The supervisor's decision goes here: `Supervisor::step(now, report.measurement,
-        // command)` → outputs and the sensing hint. Until then nothing drives a load.
-        let decided = Outputs::OFF;
-        outputs.apply(&decided);
-        HINT.signal(SensingHint::default());
+        let t = now();
 
-        // Feed the watchdog only while the sensor task finished a step within the last
-        // second: a stalled sensor task (or control loop) resets the chip, a missing sensor
-        // (an error every few hundred ms) does not. The supervisor's rule replaces this: feed
-        // after a step that used a measurement at most 1 s old or has latched sensor loss.
-        if let Some(at) = report.last_step {
-            sensor_seen = at;
+        // The control step: the e-stop level, the measurement, then the line, each a step of
+        // the supervisor; only the last decision's outputs are applied (they are the newest).
+        // The button's events are the supervisor's to latch (their replies go nowhere).
+        if ESTOP_PRESSED.swap(false, Ordering::AcqRel) {
+            supervisor.step(t, None, Some(Command::Button { pressed: true }));
         }
-        if now().0.saturating_sub(sensor_seen.0) <= SENSOR_ALIVE_MS {
+        if ESTOP_RELEASED.swap(false, Ordering::AcqRel) {
+            supervisor.step(t, None, Some(Command::Button { pressed: false }));
+        }
+        let mut decision = supervisor.step(t, report.measurement.as_ref(), None);
+        let alive = decision.alive;
+        let mut telemetry = decision.telemetry;
+        match line {
+            Some(Item::Busy(n)) => {
+                let _ = OUT.try_send(Out::Busy(n));
+            }
+            Some(Item::Refused(e)) => {
+                let _ = OUT.try_send(Out::Reply(Reply::parse_error(ParseError::from(e))));
+            }
+            Some(Item::Line(l)) => {
+                let mut d = match command::parse(&l) {
+                    Ok(c) => supervisor.step(t, None, Some(c)),
+                    Err(e) => Decision {
+                        reply: Some(Reply::parse_error(e)),
+                        ..supervisor.step(t, None, None)
+                    },
+                };
+                // `save` and `load`: the flash gives the reply.
+                if let Some(req) = d.store.take() {
+                    let reply =
+                        with_long_watchdog(&mut watchdog, store.carry_out(&req, &mut supervisor))
+                            .await;
+                    d.reply = Some(reply);
+                }
+                telemetry |= d.telemetry;
+                if let Some(r) = d.reply.clone() {
+                    let _ = OUT.try_send(Out::Reply(r));
+                }
+                decision = d;
+            }
+            None => {}
+        }
+        outputs.apply(&decision.outputs);
+        HINT.signal(decision.sensing);
+        if telemetry {
+            let mut line = heapless::String::<TELEMETRY_CAP>::new();
+            if supervisor.write_telemetry(t, &mut line).is_ok() {
+                // Best effort: a port that is behind loses telemetry, never a reply.
+                let _ = OUT.try_send(Out::Telemetry(line));
+            }
+        }
+
+        // The watchdog is fed only after a step that used a measurement at most
+        // `sensor_timeout_s` old or has latched sensor loss: a stalled sensor task or control
+        // loop resets the chip; a missing sensor gives a latched fault and a usable console.
+        if alive {
             watchdog.pet();
         }
-        let (fault, estop) = STATUS.lock(|s| {
-            let s = s.borrow();
-            (s.sensor_error.is_some(), s.estop)
-        });
-        let on = if fault || estop {
+        let on = if supervisor.fault().is_some() {
             tick % 2 == 0
         } else {
             tick % 10 == 0
@@ -437,6 +516,5 @@ async fn main(spawner: Spawner) {
             led.set_low();
         }
         tick = tick.wrapping_add(1);
-        ticker.next().await;
     }
 }

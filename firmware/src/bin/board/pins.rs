@@ -293,6 +293,8 @@ pub struct Board {
     pub led: Output<'static>,
     /// The independent watchdog (not yet started).
     pub watchdog: IndependentWatchdog<'static, peripherals::IWDG>,
+    /// The flash's 128 KiB sectors (5-7); the settings use 6 and 7.
+    pub flash: embassy_stm32::flash::Bank1Region3<'static, embassy_stm32::flash::Blocking>,
 }
 
 impl Board {
@@ -365,6 +367,9 @@ impl Board {
             estop: ExtiInput::new(p.PC13, p.EXTI13, Pull::None, Irqs),
             led: Output::new(p.PA5, Level::Low, Speed::Low),
             watchdog: IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US),
+            flash: embassy_stm32::flash::Flash::new_blocking(p.FLASH)
+                .into_blocking_regions()
+                .bank1_region3,
         }
     }
 }
