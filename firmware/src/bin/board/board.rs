@@ -505,10 +505,11 @@ async fn main(spawner: Spawner) {
         if alive {
             watchdog.pet();
         }
+        // LD2: a 50 ms flash every second, or 10 Hz while a fault is latched.
         let on = if supervisor.fault().is_some() {
             tick % 2 == 0
         } else {
-            tick % 10 == 0
+            tick % 20 == 0
         };
         if on {
             led.set_high();
