@@ -3,7 +3,8 @@
 //!
 //! - `thermorph-desk connect PORT [--baud B]`: interactive console (history, Tab completion).
 //! - `thermorph-desk record PORT --out FILE.csv [--duration S] [--hz HZ]`: telemetry to CSV.
-//! - `thermorph-desk run PORT SCRIPT`: an experiment script; exits 1 at the first failure.
+//! - `thermorph-desk run PORT SCRIPT [--record FILE.csv]`: an experiment script (recording its
+//!   telemetry); exits 1 at the first failure.
 //! - `thermorph-desk plot FILE.csv --out FILE.png`: plot a recording or host-sim's CSV.
 //! - `thermorph-desk ports`: serial ports with their USB identities (ST-LINK marked).
 
@@ -84,6 +85,9 @@ enum Command {
         /// How long a command may wait for its reply, s.
         #[arg(long, default_value = "2", value_parser = secs)]
         reply_timeout: Duration,
+        /// Also record the telemetry received during the run to this CSV.
+        #[arg(long)]
+        record: Option<PathBuf>,
     },
     /// Plot a recording (or host-sim's timeseries.csv) as a PNG.
     Plot {
@@ -158,9 +162,15 @@ fn main() -> ExitCode {
             script,
             baud,
             reply_timeout,
-        } => script::run_file(&port, baud, &script, reply_timeout, &mut |l| {
-            println!("{l}")
-        })
+            record,
+        } => script::run_file(
+            &port,
+            baud,
+            &script,
+            reply_timeout,
+            record.as_deref(),
+            &mut |l| println!("{l}"),
+        )
         .map(|()| println!("script passed")),
         Command::Plot { csv, out, title } => host_sim::plot::plot_csv(&csv, &out, title.as_deref())
             .map(|i| {

@@ -50,6 +50,64 @@ impl Default for RecordOptions {
     }
 }
 
+/// The recording's CSV file: the header at once, then each telemetry line as a row, flushed as
+/// it is written.
+pub struct CsvSink {
+    out: std::io::BufWriter<std::fs::File>,
+    path: std::path::PathBuf,
+    started: Instant,
+    last_t_s: f64,
+    /// The mark for the next row (why rows may be missing before it).
+    pub gap: Option<&'static str>,
+    /// Rows written.
+    pub rows: u64,
+    /// Gaps marked.
+    pub gaps: u64,
+}
+
+impl CsvSink {
+    /// Create `path` and write the header.
+    pub fn create(path: &Path) -> Result<CsvSink, String> {
+        let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut out = std::io::BufWriter::new(file);
+        writeln!(out, "{}", csv_header())
+            .and_then(|_| out.flush())
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(CsvSink {
+            out,
+            path: path.to_path_buf(),
+            started: Instant::now(),
+            last_t_s: f64::NEG_INFINITY,
+            gap: None,
+            rows: 0,
+            gaps: 0,
+        })
+    }
+
+    /// Write `line` if it is telemetry (a board clock that went backwards marks a `reset`);
+    /// return the parsed telemetry.
+    pub fn line(&mut self, line: &str) -> Result<Option<Telemetry>, String> {
+        let Some(t) = Telemetry::parse(line) else {
+            return Ok(None);
+        };
+        if let Some(ts) = t.t_s() {
+            if ts < self.last_t_s && self.gap.is_none() {
+                self.gap = Some("reset");
+            }
+            self.last_t_s = ts;
+        }
+        let row = csv_row(self.started.elapsed().as_secs_f64(), &t, self.gap);
+        if self.gap.take().is_some() {
+            self.gaps += 1;
+        }
+        writeln!(self.out, "{row}")
+            .and_then(|_| self.out.flush())
+            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.rows += 1;
+        Ok(Some(t))
+    }
+}
+
 /// What a recording did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RecordStats {
@@ -102,47 +160,31 @@ pub fn record(
     o: &RecordOptions,
     progress: &mut dyn FnMut(&Telemetry, &RecordStats),
 ) -> Result<RecordStats, String> {
-    let file = std::fs::File::create(out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let mut csv = std::io::BufWriter::new(file);
+    let mut sink = CsvSink::create(out)?;
     let started = Instant::now();
     let end = o.duration.map(|d| started + d);
-    let mut stats = RecordStats::default();
-    let mut gap: Option<&'static str> = None;
-    let mut last_t_s = f64::NEG_INFINITY;
+    let mut garbage = 0;
     let mut last_row = Instant::now();
-    writeln!(csv, "{}", csv_header()).map_err(|e| e.to_string())?;
-    csv.flush().map_err(|e| e.to_string())?;
-
-    let mut write = |line: &str,
-                     gap: &mut Option<&'static str>,
-                     last_t_s: &mut f64,
-                     stats: &mut RecordStats|
-     -> Result<(), String> {
-        let Some(t) = Telemetry::parse(line) else {
-            return Ok(());
-        };
-        if let Some(ts) = t.t_s() {
-            if ts < *last_t_s && gap.is_none() {
-                *gap = Some("reset");
-            }
-            *last_t_s = ts;
+    let mut write = |line: &str, sink: &mut CsvSink, garbage: u64| -> Result<bool, String> {
+        let t = sink.line(line)?;
+        if let Some(t) = &t {
+            progress(
+                t,
+                &RecordStats {
+                    rows: sink.rows,
+                    gaps: sink.gaps,
+                    garbage,
+                },
+            );
         }
-        let row = csv_row(started.elapsed().as_secs_f64(), &t, *gap);
-        if gap.take().is_some() {
-            stats.gaps += 1;
-        }
-        writeln!(csv, "{row}")
-            .and_then(|_| csv.flush())
-            .map_err(|e| format!("{}: {e}", out.display()))?;
-        stats.rows += 1;
-        progress(&t, stats);
-        Ok(())
+        Ok(t.is_some())
     };
 
     // Rows that arrive while a command waits for its reply are written too.
     let mut held: Vec<String> = Vec::new();
     let mut link = Link::open(path, o.baud).map_err(|e| e.to_string())?;
     let mut need_stream = true;
+    let mut answered_once = false;
     loop {
         if end.is_some_and(|e| Instant::now() >= e) {
             break;
@@ -150,6 +192,7 @@ pub fn record(
         let result: Result<(), LinkError> = (|| {
             if need_stream {
                 stream_on(&mut link, o, &mut |l| held.push(l.to_string()))?;
+                answered_once = true;
                 need_stream = false;
                 last_row = Instant::now();
             }
@@ -162,14 +205,12 @@ pub fn record(
             }
             Ok(())
         })();
+        garbage = garbage.max(link.garbage);
         for l in held.drain(..) {
-            let before = stats.rows;
-            write(&l, &mut gap, &mut last_t_s, &mut stats)?;
-            if stats.rows > before {
+            if write(&l, &mut sink, garbage)? {
                 last_row = Instant::now();
             }
         }
-        stats.garbage = stats.garbage.max(link.garbage);
         match result {
             Ok(()) => {
                 if last_row.elapsed() >= o.silence {
@@ -178,25 +219,27 @@ pub fn record(
                         "record: no telemetry for {:.1} s, asking for the stream again",
                         o.silence.as_secs_f64()
                     );
-                    gap.get_or_insert("silence");
+                    sink.gap.get_or_insert("silence");
                     need_stream = true;
                     last_row = Instant::now();
                 }
             }
+            Err(LinkError::Timeout(e)) if !answered_once => {
+                return Err(format!("{e}: is this a Thermorph console?"));
+            }
             Err(LinkError::Timeout(e)) => {
                 eprintln!("record: {e}");
-                gap.get_or_insert("silence");
+                sink.gap.get_or_insert("silence");
                 need_stream = true;
                 last_row = Instant::now();
             }
             Err(e) => {
                 eprintln!("record: {e}; reopening {path}");
-                let garbage = stats.garbage;
                 drop(link);
                 link = reopen(path, o, &e.to_string())?;
                 link.garbage = garbage;
                 eprintln!("record: {path} is back");
-                gap = Some("reconnect");
+                sink.gap = Some("reconnect");
                 need_stream = true;
             }
         }
@@ -206,7 +249,11 @@ pub fn record(
         held.push(l.to_string())
     });
     for l in held.drain(..) {
-        write(&l, &mut gap, &mut last_t_s, &mut stats)?;
+        write(&l, &mut sink, garbage)?;
     }
-    Ok(stats)
+    Ok(RecordStats {
+        rows: sink.rows,
+        gaps: sink.gaps,
+        garbage: garbage.max(link.garbage),
+    })
 }

@@ -15,11 +15,14 @@
 //! one of `==`, `!=`, `<`, `<=`, `>`, `>=`; numbers compare as numbers, words as words. So
 //! `wait mode == form`, `wait fault != none within 30` and `wait tc_k >= 355 within 120` wait for
 //! a mode, a fault and a temperature. Commands are checked with the library's parser when the
-//! script is read; the run stops at the first failure.
+//! script is read; the run stops at the first failure. With `--record FILE.csv` the run turns
+//! the telemetry stream on and writes every telemetry line it receives, as `record` does (one
+//! serial port has room for one program, so the script's run records its own experiment).
 
 use std::time::{Duration, Instant};
 
-use super::link::{Link, LinkError};
+use super::link::{Line, Link, LinkError};
+use super::record::CsvSink;
 use super::telemetry::{Fields, fields, get};
 
 /// Default `wait` timeout.
@@ -224,11 +227,30 @@ pub fn parse(text: &str) -> Result<Script, String> {
     Ok(out)
 }
 
+/// Send `line` and return its reply; telemetry that comes first goes to `sink`.
+fn command(
+    link: &mut Link,
+    line: &str,
+    timeout: Duration,
+    sink: &mut Option<CsvSink>,
+) -> Result<String, String> {
+    let mut held = Vec::new();
+    let r = link.command(line, timeout, &mut |l| held.push(l.to_string()));
+    if let Some(s) = sink.as_mut() {
+        for l in &held {
+            s.line(l)?;
+        }
+    }
+    r.map_err(|e| e.to_string())
+}
+
 /// Ask for `status` and return its fields.
-pub fn status(link: &mut Link, timeout: Duration) -> Result<Fields, String> {
-    let r = link
-        .command("status", timeout, &mut |_| {})
-        .map_err(|e| e.to_string())?;
+pub fn status(
+    link: &mut Link,
+    timeout: Duration,
+    sink: &mut Option<CsvSink>,
+) -> Result<Fields, String> {
+    let r = command(link, "status", timeout, sink)?;
     match r.strip_prefix("ok") {
         Some(body) => Ok(fields(body)),
         None => Err(format!("`status` refused: {r}")),
@@ -255,6 +277,7 @@ pub fn run(
     link: &mut Link,
     script: &Script,
     reply_timeout: Duration,
+    sink: &mut Option<CsvSink>,
     log: &mut dyn FnMut(&str),
 ) -> Result<(), String> {
     let started = Instant::now();
@@ -263,25 +286,21 @@ pub fn run(
         let fail = |e: String| format!("line {n}: {e}");
         match step {
             Step::Command { line, any } => {
-                let r = link
-                    .command(line, reply_timeout, &mut |_| {})
-                    .map_err(|e| fail(e.to_string()))?;
+                let r = command(link, line, reply_timeout, sink).map_err(fail)?;
                 log(&format!("{} {line} -> {r}", at()));
                 if !any && !r.starts_with("ok") {
                     return Err(fail(format!("`{line}` got `{r}`")));
                 }
             }
             Step::ExpectErr { code, line } => {
-                let r = link
-                    .command(line, reply_timeout, &mut |_| {})
-                    .map_err(|e| fail(e.to_string()))?;
+                let r = command(link, line, reply_timeout, sink).map_err(fail)?;
                 log(&format!("{} {line} -> {r}", at()));
                 if !r.starts_with(&format!("err {code}:")) {
                     return Err(fail(format!("`{line}` got `{r}`, not `err {code}`")));
                 }
             }
             Step::Expect(c) => {
-                let f = status(link, reply_timeout).map_err(fail)?;
+                let f = status(link, reply_timeout, sink).map_err(fail)?;
                 if !check(&f, c).map_err(fail)? {
                     return Err(fail(format!(
                         "expected {c}, but {} = {}",
@@ -294,7 +313,7 @@ pub fn run(
             Step::Wait { cond, within } => {
                 let until = Instant::now() + *within;
                 loop {
-                    let f = status(link, reply_timeout).map_err(fail)?;
+                    let f = status(link, reply_timeout, sink).map_err(fail)?;
                     if check(&f, cond).map_err(fail)? {
                         log(&format!("{} wait {cond}: holds", at()));
                         break;
@@ -309,11 +328,12 @@ pub fn run(
                             get(&f, "fault").unwrap_or("?"),
                         )));
                     }
-                    std::thread::sleep(POLL.min(until.saturating_duration_since(Instant::now())));
+                    let next = Instant::now() + POLL.min(until.saturating_duration_since(Instant::now()));
+                    drain(link, next, sink).map_err(fail)?;
                 }
             }
             Step::Sleep(d) => {
-                std::thread::sleep(*d);
+                drain(link, Instant::now() + *d, sink).map_err(fail)?;
                 log(&format!("{} slept {:.1} s", at(), d.as_secs_f64()));
             }
         }
@@ -321,19 +341,46 @@ pub fn run(
     Ok(())
 }
 
-/// Open `path` and run the script file `script_path`.
+/// Read lines until `until`, writing telemetry to `sink` (so nothing piles up while waiting).
+fn drain(link: &mut Link, until: Instant, sink: &mut Option<CsvSink>) -> Result<(), String> {
+    while let Some(l) = link.next_line(until).map_err(|e| e.to_string())? {
+        if let (Line::Async(a), Some(s)) = (l, sink.as_mut()) {
+            s.line(&a)?;
+        }
+    }
+    Ok(())
+}
+
+/// Open `path` and run the script file `script_path`; with `record`, write the telemetry
+/// received meanwhile to that CSV (the stream is turned on first and off at the end).
 pub fn run_file(
     path: &str,
     baud: u32,
     script_path: &std::path::Path,
     reply_timeout: Duration,
+    record: Option<&std::path::Path>,
     log: &mut dyn FnMut(&str),
 ) -> Result<(), String> {
     let text = std::fs::read_to_string(script_path)
         .map_err(|e| format!("{}: {e}", script_path.display()))?;
     let script = parse(&text).map_err(|e| format!("{}: {e}", script_path.display()))?;
     let mut link = Link::open(path, baud).map_err(|e: LinkError| e.to_string())?;
-    run(&mut link, &script, reply_timeout, log)
+    let mut sink = record.map(CsvSink::create).transpose()?;
+    if sink.is_some() {
+        let r = command(&mut link, "stream on", reply_timeout, &mut sink)?;
+        if !r.starts_with("ok") {
+            return Err(format!("`stream on` refused: {r}"));
+        }
+    }
+    let result = run(&mut link, &script, reply_timeout, &mut sink, log);
+    if sink.is_some() {
+        // Best effort: the run's result matters more than the stream's state.
+        let _ = command(&mut link, "stream off", reply_timeout, &mut sink);
+    }
+    if let Some(s) = &sink {
+        log(&format!("recorded {} telemetry rows ({} gaps)", s.rows, s.gaps));
+    }
+    result
 }
 
 #[cfg(test)]
