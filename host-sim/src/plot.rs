@@ -169,7 +169,9 @@ fn segments(time: &[f64], v: &[f64]) -> Vec<Vec<(f64, f64)>> {
     let mut out = vec![Vec::new()];
     for (&t, &y) in time.iter().zip(v) {
         if t.is_finite() && y.is_finite() {
-            out.last_mut().map(|s: &mut Vec<_>| s.push((t, y)));
+            if let Some(s) = out.last_mut() {
+                s.push((t, y));
+            }
         } else if out.last().is_some_and(|s| !s.is_empty()) {
             out.push(Vec::new());
         }
@@ -227,15 +229,14 @@ fn line_panel(
     series: &[Series<'_>],
     modes: Option<&[Band]>,
     gaps: &[f64],
-    last: bool,
+    x_desc: Option<&str>,
 ) -> Result<(), String> {
     let mut chart = ChartBuilder::on(area)
         .margin_left(10)
-        .margin_right(10)
+        .margin_right(10 + RIGHT_PX)
         .margin_top(6)
-        .right_y_label_area_size(RIGHT_PX)
         .caption(title, (FONT, 18).into_font().style(FontStyle::Bold))
-        .x_label_area_size(if last { 42 } else { 24 })
+        .x_label_area_size(if x_desc.is_some() { 42 } else { 24 })
         .y_label_area_size(78)
         .build_cartesian_2d(x.clone(), y.clone())
         .map_err(err)?;
@@ -245,8 +246,8 @@ fn line_panel(
         .label_style((FONT, 13))
         .axis_desc_style((FONT, 14));
     mesh.x_label_formatter(&|v| format!("{v:.0}"));
-    if last {
-        mesh.x_desc("time, s");
+    if let Some(d) = x_desc {
+        mesh.x_desc(d);
     }
     mesh.draw().map_err(err)?;
     if let Some(bands) = modes {
@@ -317,7 +318,7 @@ fn draw_bands<DB: DrawingBackend>(
                 .map(|b| {
                     Text::new(
                         b.mode.clone(),
-                        (b.from_s + 4.0 / px_per_s, top - 0.01 * (top - y.start)),
+                        (b.from_s + 4.0 / px_per_s, y.start + 0.07 * (top - y.start)),
                         (FONT, 13).into_font().color(&RGBColor(90, 90, 90)),
                     )
                 }),
@@ -356,19 +357,18 @@ fn spring_panel(
     x: Range<f64>,
     springs: &[(char, Vec<f64>)],
     gaps: &[f64],
-    last: bool,
+    x_desc: Option<&str>,
 ) -> Result<(), String> {
     let lanes = springs.len() as f64;
     let mut chart = ChartBuilder::on(area)
         .margin_left(10)
-        .margin_right(10)
+        .margin_right(10 + RIGHT_PX)
         .margin_top(6)
-        .right_y_label_area_size(RIGHT_PX)
         .caption(
             "SMA springs (on = driven)",
             (FONT, 18).into_font().style(FontStyle::Bold),
         )
-        .x_label_area_size(if last { 42 } else { 24 })
+        .x_label_area_size(if x_desc.is_some() { 42 } else { 24 })
         .y_label_area_size(78)
         .build_cartesian_2d(x.clone(), 0.0..lanes)
         .map_err(err)?;
@@ -391,8 +391,8 @@ fn spring_panel(
         .label_style((FONT, 13))
         .axis_desc_style((FONT, 14));
     mesh.x_label_formatter(&|v| format!("{v:.0}"));
-    if last {
-        mesh.x_desc("time, s");
+    if let Some(d) = x_desc {
+        mesh.x_desc(d);
     }
     mesh.draw().map_err(err)?;
     let colours = [
@@ -449,7 +449,7 @@ fn bending_panel(
     x: Range<f64>,
     bend: Option<&[f64]>,
     k_b: Option<&[f64]>,
-    last: bool,
+    x_desc: Option<&str>,
 ) -> Result<(), String> {
     let y = range_of(bend, 0.05, 5.0);
     let y2 = range_of(k_b, 0.05, 50.0);
@@ -461,7 +461,7 @@ fn bending_panel(
             "Bending performance and stiffness",
             (FONT, 18).into_font().style(FontStyle::Bold),
         )
-        .x_label_area_size(if last { 42 } else { 24 })
+        .x_label_area_size(if x_desc.is_some() { 42 } else { 24 })
         .y_label_area_size(78)
         .right_y_label_area_size(RIGHT_PX)
         .build_cartesian_2d(x.clone(), y)
@@ -473,8 +473,8 @@ fn bending_panel(
         .label_style((FONT, 13))
         .axis_desc_style((FONT, 14));
     mesh.x_label_formatter(&|v| format!("{v:.0}"));
-    if last {
-        mesh.x_desc("time, s");
+    if let Some(d) = x_desc {
+        mesh.x_desc(d);
     }
     mesh.draw().map_err(err)?;
     chart
@@ -531,16 +531,30 @@ enum Panel {
 
 /// Render `table` as a PNG at `out` with `title`; return which panels it drew.
 ///
-/// Columns read (the first present of each alias): time `time_s` or `t_s`; temperatures
+/// Columns read (the first present of each alias): time `t_s` (the board's clock) where it never
+/// goes back, else `time_s`; temperatures
 /// `t1_k`…`t5_k`, `target_k`, `tc_k`; modes `mode`; duties `heater_duty_pct`/`heater_pct` and
 /// `fan_duty_pct`/`fan_pct`; springs `spring_a`…`spring_c` (0/1) or `springs` (letters, `-`
 /// for none); `bend_deg`, `k_b_nmm_per_rad`; `gap` (on the first row after a recording gap, why — any
 /// value but empty, `-` or `0` — drawn as a red dashed line).
 pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, String> {
     fonts();
-    let time = table
-        .num_any(&["time_s", "t_s"])
-        .ok_or("the CSV has no time column (time_s or t_s) with numbers")?;
+    // The board's clock where it runs steadily (a recording of the simulator at --speed X
+    // shows simulated seconds); the host's where the board restarted.
+    let board = table.num("t_s");
+    let steady = |v: &[f64]| {
+        let f: Vec<f64> = v.iter().copied().filter(|t| t.is_finite()).collect();
+        f.windows(2).all(|w| w[1] >= w[0])
+    };
+    let (time, x_desc) = match (board, table.num("time_s")) {
+        (Some(b), _) if steady(&b) => (b, "board time, s"),
+        (Some(_), Some(h)) => (h, "host time, s (the board's clock restarted)"),
+        (None, Some(h)) => (h, "time, s"),
+        (Some(b), None) => (b, "board time, s"),
+        (None, None) => {
+            return Err("the CSV has no time column (time_s or t_s) with numbers".into());
+        }
+    };
     let x = {
         let r = range_of([time.as_slice()], 0.0, 1e-3);
         r.start..r.end
@@ -602,7 +616,7 @@ pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, String
     let mut names = Vec::new();
     let n = panels.len();
     for (i, ((panel, _), area)) in panels.iter().zip(&areas).enumerate() {
-        let last = i + 1 == n;
+        let last = (i + 1 == n).then_some(x_desc);
         match panel {
             Panel::Temps => {
                 let palette = [

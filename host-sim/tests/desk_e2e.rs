@@ -354,24 +354,42 @@ fn connect_run_a_full_cycle_record_and_plot() {
     assert!(springs.contains(&"AB"));
     // Recovery's pulse drives every spring.
     assert!(
-        modes.iter().zip(&springs).any(|(m, s)| *m == "recover" && *s == "ABC"),
+        modes
+            .iter()
+            .zip(&springs)
+            .any(|(m, s)| *m == "recover" && *s == "ABC"),
         "no recovery pulse recorded"
     );
     let board_t = t.num("t_s").unwrap();
-    assert!(board_t.windows(2).all(|w| w[1] > w[0]), "board clock not increasing");
+    assert!(
+        board_t.windows(2).all(|w| w[1] > w[0]),
+        "board clock not increasing"
+    );
     let t1 = t.num("t1_k").unwrap();
     let hot = t1.iter().cloned().fold(f64::MIN, f64::max);
-    assert!(hot > 355.0, "the film never reached the stepping temperature: {hot}");
+    assert!(
+        hot > 355.0,
+        "the film never reached the stepping temperature: {hot}"
+    );
     assert!(t.text("gap").unwrap().iter().all(|g| *g == "-"));
 
     let png = dir.join("cycle.png");
     let p = desk(
-        &["plot", csv.to_str().unwrap(), "--out", png.to_str().unwrap()],
+        &[
+            "plot",
+            csv.to_str().unwrap(),
+            "--out",
+            png.to_str().unwrap(),
+        ],
         "",
         Duration::from_secs(30),
     );
     assert!(p.ok, "{}", p.stderr);
-    assert!(p.stdout.contains("temperatures, duties, springs"), "{}", p.stdout);
+    assert!(
+        p.stdout.contains("temperatures, duties, springs"),
+        "{}",
+        p.stdout
+    );
     let (w, h) = png_size(&png);
     assert_eq!(w, host_sim::plot::WIDTH_PX);
     assert!(h > 600, "{h}");
@@ -441,7 +459,11 @@ fn record_survives_a_reset_and_a_replug() {
     assert!(host.windows(2).all(|w| w[1] >= w[0]));
     let gap_col = t.text("gap").unwrap();
     let last_gap = gap_col.iter().rposition(|g| *g == "reconnect").unwrap();
-    assert!(last_gap > 10 && last_gap + 10 < t.len(), "{last_gap} of {}", t.len());
+    assert!(
+        last_gap > 10 && last_gap + 10 < t.len(),
+        "{last_gap} of {}",
+        t.len()
+    );
     drop(board2);
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -525,10 +547,18 @@ fn garbage_and_silence_give_clear_errors_in_time() {
         assert!(!c.stdout.contains("< ok"), "{}", c.stdout);
     }
     let r = desk(
-        &["run", "/dev/nonexistent-thermorph", script.to_str().unwrap()],
+        &[
+            "run",
+            "/dev/nonexistent-thermorph",
+            script.to_str().unwrap(),
+        ],
         "",
         Duration::from_secs(10),
     );
-    assert!(!r.ok && r.stderr.contains("cannot open port"), "{}", r.stderr);
+    assert!(
+        !r.ok && r.stderr.contains("cannot open port"),
+        "{}",
+        r.stderr
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -328,7 +328,8 @@ pub fn run(
                             get(&f, "fault").unwrap_or("?"),
                         )));
                     }
-                    let next = Instant::now() + POLL.min(until.saturating_duration_since(Instant::now()));
+                    let next =
+                        Instant::now() + POLL.min(until.saturating_duration_since(Instant::now()));
                     drain(link, next, sink).map_err(fail)?;
                 }
             }
@@ -378,7 +379,10 @@ pub fn run_file(
         let _ = command(&mut link, "stream off", reply_timeout, &mut sink);
     }
     if let Some(s) = &sink {
-        log(&format!("recorded {} telemetry rows ({} gaps)", s.rows, s.gaps));
+        log(&format!(
+            "recorded {} telemetry rows ({} gaps)",
+            s.rows, s.gaps
+        ));
     }
     result
 }
