@@ -73,6 +73,12 @@ impl FakeBoard {
         let pty = nix::pty::openpty(None, None).expect("openpty");
         let path = std::fs::read_link(format!("/proc/self/fd/{}", pty.slave.as_raw_fd()))
             .expect("slave path");
+        // A board's USB serial port does not echo: raw mode before anyone opens the slave, or
+        // the line discipline would echo the board's own telemetry back to it.
+        let mut raw = nix::sys::termios::tcgetattr(&pty.slave).expect("tcgetattr");
+        nix::sys::termios::cfmakeraw(&mut raw);
+        nix::sys::termios::tcsetattr(&pty.slave, nix::sys::termios::SetArg::TCSANOW, &raw)
+            .expect("tcsetattr");
         // The desk opens the slave by its path; the test keeps no handle on it.
         drop(pty.slave);
         let master: OwnedFd = pty.master;

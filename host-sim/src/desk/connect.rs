@@ -119,31 +119,42 @@ pub struct ConnectOptions {
     pub drain: Duration,
 }
 
-type Printer = Arc<Mutex<Box<dyn FnMut(String) + Send>>>;
-
 /// Run the interactive console on `path` until the user leaves or the port is lost.
 pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
     let mut link = Link::open(path, o.baud).map_err(|e| e.to_string())?;
     let mut reader = link.try_clone().map_err(|e| e.to_string())?;
+    // Bash-like completion: Tab completes the common part, a second Tab lists the choices.
+    let config = rustyline::Config::builder()
+        .completion_type(rustyline::CompletionType::List)
+        .auto_add_history(false)
+        .build();
     let mut rl: Editor<DeskHelper, FileHistory> =
-        Editor::new().map_err(|e| format!("line editor: {e}"))?;
+        Editor::with_config(config).map_err(|e| format!("line editor: {e}"))?;
     rl.set_helper(Some(DeskHelper));
     if let Some(h) = &o.history {
         let _ = rl.load_history(h);
     }
-    let printer: Printer = match rl.create_external_printer() {
-        Ok(mut p) => Arc::new(Mutex::new(Box::new(move |s: String| {
-            let _ = p.print(s + "\n");
-        }))),
-        Err(_) => Arc::new(Mutex::new(Box::new(|s: String| println!("{s}")))),
-    };
-    let print = {
-        let p = printer.clone();
-        move |s: String| {
-            if let Ok(mut f) = p.lock() {
-                f(s)
+    // The reader thread's lines go through an unbounded channel to a printer thread: rustyline's
+    // printer may block until the editor next reads a key, and the reader must never wait on it
+    // (nor the main thread, which prints its own lines directly between prompts).
+    let direct = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    {
+        let direct = direct.clone();
+        let mut external = rl.create_external_printer().ok();
+        std::thread::spawn(move || {
+            for msg in rx {
+                match external.as_mut() {
+                    Some(p) if !direct.load(Ordering::SeqCst) => {
+                        let _ = p.print(msg + "\n");
+                    }
+                    _ => println!("{msg}"),
+                }
             }
-        }
+        });
+    }
+    let print = move |s: String| {
+        let _ = tx.send(s);
     };
     println!(
         "connected to {path} at {} baud; Tab completes, `help` lists the board's commands, .help the desk's, .quit leaves",
@@ -217,11 +228,14 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
                     ".quit" | ".exit" | ".q" => break,
                     ".t" => {
                         let l = latest.lock().ok().and_then(|l| l.clone());
-                        print(l.unwrap_or_else(|| "no telemetry yet (`stream on`)".into()));
+                        println!(
+                            "{}",
+                            l.unwrap_or_else(|| "no telemetry yet (`stream on`)".into())
+                        );
                     }
                     ".help" => {
                         for (n, h) in LOCAL {
-                            print(format!("{n:8} {h}"));
+                            println!("{n:8} {h}");
                         }
                     }
                     _ => {
@@ -240,7 +254,8 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
             }
         }
     }
-    // Let the replies still due arrive before leaving.
+    // Let the replies still due arrive before leaving; the editor is done, so print directly.
+    direct.store(true, Ordering::SeqCst);
     let until = Instant::now() + o.drain;
     while replies.load(Ordering::SeqCst) < sent
         && Instant::now() < until

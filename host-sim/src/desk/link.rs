@@ -67,6 +67,8 @@ impl Link {
             .timeout(POLL)
             .open()
             .map_err(|e| LinkError::Open(format!("{path}: {e}")))?;
+        // Bytes that arrived before we opened belong to no command of ours.
+        let _ = port.clear(serialport::ClearBuffer::Input);
         Ok(Link {
             port,
             path: path.to_string(),
