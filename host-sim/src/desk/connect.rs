@@ -175,6 +175,8 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
         let every = o.status_every;
         std::thread::spawn(move || {
             let mut last_status: Option<Instant> = None;
+            let mut last_garbage: Option<Instant> = None;
+            let mut unreadable = 0u64;
             while !stop.load(Ordering::Relaxed) {
                 match reader.next_line(Instant::now() + Duration::from_millis(100)) {
                     Ok(Some(Line::Reply(r))) => {
@@ -197,8 +199,15 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
                             *l = Some(a);
                         }
                     }
-                    Ok(Some(Line::Garbage(g))) => {
-                        print(format!("  ! unreadable line ({} bytes)", g.len()))
+                    Ok(Some(Line::Garbage(_))) => {
+                        // At most one note a second, however fast a port spews.
+                        unreadable += 1;
+                        if last_garbage
+                            .is_none_or(|l: Instant| l.elapsed() >= Duration::from_secs(1))
+                        {
+                            print(format!("  ! {unreadable} unreadable lines so far"));
+                            last_garbage = Some(Instant::now());
+                        }
                     }
                     Ok(None) => {}
                     Err(e) => {

@@ -159,8 +159,9 @@ impl Link {
             match self.next_line(deadline)? {
                 Some(Line::Reply(r)) => return Ok(r),
                 Some(Line::Async(a)) => on_async(&a),
-                Some(Line::Garbage(_)) => {}
-                None => {
+                Some(Line::Garbage(_)) if Instant::now() < deadline => {}
+                // A port that floods lines other than replies must not hold us past the deadline.
+                Some(Line::Garbage(_)) | None => {
                     let g = self.garbage - garbage0;
                     let extra = if g > 0 {
                         format!(" ({g} garbage lines instead)")
