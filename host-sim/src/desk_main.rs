@@ -140,14 +140,23 @@ fn main() -> ExitCode {
                 silence,
                 ..Default::default()
             };
-            let mut last_print = std::time::Instant::now();
-            record::record(&port, &out, &o, &mut |t, s| {
-                if last_print.elapsed() >= Duration::from_secs(2) {
-                    eprintln!("{} rows  {}", s.rows, t.summary());
-                    last_print = std::time::Instant::now();
-                }
-            })
-            .map(|s| {
+            // A bar over the duration, or a spinner; each shows rows and the latest line.
+            let bar = match duration {
+                Some(d) => indicatif::ProgressBar::new(d.as_secs().max(1)).with_style(
+                    indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {msg}")
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                        .progress_chars("=> "),
+                ),
+                None => indicatif::ProgressBar::new_spinner(),
+            };
+            bar.enable_steady_tick(Duration::from_millis(250));
+            let started = std::time::Instant::now();
+            let result = record::record(&port, &out, &o, &mut |t, s| {
+                bar.set_position(started.elapsed().as_secs());
+                bar.set_message(format!("{} rows  {}", s.rows, t.summary()));
+            });
+            bar.finish_and_clear();
+            result.map(|s| {
                 eprintln!(
                     "wrote {} rows to {} ({} gaps, {} garbage lines)",
                     s.rows,
