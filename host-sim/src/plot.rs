@@ -668,7 +668,11 @@ pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, String
                 let yr = range_of(cols, 0.12, 10.0);
                 line_panel(
                     area,
-                    "Region temperatures, target and Tc (bands: mode)",
+                    if modes.as_ref().is_some_and(|b| !b.is_empty()) {
+                        "Region temperatures, target and Tc (bands: mode)"
+                    } else {
+                        "Region temperatures"
+                    },
                     "temperature, K",
                     &time,
                     x.clone(),
