@@ -1,5 +1,6 @@
 //! Thermorph's simulator library: models that stand in for the board's peripherals.
 //!
+//! - [`desk`]: the researcher's desk, `thermorph-desk`: console, recorder, scripts, plots.
 //! - [`dump`]: reading MLX90640 EEPROM and frame dumps (the shared test-data format).
 //! - [`console`]: `host-sim console`, the block behind the board's console (stdin or a pty).
 //! - [`data`]: where the shared sensor dumps live.
@@ -20,6 +21,7 @@
 pub mod console;
 pub mod data;
 pub mod decode;
+pub mod desk;
 pub mod dump;
 pub mod eeprom;
 pub mod mtts_cli;

@@ -1,0 +1,308 @@
+//! `connect`: the interactive console.
+//!
+//! Line editing and history by rustyline; Tab completes command words from the library's
+//! [`COMMANDS`], mode names from [`MODE_NAMES`], parameter names from [`PARAMS`] and spring
+//! letters. Replies print as `< …` as they come. Telemetry is kept apart from them: it never
+//! prints line by line; a status line `| t=… mode … T1 … T2 …` of the latest telemetry is printed
+//! at most every `--status-every` seconds, and `.t` prints the latest telemetry line in full.
+//!
+//! Leaving (`.quit`, Ctrl-D or Ctrl-C) sends nothing: the block stays in whatever mode it is in.
+//! Only a typed `stop` turns its outputs off.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use rustyline::completion::{Completer, Pair};
+use rustyline::error::ReadlineError;
+use rustyline::highlight::Highlighter;
+use rustyline::hint::Hinter;
+use rustyline::history::FileHistory;
+use rustyline::validate::Validator;
+use rustyline::{Context, Editor, ExternalPrinter, Helper};
+use thermorph::command::{COMMANDS, MODE_NAMES};
+use thermorph::settings::PARAMS;
+
+use super::link::{Line, Link};
+use super::telemetry::Telemetry;
+
+/// The desk's own commands (they start with a dot, so they never collide with the console's).
+pub const LOCAL: [(&str, &str); 3] = [
+    (
+        ".quit",
+        "leave; the block stays as it is (type `stop` first to turn it off)",
+    ),
+    (".t", "print the latest telemetry line in full"),
+    (".help", "this list (the board's commands: `help`)"),
+];
+
+/// Completion candidates for the text before the cursor: where the word being completed starts
+/// and the words that fit.
+pub fn complete(before: &str) -> (usize, Vec<String>) {
+    let start = before
+        .rfind(|c: char| c.is_whitespace())
+        .map_or(0, |i| i + 1);
+    let prefix = &before[start..];
+    let words: Vec<&str> = before[..start].split_whitespace().collect();
+    let verb = words.first().map(|w| w.to_ascii_lowercase());
+    let options: Vec<String> = match (words.len(), verb.as_deref()) {
+        (0, _) => COMMANDS
+            .iter()
+            .map(|c| c.name.to_string())
+            .chain(LOCAL.iter().map(|l| l.0.to_string()))
+            .collect(),
+        (1, Some("mode")) => MODE_NAMES.iter().map(|m| m.0.to_string()).collect(),
+        (1, Some("get" | "set")) => PARAMS.iter().map(|p| p.name.to_string()).collect(),
+        (1, Some("stream")) => vec!["on".into(), "off".into()],
+        (2, Some("mode")) if words[1].to_ascii_lowercase().starts_with("step-") => {
+            let n = thermorph::outputs::SPRING_NAMES;
+            (1u8..8)
+                .map(|bits| {
+                    (0..n.len())
+                        .filter(|i| bits & (1 << i) != 0)
+                        .map(|i| n[i])
+                        .collect::<String>()
+                })
+                .collect()
+        }
+        _ => Vec::new(),
+    };
+    let p = prefix.to_ascii_lowercase();
+    let mut fit: Vec<String> = options
+        .into_iter()
+        .filter(|o| o.to_ascii_lowercase().starts_with(&p))
+        .collect();
+    fit.sort();
+    (start, fit)
+}
+
+struct DeskHelper;
+
+impl Completer for DeskHelper {
+    type Candidate = Pair;
+    fn complete(
+        &self,
+        line: &str,
+        pos: usize,
+        _ctx: &Context<'_>,
+    ) -> rustyline::Result<(usize, Vec<Pair>)> {
+        let (start, fit) = complete(&line[..pos]);
+        Ok((
+            start,
+            fit.into_iter()
+                .map(|w| Pair {
+                    display: w.clone(),
+                    replacement: w,
+                })
+                .collect(),
+        ))
+    }
+}
+
+impl Hinter for DeskHelper {
+    type Hint = String;
+}
+impl Highlighter for DeskHelper {}
+impl Validator for DeskHelper {}
+impl Helper for DeskHelper {}
+
+/// How `connect` runs.
+#[derive(Clone, Debug)]
+pub struct ConnectOptions {
+    /// Baud rate.
+    pub baud: u32,
+    /// Print the telemetry status line at most this often (`None`: never).
+    pub status_every: Option<Duration>,
+    /// History file.
+    pub history: Option<std::path::PathBuf>,
+    /// On leaving, how long to wait for replies still due.
+    pub drain: Duration,
+}
+
+/// Run the interactive console on `path` until the user leaves or the port is lost.
+pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
+    let mut link = Link::open(path, o.baud).map_err(|e| e.to_string())?;
+    let mut reader = link.try_clone().map_err(|e| e.to_string())?;
+    // Bash-like completion: Tab completes the common part, a second Tab lists the choices.
+    let config = rustyline::Config::builder()
+        .completion_type(rustyline::CompletionType::List)
+        .auto_add_history(false)
+        .build();
+    let mut rl: Editor<DeskHelper, FileHistory> =
+        Editor::with_config(config).map_err(|e| format!("line editor: {e}"))?;
+    rl.set_helper(Some(DeskHelper));
+    if let Some(h) = &o.history {
+        let _ = rl.load_history(h);
+    }
+    // The reader thread's lines go through an unbounded channel to a printer thread: rustyline's
+    // printer may block until the editor next reads a key, and the reader must never wait on it
+    // (nor the main thread, which prints its own lines directly between prompts).
+    let direct = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    {
+        let direct = direct.clone();
+        let mut external = rl.create_external_printer().ok();
+        std::thread::spawn(move || {
+            for msg in rx {
+                match external.as_mut() {
+                    Some(p) if !direct.load(Ordering::SeqCst) => {
+                        let _ = p.print(msg + "\n");
+                    }
+                    _ => println!("{msg}"),
+                }
+            }
+        });
+    }
+    let print = move |s: String| {
+        let _ = tx.send(s);
+    };
+    println!(
+        "connected to {path} at {} baud; Tab completes, `help` lists the board's commands, .help the desk's, .quit leaves",
+        o.baud
+    );
+    let stop = Arc::new(AtomicBool::new(false));
+    let lost = Arc::new(AtomicBool::new(false));
+    let replies = Arc::new(AtomicU64::new(0));
+    let latest: Arc<Mutex<Option<String>>> = Arc::new(Mutex::new(None));
+    let thread = {
+        let (stop, lost, replies, latest, print) = (
+            stop.clone(),
+            lost.clone(),
+            replies.clone(),
+            latest.clone(),
+            print.clone(),
+        );
+        let every = o.status_every;
+        std::thread::spawn(move || {
+            let mut last_status: Option<Instant> = None;
+            let mut last_garbage: Option<Instant> = None;
+            let mut unreadable = 0u64;
+            while !stop.load(Ordering::Relaxed) {
+                match reader.next_line(Instant::now() + Duration::from_millis(100)) {
+                    Ok(Some(Line::Reply(r))) => {
+                        print(format!("< {r}"));
+                        replies.fetch_add(1, Ordering::SeqCst);
+                    }
+                    Ok(Some(Line::Async(a))) => {
+                        if let Some(t) = Telemetry::parse(&a) {
+                            let due = every.is_some_and(|e| {
+                                last_status.is_none_or(|l: Instant| l.elapsed() >= e)
+                            });
+                            if due {
+                                print(format!("  | {}", t.summary()));
+                                last_status = Some(Instant::now());
+                            }
+                        } else {
+                            print(format!("  {a}"));
+                        }
+                        if let Ok(mut l) = latest.lock() {
+                            *l = Some(a);
+                        }
+                    }
+                    Ok(Some(Line::Garbage(_))) => {
+                        // At most one note a second, however fast a port spews.
+                        unreadable += 1;
+                        if last_garbage
+                            .is_none_or(|l: Instant| l.elapsed() >= Duration::from_secs(1))
+                        {
+                            print(format!("  ! {unreadable} unreadable lines so far"));
+                            last_garbage = Some(Instant::now());
+                        }
+                    }
+                    Ok(None) => {}
+                    Err(e) => {
+                        print(format!("! {e}"));
+                        lost.store(true, Ordering::SeqCst);
+                        break;
+                    }
+                }
+            }
+        })
+    };
+    let mut sent = 0u64;
+    let mut result = Ok(());
+    loop {
+        if lost.load(Ordering::SeqCst) {
+            result = Err(format!("{path}: port lost"));
+            break;
+        }
+        match rl.readline("desk> ") {
+            Ok(line) => {
+                let line = line.trim();
+                if line.is_empty() {
+                    continue;
+                }
+                let _ = rl.add_history_entry(line);
+                match line {
+                    ".quit" | ".exit" | ".q" => break,
+                    ".t" => {
+                        let l = latest.lock().ok().and_then(|l| l.clone());
+                        println!(
+                            "{}",
+                            l.unwrap_or_else(|| "no telemetry yet (`stream on`)".into())
+                        );
+                    }
+                    ".help" => {
+                        for (n, h) in LOCAL {
+                            println!("{n:8} {h}");
+                        }
+                    }
+                    _ => {
+                        if let Err(e) = link.send(line) {
+                            result = Err(e.to_string());
+                            break;
+                        }
+                        sent += 1;
+                    }
+                }
+            }
+            Err(ReadlineError::Interrupted | ReadlineError::Eof) => break,
+            Err(e) => {
+                result = Err(format!("line editor: {e}"));
+                break;
+            }
+        }
+    }
+    // Let the replies still due arrive before leaving; the editor is done, so print directly.
+    direct.store(true, Ordering::SeqCst);
+    let until = Instant::now() + o.drain;
+    while replies.load(Ordering::SeqCst) < sent
+        && Instant::now() < until
+        && !lost.load(Ordering::SeqCst)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    stop.store(true, Ordering::SeqCst);
+    let _ = thread.join();
+    if let Some(h) = &o.history {
+        let _ = rl.save_history(h);
+    }
+    println!("left {path}; the block was left as it is (only `stop` turns it off)");
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn completion_follows_the_library_tables() {
+        let (s, c) = complete("mo");
+        assert_eq!((s, c), (0, vec!["mode".to_string()]));
+        let (s, c) = complete("mode step");
+        assert_eq!(s, 5);
+        assert_eq!(c, ["step-large", "step-small"]);
+        let (_, c) = complete("mode step-large ");
+        assert_eq!(c.len(), 7);
+        assert!(c.contains(&"AB".to_string()));
+        let (_, c) = complete("mode form ");
+        assert!(c.is_empty());
+        let (s, c) = complete("set ho");
+        assert_eq!(s, 4);
+        assert!(c.iter().all(|n| n.starts_with("ho")) && c.contains(&"hot_k".to_string()));
+        assert_eq!(complete("stream o").1, ["off", "on"]);
+        let (_, all) = complete("");
+        assert_eq!(all.len(), COMMANDS.len() + LOCAL.len());
+        assert!(complete(".q").1.contains(&".quit".to_string()));
+    }
+}

@@ -1,0 +1,259 @@
+//! `record`: turn the telemetry stream on and write every telemetry line as a CSV row.
+//!
+//! Each row is written and flushed as soon as its line has arrived, so a line received is never
+//! lost, even if the recorder is killed. The recorder survives the block going away:
+//! - a read or write error (port unplugged, pseudo-terminal closed) closes the port and reopens
+//!   the same path every [`RecordOptions::retry`] until [`RecordOptions::reconnect`] has
+//!   passed; then it stops with an error (the CSV keeps everything up to the loss);
+//! - a board reset shows as the board's clock going backwards (or the stream going silent,
+//!   since a reset board starts with the stream off): the stream is turned on again.
+//!
+//! The first row after either has its `gap` column set to why rows may be missing before it.
+
+use std::io::Write;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use super::link::{Line, Link, LinkError};
+use super::telemetry::{Telemetry, csv_header, csv_row};
+
+/// How `record` runs.
+#[derive(Clone, Debug)]
+pub struct RecordOptions {
+    /// Baud rate.
+    pub baud: u32,
+    /// Telemetry rate asked for, Hz (`None`: the board's default).
+    pub hz: Option<f32>,
+    /// Stop after this long (`None`: until the port is lost for good or the process ends).
+    pub duration: Option<Duration>,
+    /// How long to keep trying to reopen a lost port.
+    pub reconnect: Duration,
+    /// Pause between reopening attempts.
+    pub retry: Duration,
+    /// No telemetry for this long: ask for the stream again (the board may have reset).
+    pub silence: Duration,
+    /// How long a command may wait for its reply.
+    pub reply_timeout: Duration,
+}
+
+impl Default for RecordOptions {
+    fn default() -> Self {
+        RecordOptions {
+            baud: super::link::DEFAULT_BAUD,
+            hz: None,
+            duration: None,
+            reconnect: Duration::from_secs(30),
+            retry: Duration::from_millis(250),
+            silence: Duration::from_secs(3),
+            reply_timeout: Duration::from_secs(2),
+        }
+    }
+}
+
+/// The recording's CSV file: the header at once, then each telemetry line as a row, flushed as
+/// it is written.
+pub struct CsvSink {
+    out: std::io::BufWriter<std::fs::File>,
+    path: std::path::PathBuf,
+    started: Instant,
+    last_t_s: f64,
+    /// The mark for the next row (why rows may be missing before it).
+    pub gap: Option<&'static str>,
+    /// Rows written.
+    pub rows: u64,
+    /// Gaps marked.
+    pub gaps: u64,
+}
+
+impl CsvSink {
+    /// Create `path` and write the header.
+    pub fn create(path: &Path) -> Result<CsvSink, String> {
+        let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut out = std::io::BufWriter::new(file);
+        writeln!(out, "{}", csv_header())
+            .and_then(|_| out.flush())
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(CsvSink {
+            out,
+            path: path.to_path_buf(),
+            started: Instant::now(),
+            last_t_s: f64::NEG_INFINITY,
+            gap: None,
+            rows: 0,
+            gaps: 0,
+        })
+    }
+
+    /// Write `line` if it is telemetry (a board clock that went backwards marks a `reset`);
+    /// return the parsed telemetry.
+    pub fn line(&mut self, line: &str) -> Result<Option<Telemetry>, String> {
+        let Some(t) = Telemetry::parse(line) else {
+            return Ok(None);
+        };
+        if let Some(ts) = t.t_s() {
+            if ts < self.last_t_s && self.gap.is_none() {
+                self.gap = Some("reset");
+            }
+            self.last_t_s = ts;
+        }
+        let row = csv_row(self.started.elapsed().as_secs_f64(), &t, self.gap);
+        if self.gap.take().is_some() {
+            self.gaps += 1;
+        }
+        writeln!(self.out, "{row}")
+            .and_then(|_| self.out.flush())
+            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.rows += 1;
+        Ok(Some(t))
+    }
+}
+
+/// What a recording did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RecordStats {
+    /// Telemetry rows written.
+    pub rows: u64,
+    /// Gaps marked (reconnects, resets, silences).
+    pub gaps: u64,
+    /// Garbage lines seen.
+    pub garbage: u64,
+}
+
+fn stream_on(
+    link: &mut Link,
+    o: &RecordOptions,
+    rows: &mut dyn FnMut(&str),
+) -> Result<(), LinkError> {
+    let cmd = match o.hz {
+        Some(hz) => format!("stream on {hz}"),
+        None => "stream on".to_string(),
+    };
+    let r = link.command(&cmd, o.reply_timeout, rows)?;
+    if r.starts_with("ok") {
+        Ok(())
+    } else {
+        Err(LinkError::Open(format!("`{cmd}` refused: {r}")))
+    }
+}
+
+fn reopen(path: &str, o: &RecordOptions, why: &str) -> Result<Link, String> {
+    let until = Instant::now() + o.reconnect;
+    loop {
+        let last = match Link::open(path, o.baud) {
+            Ok(l) => return Ok(l),
+            Err(e) => e.to_string(),
+        };
+        if Instant::now() + o.retry > until {
+            return Err(format!(
+                "{path}: port lost ({why}) and not back within {:.1} s: {last}",
+                o.reconnect.as_secs_f64()
+            ));
+        }
+        std::thread::sleep(o.retry);
+    }
+}
+
+/// Record `path`'s telemetry into `out` (CSV); `progress` gets each written row's telemetry.
+pub fn record(
+    path: &str,
+    out: &Path,
+    o: &RecordOptions,
+    progress: &mut dyn FnMut(&Telemetry, &RecordStats),
+) -> Result<RecordStats, String> {
+    let mut sink = CsvSink::create(out)?;
+    let started = Instant::now();
+    let end = o.duration.map(|d| started + d);
+    let mut garbage = 0;
+    let mut last_row = Instant::now();
+    let mut write = |line: &str, sink: &mut CsvSink, garbage: u64| -> Result<bool, String> {
+        let t = sink.line(line)?;
+        if let Some(t) = &t {
+            progress(
+                t,
+                &RecordStats {
+                    rows: sink.rows,
+                    gaps: sink.gaps,
+                    garbage,
+                },
+            );
+        }
+        Ok(t.is_some())
+    };
+
+    // Rows that arrive while a command waits for its reply are written too.
+    let mut held: Vec<String> = Vec::new();
+    let mut link = Link::open(path, o.baud).map_err(|e| e.to_string())?;
+    let mut need_stream = true;
+    let mut answered_once = false;
+    loop {
+        if end.is_some_and(|e| Instant::now() >= e) {
+            break;
+        }
+        let result: Result<(), LinkError> = (|| {
+            if need_stream {
+                stream_on(&mut link, o, &mut |l| held.push(l.to_string()))?;
+                answered_once = true;
+                need_stream = false;
+                last_row = Instant::now();
+            }
+            let deadline = (Instant::now() + Duration::from_millis(200))
+                .min(end.unwrap_or(Instant::now() + Duration::from_secs(1)));
+            while let Some(line) = link.next_line(deadline)? {
+                if let Line::Async(a) = line {
+                    held.push(a);
+                }
+            }
+            Ok(())
+        })();
+        garbage = garbage.max(link.garbage);
+        for l in held.drain(..) {
+            if write(&l, &mut sink, garbage)? {
+                last_row = Instant::now();
+            }
+        }
+        match result {
+            Ok(()) => {
+                if last_row.elapsed() >= o.silence {
+                    // A reset board starts with the stream off: ask again.
+                    eprintln!(
+                        "record: no telemetry for {:.1} s, asking for the stream again",
+                        o.silence.as_secs_f64()
+                    );
+                    sink.gap.get_or_insert("silence");
+                    need_stream = true;
+                    last_row = Instant::now();
+                }
+            }
+            Err(LinkError::Timeout(e)) if !answered_once => {
+                return Err(format!("{e}: is this a Thermorph console?"));
+            }
+            Err(LinkError::Timeout(e)) => {
+                eprintln!("record: {e}");
+                sink.gap.get_or_insert("silence");
+                need_stream = true;
+                last_row = Instant::now();
+            }
+            Err(e) => {
+                eprintln!("record: {e}; reopening {path}");
+                drop(link);
+                link = reopen(path, o, &e.to_string())?;
+                link.garbage = garbage;
+                eprintln!("record: {path} is back");
+                sink.gap = Some("reconnect");
+                need_stream = true;
+            }
+        }
+    }
+    // Leave the block as it was before, apart from the stream: turn it off again.
+    let _ = link.command("stream off", o.reply_timeout, &mut |l| {
+        held.push(l.to_string())
+    });
+    for l in held.drain(..) {
+        write(&l, &mut sink, garbage)?;
+    }
+    Ok(RecordStats {
+        rows: sink.rows,
+        gaps: sink.gaps,
+        garbage: garbage.max(link.garbage),
+    })
+}

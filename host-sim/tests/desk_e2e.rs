@@ -1,0 +1,570 @@
+//! `thermorph-desk` end to end, through the real serial stack on pseudo-terminals.
+//!
+//! Each test opens a pty pair and plays a fake board on the master side: the library's own
+//! `Supervisor` and console parser, closed around host-sim's plant (true region temperatures,
+//! no camera) and run faster than real time. The desk binary is started as a process on the
+//! slave side, exactly as it opens the NUCLEO's ST-LINK port. Other boards spew garbage or never
+//! answer, one is reset, one vanishes. Every process is waited for with a limit: a desk that
+//! hangs fails the test instead of hanging it.
+
+use std::fs::File;
+use std::io::{ErrorKind, Read, Write};
+use std::os::fd::{AsRawFd, OwnedFd};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use host_sim::desk::telemetry::csv_header;
+use host_sim::plant::{Inputs, Plant, PlantConfig};
+use host_sim::plot::Table;
+use host_sim::run::{camera_temps, inputs_of};
+use thermorph::console::LineReader;
+use thermorph::measurement::{Measurement, Quality, controlled_temperature};
+use thermorph::settings::Settings;
+use thermorph::supervisor::Supervisor;
+use thermorph::supervisor::report::Reply;
+use thermorph::units::{Kelvin, Millis};
+
+const DESK: &str = env!("CARGO_BIN_EXE_thermorph-desk");
+
+/// How the fake board behaves.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Behaviour {
+    /// The supervisor behind the console, with the plant.
+    Board,
+    /// Random bytes, never a reply.
+    Garbage,
+    /// Reads everything, answers nothing.
+    Silent,
+}
+
+enum Ctl {
+    /// A board reset: a new supervisor (clock from 0, stream off); the block keeps its heat.
+    Reset,
+    /// Close the master side: the port vanishes.
+    Vanish,
+}
+
+struct FakeBoard {
+    path: PathBuf,
+    ctl: mpsc::Sender<Ctl>,
+    thread: Option<JoinHandle<()>>,
+}
+
+fn write_all(master: &mut File, bytes: &[u8]) {
+    let mut rest = bytes;
+    let until = Instant::now() + Duration::from_secs(1);
+    while !rest.is_empty() && Instant::now() < until {
+        match master.write(rest) {
+            Ok(n) => rest = &rest[n..],
+            Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                std::thread::sleep(Duration::from_millis(2))
+            }
+            // EIO: nobody has the slave side open; like a board talking to no one.
+            Err(_) => return,
+        }
+    }
+}
+
+impl FakeBoard {
+    fn start(behaviour: Behaviour, speed: f64) -> FakeBoard {
+        let pty = nix::pty::openpty(None, None).expect("openpty");
+        let path = std::fs::read_link(format!("/proc/self/fd/{}", pty.slave.as_raw_fd()))
+            .expect("slave path");
+        // A board's USB serial port does not echo: raw mode before anyone opens the slave, or
+        // the line discipline would echo the board's own telemetry back to it.
+        let mut raw = nix::sys::termios::tcgetattr(&pty.slave).expect("tcgetattr");
+        nix::sys::termios::cfmakeraw(&mut raw);
+        nix::sys::termios::tcsetattr(&pty.slave, nix::sys::termios::SetArg::TCSANOW, &raw)
+            .expect("tcsetattr");
+        // The desk opens the slave by its path; the test keeps no handle on it.
+        drop(pty.slave);
+        let master: OwnedFd = pty.master;
+        // openpty(3) does not set close-on-exec: without it every desk process started later
+        // would inherit this master and keep the pseudo-terminal alive after `vanish`.
+        nix::fcntl::fcntl(
+            &master,
+            nix::fcntl::FcntlArg::F_SETFD(nix::fcntl::FdFlag::FD_CLOEXEC),
+        )
+        .expect("close-on-exec master");
+        nix::fcntl::fcntl(
+            &master,
+            nix::fcntl::FcntlArg::F_SETFL(nix::fcntl::OFlag::O_NONBLOCK),
+        )
+        .expect("non-blocking master");
+        let mut master = File::from(master);
+        let (tx, rx) = mpsc::channel();
+        let thread = std::thread::spawn(move || {
+            let mut plant = Plant::new(&PlantConfig::default()).expect("plant");
+            let mut sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+            let mut reader: LineReader = LineReader::new();
+            let mut inputs = Inputs::default();
+            let started = Instant::now();
+            let period_s = 0.25;
+            let (mut t_s, mut boot_s, mut seq) = (0.0f64, 0.0f64, 0u32);
+            let mut rng = 0x9E37_79B9_7F4A_7C15u64;
+            loop {
+                match rx.try_recv() {
+                    Ok(Ctl::Vanish) | Err(mpsc::TryRecvError::Disconnected) => return,
+                    Ok(Ctl::Reset) => {
+                        sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+                        boot_s = t_s;
+                        inputs = Inputs::default();
+                        reader = LineReader::new();
+                    }
+                    Err(mpsc::TryRecvError::Empty) => {}
+                }
+                let now = |t: f64| Millis(((t - boot_s) * 1000.0).round() as u64);
+                let mut buf = [0u8; 256];
+                if let Ok(n) = master.read(&mut buf) {
+                    for &b in &buf[..n] {
+                        if behaviour != Behaviour::Board {
+                            continue;
+                        }
+                        let reply = match reader.push(b) {
+                            None => continue,
+                            Some(Ok(line)) => match thermorph::command::parse(line) {
+                                Ok(c) => {
+                                    let d = sup.step(now(t_s), None, Some(c));
+                                    inputs = inputs_of(&d.outputs);
+                                    d.reply
+                                }
+                                Err(e) => Some(Reply::parse_error(e)),
+                            },
+                            Some(Err(e)) => Some(Reply::err(e.code(), e.message())),
+                        };
+                        if let Some(r) = reply {
+                            write_all(&mut master, format!("{}\r\n", r.as_str()).as_bytes());
+                        }
+                    }
+                }
+                if behaviour == Behaviour::Garbage {
+                    let junk: Vec<u8> = (0..96)
+                        .map(|_| {
+                            rng ^= rng << 13;
+                            rng ^= rng >> 7;
+                            rng ^= rng << 17;
+                            (rng >> 24) as u8
+                        })
+                        .collect();
+                    write_all(&mut master, &junk);
+                }
+                // The plant and the supervisor's control loop, catching up with the clock.
+                let target_s = started.elapsed().as_secs_f64() * speed;
+                let mut n = 0;
+                while t_s + period_s <= target_s && n < 40 {
+                    n += 1;
+                    plant.step(&inputs, period_s);
+                    t_s += period_s;
+                    seq += 1;
+                    let obs = plant.observe();
+                    let regions = camera_temps(&obs).regions().map(|t| Kelvin(t as f32));
+                    let m = Measurement {
+                        at: now(t_s),
+                        seq,
+                        regions,
+                        tc: controlled_temperature(regions[0], regions[1], &sup.sensing_hint()),
+                        cylinder_max: Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32)),
+                        filled_pixels: 0,
+                        quality: Quality::Resolved,
+                    };
+                    let d = sup.step(now(t_s), Some(&m), None);
+                    inputs = inputs_of(&d.outputs);
+                    if d.telemetry && behaviour == Behaviour::Board {
+                        let mut line = String::new();
+                        sup.write_telemetry(now(t_s), &mut line).unwrap();
+                        write_all(&mut master, line.as_bytes());
+                    }
+                }
+                std::thread::sleep(Duration::from_millis(4));
+            }
+        });
+        FakeBoard {
+            path,
+            ctl: tx,
+            thread: Some(thread),
+        }
+    }
+
+    fn path(&self) -> &str {
+        self.path.to_str().unwrap()
+    }
+
+    fn reset(&self) {
+        self.ctl.send(Ctl::Reset).unwrap();
+    }
+
+    fn vanish(mut self) {
+        let _ = self.ctl.send(Ctl::Vanish);
+        if let Some(t) = self.thread.take() {
+            t.join().unwrap();
+        }
+    }
+}
+
+impl Drop for FakeBoard {
+    fn drop(&mut self) {
+        let _ = self.ctl.send(Ctl::Vanish);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+struct Outcome {
+    ok: bool,
+    stdout: String,
+    stderr: String,
+    took: Duration,
+}
+
+/// Run the desk with `args` (and `stdin`), killing it and failing if it outlives `limit`.
+fn desk(args: &[&str], stdin: &str, limit: Duration) -> Outcome {
+    let started = Instant::now();
+    let mut child = Command::new(DESK)
+        .args(args)
+        .env("HOME", std::env::temp_dir())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start thermorph-desk");
+    let mut input = child.stdin.take().unwrap();
+    let text = stdin.to_string();
+    let feeder = std::thread::spawn(move || {
+        let _ = input.write_all(text.as_bytes());
+    });
+    let mut out = child.stdout.take().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let out_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = out.read_to_string(&mut s);
+        s
+    });
+    let err_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = err.read_to_string(&mut s);
+        s
+    });
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if started.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!(
+                "thermorph-desk {args:?} still running after {limit:?}; stderr: {}",
+                err_t.join().unwrap()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    feeder.join().unwrap();
+    Outcome {
+        ok: status.success(),
+        stdout: out_t.join().unwrap(),
+        stderr: err_t.join().unwrap(),
+        took: started.elapsed(),
+    }
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("desk-e2e-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).unwrap();
+    let reader = png::Decoder::new(std::io::Cursor::new(bytes))
+        .read_info()
+        .unwrap();
+    (reader.info().width, reader.info().height)
+}
+
+/// Connect, then a script that preheats, steps with two springs, forms and recovers while it
+/// records the telemetry; then plot the recording.
+#[test]
+fn connect_run_a_full_cycle_record_and_plot() {
+    let board = FakeBoard::start(Behaviour::Board, 40.0);
+    let dir = scratch("cycle");
+
+    let hist = dir.join("history");
+    let c = desk(
+        &[
+            "connect",
+            board.path(),
+            "--status-every",
+            "0",
+            "--history",
+            hist.to_str().unwrap(),
+        ],
+        "version\nget hot_k\nmode fly\n.quit\n",
+        Duration::from_secs(20),
+    );
+    assert!(c.ok, "{}\n{}", c.stdout, c.stderr);
+    assert!(c.stdout.contains("< ok thermorph "), "{}", c.stdout);
+    assert!(c.stdout.contains("< ok hot_k=358"), "{}", c.stdout);
+    assert!(c.stdout.contains("< err bad-arguments"), "{}", c.stdout);
+    assert!(c.stdout.contains("left as it is"), "{}", c.stdout);
+
+    let script = dir.join("cycle.txt");
+    std::fs::write(
+        &script,
+        "# preheat in standby (323 K)\n\
+         mode standby\n\
+         wait tc_k >= 318 within 60\n\
+         expect fault == none\n\
+         # large stepping with springs A and B at 358 K\n\
+         mode step-large AB\n\
+         wait phase == spring within 60\n\
+         expect springs == AB\n\
+         wait phase == hold within 60\n\
+         # lock the shape, then recover it\n\
+         mode form\n\
+         wait mode == standby within 60\n\
+         mode recover\n\
+         wait mode == standby within 60\n\
+         expect fault == none\n",
+    )
+    .unwrap();
+    let csv = dir.join("cycle.csv");
+    let r = desk(
+        &[
+            "run",
+            board.path(),
+            script.to_str().unwrap(),
+            "--record",
+            csv.to_str().unwrap(),
+        ],
+        "",
+        Duration::from_secs(150),
+    );
+    assert!(r.ok, "{}\n{}", r.stdout, r.stderr);
+    assert!(r.stdout.contains("script passed"), "{}", r.stdout);
+
+    // The CSV: the library's fields, every mode of the cycle, springs A+B, a steady clock.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(text.lines().next().unwrap(), csv_header());
+    let t = Table::parse(&text).unwrap();
+    assert!(t.len() > 200, "{} rows", t.len());
+    let modes = t.text("mode").unwrap();
+    for m in ["standby", "step-large", "form", "recover"] {
+        assert!(modes.contains(&m), "no {m} in the recording");
+    }
+    let springs = t.text("springs").unwrap();
+    assert!(springs.contains(&"AB"));
+    // Recovery's pulse drives every spring.
+    assert!(
+        modes
+            .iter()
+            .zip(&springs)
+            .any(|(m, s)| *m == "recover" && *s == "ABC"),
+        "no recovery pulse recorded"
+    );
+    let board_t = t.num("t_s").unwrap();
+    assert!(
+        board_t.windows(2).all(|w| w[1] > w[0]),
+        "board clock not increasing"
+    );
+    let t1 = t.num("t1_k").unwrap();
+    let hot = t1.iter().cloned().fold(f64::MIN, f64::max);
+    assert!(
+        hot > 355.0,
+        "the film never reached the stepping temperature: {hot}"
+    );
+    assert!(t.text("gap").unwrap().iter().all(|g| *g == "-"));
+
+    let png = dir.join("cycle.png");
+    let p = desk(
+        &[
+            "plot",
+            csv.to_str().unwrap(),
+            "--out",
+            png.to_str().unwrap(),
+        ],
+        "",
+        Duration::from_secs(30),
+    );
+    assert!(p.ok, "{}", p.stderr);
+    assert!(
+        p.stdout.contains("temperatures, duties, springs"),
+        "{}",
+        p.stdout
+    );
+    let (w, h) = png_size(&png);
+    assert_eq!(w, host_sim::plot::WIDTH_PX);
+    assert!(h > 600, "{h}");
+    if let Some(keep) = std::env::var_os("DESK_E2E_KEEP") {
+        std::fs::copy(&png, PathBuf::from(&keep).join("desk-cycle.png")).unwrap();
+        std::fs::copy(&csv, PathBuf::from(keep).join("desk-cycle.csv")).unwrap();
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A board reset (clock back to 0, stream off) and an unplug/replug (the port's name moves to a
+/// new pseudo-terminal, as a udev by-id link does) during a recording: it carries on and marks
+/// both gaps.
+#[test]
+fn record_survives_a_reset_and_a_replug() {
+    let dir = scratch("replug");
+    let link = dir.join("board");
+    let board = FakeBoard::start(Behaviour::Board, 5.0);
+    std::os::unix::fs::symlink(board.path(), &link).unwrap();
+    let csv = dir.join("rec.csv");
+    let (l, c) = (link.clone(), csv.clone());
+    let rec = std::thread::spawn(move || {
+        desk(
+            &[
+                "record",
+                l.to_str().unwrap(),
+                "--out",
+                c.to_str().unwrap(),
+                "--duration",
+                "7",
+                "--hz",
+                "10",
+                "--silence",
+                "0.8",
+                "--reconnect",
+                "5",
+            ],
+            "",
+            Duration::from_secs(40),
+        )
+    });
+    std::thread::sleep(Duration::from_millis(1500));
+    board.reset();
+    std::thread::sleep(Duration::from_millis(2000));
+    board.vanish();
+    std::thread::sleep(Duration::from_millis(600));
+    let board2 = FakeBoard::start(Behaviour::Board, 5.0);
+    std::fs::remove_file(&link).unwrap();
+    std::os::unix::fs::symlink(board2.path(), &link).unwrap();
+    let r = rec.join().unwrap();
+    assert!(r.ok, "{}", r.stderr);
+    assert!(r.took < Duration::from_secs(20), "{:?}", r.took);
+    let t = Table::read(&csv).unwrap();
+    let gaps: Vec<&str> = t
+        .text("gap")
+        .unwrap()
+        .into_iter()
+        .filter(|g| *g != "-")
+        .collect();
+    assert!(
+        gaps.iter().any(|g| *g == "reset" || *g == "silence"),
+        "{gaps:?}"
+    );
+    assert!(gaps.contains(&"reconnect"), "{gaps:?}\n{}", r.stderr);
+    // Host time runs on across the gaps; rows came before and after each.
+    let host = t.num("time_s").unwrap();
+    assert!(host.windows(2).all(|w| w[1] >= w[0]));
+    let gap_col = t.text("gap").unwrap();
+    let last_gap = gap_col.iter().rposition(|g| *g == "reconnect").unwrap();
+    assert!(
+        last_gap > 10 && last_gap + 10 < t.len(),
+        "{last_gap} of {}",
+        t.len()
+    );
+    drop(board2);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A port that vanishes for good: the recording ends with a clear error once the reconnect
+/// time is over, and keeps every row it had.
+#[test]
+fn a_vanished_port_ends_the_recording_with_an_error() {
+    let dir = scratch("vanish");
+    let board = FakeBoard::start(Behaviour::Board, 5.0);
+    let csv = dir.join("rec.csv");
+    let (p, c) = (board.path().to_string(), csv.clone());
+    let rec = std::thread::spawn(move || {
+        desk(
+            &[
+                "record",
+                &p,
+                "--out",
+                c.to_str().unwrap(),
+                "--hz",
+                "10",
+                "--reconnect",
+                "1.5",
+            ],
+            "",
+            Duration::from_secs(30),
+        )
+    });
+    std::thread::sleep(Duration::from_millis(1500));
+    board.vanish();
+    let r = rec.join().unwrap();
+    assert!(!r.ok);
+    assert!(r.stderr.contains("not back within 1.5 s"), "{}", r.stderr);
+    assert!(r.took < Duration::from_secs(10), "{:?}", r.took);
+    let t = Table::read(&csv).unwrap();
+    assert!(t.len() >= 5, "{} rows kept", t.len());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A port that spews garbage and one that never answers: clear errors within the reply
+/// timeout, never a hang.
+#[test]
+fn garbage_and_silence_give_clear_errors_in_time() {
+    let dir = scratch("bad");
+    let script = dir.join("s.txt");
+    std::fs::write(&script, "status\n").unwrap();
+    for (behaviour, want) in [
+        (Behaviour::Garbage, "garbage lines instead"),
+        (Behaviour::Silent, "no reply to `status`"),
+    ] {
+        let board = FakeBoard::start(behaviour, 1.0);
+        let r = desk(
+            &[
+                "run",
+                board.path(),
+                script.to_str().unwrap(),
+                "--reply-timeout",
+                "1",
+            ],
+            "",
+            Duration::from_secs(15),
+        );
+        assert!(!r.ok, "{behaviour:?}: {}", r.stdout);
+        assert!(r.stderr.contains(want), "{behaviour:?}: {}", r.stderr);
+        assert!(r.stderr.contains("line 1:"), "{}", r.stderr);
+        let csv = dir.join("r.csv");
+        let r = desk(
+            &["record", board.path(), "--out", csv.to_str().unwrap()],
+            "",
+            Duration::from_secs(15),
+        );
+        assert!(!r.ok, "{behaviour:?}");
+        assert!(r.stderr.contains("Thermorph console?"), "{}", r.stderr);
+        // Connect leaves after its drain time even though no reply ever comes.
+        let c = desk(
+            &["connect", board.path(), "--status-every", "0"],
+            "status\n",
+            Duration::from_secs(15),
+        );
+        assert!(c.ok, "{behaviour:?}: {}", c.stderr);
+        assert!(!c.stdout.contains("< ok"), "{}", c.stdout);
+    }
+    let r = desk(
+        &[
+            "run",
+            "/dev/nonexistent-thermorph",
+            script.to_str().unwrap(),
+        ],
+        "",
+        Duration::from_secs(10),
+    );
+    assert!(
+        !r.ok && r.stderr.contains("cannot open port"),
+        "{}",
+        r.stderr
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
