@@ -125,7 +125,7 @@ impl FakeBoard {
                         }
                         let reply = match reader.push(b) {
                             None => continue,
-                            Some(Ok(line)) => match thermorph::command::parse(line) {
+                            Some(line) => match thermorph::command::parse_read(line) {
                                 Ok(c) => {
                                     let d = sup.step(now(t_s), None, Some(c));
                                     inputs = inputs_of(&d.outputs);
@@ -133,7 +133,6 @@ impl FakeBoard {
                                 }
                                 Err(e) => Some(Reply::parse_error(e)),
                             },
-                            Some(Err(e)) => Some(Reply::err(e.code(), e.message())),
                         };
                         if let Some(r) = reply {
                             write_all(&mut master, format!("{}\r\n", r.as_str()).as_bytes());
@@ -161,15 +160,17 @@ impl FakeBoard {
                     seq += 1;
                     let obs = plant.observe();
                     let regions = camera_temps(&obs).regions().map(|t| Kelvin(t as f32));
-                    let m = Measurement {
+                    let mut m = Measurement {
                         at: now(t_s),
                         seq,
                         regions,
-                        tc: controlled_temperature(regions[0], regions[1], &sup.sensing_hint()),
+                        tc: Kelvin(f32::NAN),
                         cylinder_max: Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32)),
                         filled_pixels: 0,
                         quality: Quality::Resolved,
+                        bound: Kelvin(0.0),
                     };
+                    m.tc = controlled_temperature(&m, &sup.sensing_hint());
                     let d = sup.step(now(t_s), Some(&m), None);
                     inputs = inputs_of(&d.outputs);
                     if d.telemetry && behaviour == Behaviour::Board {

@@ -128,7 +128,10 @@ impl Link {
                         if let Some(r) = self.reader.push(b) {
                             let line = match r {
                                 Ok(s) => classify(s),
-                                Err(e) => Line::Garbage(format!("<{}>", e.code())),
+                                Err(e) => Line::Garbage(format!(
+                                    "<{}>",
+                                    thermorph::command::ParseError::from(e).code()
+                                )),
                             };
                             if matches!(line, Line::Garbage(_)) {
                                 self.garbage += 1;
