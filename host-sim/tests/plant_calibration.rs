@@ -43,10 +43,12 @@ fn time_until(
     None
 }
 
-/// A PI controller on the coldest SMP layer, as the firmware's would be.
+/// A PI controller on the coldest SMP layer (stepping's soak), or on the heater surface
+/// (standby's 323 K), as the supervisor holds them.
 struct Hold {
     target_k: f64,
     integral: f64,
+    on_heater: bool,
 }
 
 impl Hold {
@@ -54,10 +56,22 @@ impl Hold {
         Hold {
             target_k,
             integral: 0.3,
+            on_heater: false,
+        }
+    }
+    fn heater(target_k: f64) -> Self {
+        Hold {
+            on_heater: true,
+            ..Hold::new(target_k)
         }
     }
     fn duty(&mut self, obs: &Observation) -> f64 {
-        let e = self.target_k - obs.smp_coldest_k;
+        let t = if self.on_heater {
+            obs.heater_k
+        } else {
+            obs.smp_coldest_k
+        };
+        let e = self.target_k - t;
         self.integral = (self.integral + 0.002 * e * DT_S).clamp(0.0, 1.0);
         (0.15 * e + self.integral).clamp(0.0, 1.0)
     }
@@ -259,8 +273,9 @@ fn formed_shape_locks_and_recovers_on_reheating() {
     let at20 = at20.expect("forming lasts over 20 s");
     let formed = plant.observe().bend_deg;
     let forming_s = plant.time_s() - off;
-    // Hold 323 K (heater) until both springs are martensite again, then 60 s more.
-    let mut hold = Hold::new(323.0);
+    // Standby: hold the heater surface at 323 K until both springs are martensite again, then
+    // 60 s more.
+    let mut hold = Hold::heater(323.0);
     while plant.observe().austenite.iter().any(|&a| a > 0.0) && plant.time_s() - off < 3000.0 {
         hold_for(&mut plant, &mut hold, [false; 3], 1.0);
     }
