@@ -381,6 +381,34 @@ impl Plant {
         self.lead_energy_j
     }
 
+    /// Heat flowing to the ambient now, W, with the fan at `fan_duty` (0…1): the cylinder's
+    /// outside surface, the duct air's outflow and the plates, plus the springs' still air.
+    /// Integrated over a run it closes the energy balance with [`Plant::stored_energy_j`] and
+    /// [`Plant::electrical_energy_j`] (zero for an adiabatic plant).
+    pub fn ambient_loss_w(&self, fan_duty: f64) -> f64 {
+        let amb = self.config.ambient_k;
+        let net = Network::new(
+            self.config.fidelity.thermal,
+            duty(fan_duty),
+            self.options.pmma_plates,
+            self.options.adiabatic,
+        );
+        let cylinder: f64 = (0..net.n)
+            .map(|i| net.g_amb_w_per_k[i] * (self.nodes_k[i] - amb))
+            .sum();
+        let g_spring = if self.options.adiabatic {
+            0.0
+        } else {
+            sma::ambient_w_per_k()
+        };
+        cylinder
+            + self
+                .springs
+                .iter()
+                .map(|s| g_spring * (s.t_k - amb))
+                .sum::<f64>()
+    }
+
     /// PMMA plate temperature, K, if the plates are modelled.
     pub fn plates_k(&self) -> Option<f64> {
         self.options

@@ -79,8 +79,12 @@ pub const H_WALL_W_PER_M2K: f64 = 54.6;
 /// Outer surface → ambient (natural convection + radiation), W/(m²·K) [F; PLANT-REFERENCE
 /// estimates 11–14 from Churchill–Chu plus ε≈0.93 radiation].
 pub const H_OUTSIDE_W_PER_M2K: f64 = 13.4;
-/// Heater film → duct air, fan full on, W/(m²·K) [F; PLANT-REFERENCE: Gnielinski 27–49].
-pub const H_DUCT_FAN_W_PER_M2K: f64 = 38.9;
+/// Heater film → duct air, fan full on, W/(m²·K) [S/F PLANT-REFERENCE: Gnielinski with the
+/// entrance correction 27–49; the duct is only L/D ≈ 5.7 long, so the entrance-dominated top
+/// of the range]. Fitted to the forming time from the stepping state (film ≈385 K, inner layer
+/// ≈375 K, outer 358 K: what holding the coldest layer at 358 K gives): 38.9 fitted from a
+/// uniformly soaked 358 K wall gave 61.5 s in the closed loop.
+pub const H_DUCT_FAN_W_PER_M2K: f64 = 49.0;
 /// Heater film → duct air, fan off (natural convection), W/(m²·K) [S/E PLANT-REFERENCE: 2–5].
 pub const H_DUCT_STILL_W_PER_M2K: f64 = 4.0;
 /// Exponent of the duct coefficient on the fan duty (flow ∝ duty; turbulent h ∝ Re^0.8,
@@ -219,21 +223,25 @@ pub const WLF_C2_K: f64 = 293.0;
 pub const WLF_LOG10_LIMIT: f64 = 8.0;
 /// Glassy (frozen phase) modulus, MPa [T 6.3.1: 1000 MPa at 298 K].
 pub const SMP_E_GLASSY_MPA: f64 = 1000.0;
-/// Rubbery (active phase) modulus of the printed lattice above its transition, MPa [F: with
-/// the logistic below, the hot column's k_b ≈ 311 N·mm/rad (T 6.4.3) comes from the lattice,
-/// not from the heater film (see `FILM_BENDING_NMM_PER_RAD`)].
-pub const SMP_E_RUBBERY_MPA: f64 = 150.0;
-/// Width of the logistic frozen fraction φ_f = 1/(1 + e^{(T − T_c)/w}), K [F: with the centre,
-/// the stiffness contrast k_b(323)/k_b(358) ≈ 4.5 and φ_f(358 K) ≈ 0.03, so a 358 K lattice
-/// keeps almost no stored bend].
-pub const SMP_PHI_WIDTH_K: f64 = 5.5;
+/// Rubbery (active phase) modulus of the printed lattice above its transition, MPa [F: the
+/// thesis's contrast ×4.5 (T 6.4.3) is E(≈323 K)/E_r once the lattice is fully rubbery at
+/// 358 K, so the hot column's k_b ≈ 1400/4.5 ≈ 311 N·mm/rad comes from the lattice, not from
+/// the heater film (see `FILM_BENDING_NMM_PER_RAD`)].
+pub const SMP_E_RUBBERY_MPA: f64 = 200.0;
+/// Width of the logistic frozen fraction φ_f = 1/(1 + e^{(T − T_c)/w}), K [F: the recovery is
+/// slow for its first ≈15 s and then linear (T 6.4.3, "triggered only after the SMP core is
+/// fully heated above its transition"): the stored bend must stay frozen until a layer is well
+/// above Tg. 3 K puts the 10–90 % span at 13 K (329–349 K), about where printed PLA's storage
+/// modulus falls (DMA, ≈55–70 °C); the 5.5 K of the first round (span 24 K) released the bend
+/// from ≈325 K on, as soon as the reheat began, and φ_f(358 K) is now ≈0.001].
+pub const SMP_PHI_WIDTH_K: f64 = 3.0;
 /// Centre of the logistic frozen fraction, K [D]: T_g − w·ln(1/φ_g − 1) with
 /// φ_g = (1/400 − 1/E_r)/(1/E_g − 1/E_r), so that Liu's series law
 /// 1/E = φ_f/E_g + (1 − φ_f)/E_r gives E(Tg) = 400 MPa (−60 %, T 6.3.1); checked by a test.
-pub const SMP_PHI_CENTRE_K: f64 = 339.619_1;
+pub const SMP_PHI_CENTRE_K: f64 = 335.532_5;
 /// Bending stiffness of the lattice per MPa of modulus (open-lattice I_eff/L), N·mm/(rad·MPa)
 /// [F: k_b(323 K) ≈ 1400 N·mm/rad, T 6.4.3; a solid tube would give ≈260, PLANT-REFERENCE].
-pub const SMP_BENDING_PER_MPA_NMM_PER_RAD: f64 = 1.75;
+pub const SMP_BENDING_PER_MPA_NMM_PER_RAD: f64 = 1.5;
 /// Elastic bending stiffness of the PI heater film group, N·mm/rad [E: T 6.3.2 "very low
 /// stiffness ... negligible impact on the structure's bending motion"]. As a bonded closed tube
 /// (≈0.1 mm, 2.5 GPa, r 17.5 mm) it would give EI/L ≈ 2·10⁴ N·mm/rad, so the pads cannot carry
