@@ -443,7 +443,7 @@ fn in_range(hyp: Hyp, h: f32) -> bool {
         Hyp::HeaterHot => h,
         Hyp::SurfaceHot => 1.0 - h,
     };
-    d >= EXPOSED_MIN - 1e-4 && d <= EXPOSED_MAX + 1e-4
+    (EXPOSED_MIN - 1e-4..=EXPOSED_MAX + 1e-4).contains(&d)
 }
 
 /// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
