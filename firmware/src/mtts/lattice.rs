@@ -11,7 +11,8 @@
 //! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
 //! are known:
 //! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
-//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's);
+//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's),
+//!    refined to the minimum of step 2's residual;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
 //!    that lie below 0.45 cycles per pixel (at most three); c is the fundamental's phase;
 //! 3. for each h on a grid the (a, b) that best match those coefficients (weighted by their
@@ -27,7 +28,8 @@
 //! nothing to pick between two allowed hypotheses the frame is [`Quality::Merged`].
 //!
 //! The bound: the spread of T1 and T2 over the h whose χ² is within [`CONFIDENCE_CHI2`] of the
-//! best, plus two standard errors of (a, b). A frame is resolved when the hypothesis is decided
+//! best (χ² with the fit's residual variance, which includes the model's own mismatch), plus
+//! two standard errors of (a, b) from the pixel noise (the scatter within ¼ px bins). A frame is resolved when the hypothesis is decided
 //! and the bound is at most [`RESOLVED_BOUND_K`]; else merged: both targets carry the core's
 //! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
 //! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
@@ -66,7 +68,9 @@ const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
-const FREQ_STEP: f32 = 0.012;
+const FREQ_STEP: f32 = 0.015;
+/// Relative frequency step of the least-squares refinement.
+const REFINE_STEP: f32 = 0.04;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
 const H_FIRST: f32 = 0.2;
 const H_STEP: f32 = 0.025;
@@ -162,6 +166,8 @@ struct Profile {
     reference: f32,
     total: f32,
     mean_dev: f32,
+    /// Σ of squared values less the reference, K².
+    sq: f32,
     lo: f32,
     hi: f32,
 }
@@ -186,6 +192,7 @@ impl Profile {
             reference: 0.0,
             total: 0.0,
             mean_dev: 0.0,
+            sq: 0.0,
             lo: f32::INFINITY,
             hi: f32::NEG_INFINITY,
         };
@@ -202,6 +209,7 @@ impl Profile {
                 p.cnt[b] += 1.0;
                 p.tsum[b] += t;
                 p.total += 1.0;
+                p.sq += y * y;
                 s += y;
                 if b >= p.used {
                     p.used = b + 1;
@@ -302,7 +310,7 @@ fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)>
     }
     let (l, c, r) = (at_best_prev, best_a, at_best_next);
     let den = l - 2.0 * c + r;
-    let off = if den < -1e-9 {
+    let off = if den < -1e-9 && best_i > 0 && best_i < n {
         (0.5 * (l - r) / den).clamp(-0.5, 0.5)
     } else {
         0.0
@@ -319,6 +327,11 @@ struct HarmonicFit {
     rhs: [f32; NP],
     theta: [f32; NP],
     sigma2: f32,
+    /// Pixel noise variance: the scatter of the pixels within a fine bin (same lattice
+    /// phase), K².
+    noise2: f32,
+    /// Weighted residual sum of squares, K².
+    rss: f32,
 }
 
 fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
@@ -329,6 +342,8 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
         rhs: [0.0; NP],
         theta: [0.0; NP],
         sigma2: 0.0,
+        noise2: 0.0,
+        rss: 0.0,
     };
     // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
     // sample at their mean position, their count its weight.
@@ -373,7 +388,13 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     let fit: f32 = (0..n).map(|i| f.theta[i] * f.rhs[i]).sum();
     // Σ w·r² over the bins is (bins − n)·σ² for a pixel noise σ.
     let floor_k = 0.05f32;
-    f.sigma2 = ((yy - fit) / (bins - n as f32)).max(floor_k * floor_k);
+    f.rss = yy - fit;
+    f.sigma2 = (f.rss / (bins - n as f32)).max(floor_k * floor_k);
+    f.noise2 = if p.total > bins {
+        ((p.sq - yy) / (p.total - bins)).clamp(floor_k * floor_k, f.sigma2)
+    } else {
+        f.sigma2
+    };
     Some(f)
 }
 
@@ -480,7 +501,7 @@ pub fn separate(
         quality: Quality::Fallback,
     };
     let length = prof.length() as f32;
-    let p_max = PERIOD_MAX_PX.min(length / 1.5);
+    let p_max = PERIOD_MAX_PX.min(length / 1.2);
     let (lo, hi, step) = if g.lattice_known {
         let nu = 1.0 / g.period_px;
         (0.88 * nu, 1.12 * nu, 0.004)
@@ -504,13 +525,36 @@ pub fn separate(
     };
     // Harmonics below 0.45 cycles per pixel, fewer if the fit is ill-conditioned.
     let mut harmonics = ((0.45 / nu) as usize).clamp(1, HARMONICS);
-    let fit = loop {
+    let mut fit = loop {
         match harmonic_fit(&prof, nu, harmonics) {
             Some(f) => break Some(f),
             None if harmonics > 1 => harmonics -= 1,
             None => break None,
         }
     };
+    // The periodogram's peak is biased when the core shows few periods: refine the frequency
+    // to the least-squares residual's minimum (a parabola through ν(1 ± δ) and ν).
+    let mut nu = nu;
+    if let Some(f0) = &fit {
+        let d = REFINE_STEP * nu;
+        let rss = |x: &Option<HarmonicFit>| x.as_ref().map(|f| f.rss);
+        let lo = harmonic_fit(&prof, nu - d, harmonics);
+        let hi = harmonic_fit(&prof, nu + d, harmonics);
+        if let (Some(a), Some(b)) = (rss(&lo), rss(&hi)) {
+            let c = f0.rss;
+            let den = a - 2.0 * c + b;
+            if den > 0.0 {
+                let off = (0.5 * (a - b) / den).clamp(-1.5, 1.5);
+                let refined = nu + off * d;
+                if let Some(f) = harmonic_fit(&prof, refined, harmonics) {
+                    if f.rss < c {
+                        nu = refined;
+                        fit = Some(f);
+                    }
+                }
+            }
+        }
+    }
     let Some(fit) = fit else {
         return if g.lattice_known {
             Separation {
@@ -578,8 +622,8 @@ pub fn separate(
         *cd = Candidate {
             a,
             b,
-            sd_hot: crate::fmath::sqrt((fit.sigma2 * (va + vb + 2.0 * cab)).max(0.0)),
-            sd_cold: crate::fmath::sqrt(fit.sigma2 * va),
+            sd_hot: crate::fmath::sqrt((fit.noise2 * (va + vb + 2.0 * cab)).max(0.0)),
+            sd_cold: crate::fmath::sqrt(fit.noise2 * va),
             chi2: ((dnd - explained) / fit.sigma2).max(0.0),
         };
     }
