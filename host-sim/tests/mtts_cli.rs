@@ -62,7 +62,7 @@ fn scene_then_mtts_finds_the_truth() {
             "{}",
             lines[6]
         );
-        let names: Vec<&str> = lines[1..]
+        let names: Vec<&str> = lines[1..6]
             .iter()
             .map(|l| l.split(',').nth(1).unwrap())
             .collect();
