@@ -14,7 +14,8 @@
 //!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's),
 //!    refined to the minimum of step 2's residual;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
-//!    that lie below 0.45 cycles per pixel (at most three); c is the fundamental's phase;
+//!    that lie below 0.75 cycles per pixel (at most three, fewer if ill-conditioned); c is
+//!    the fundamental's phase;
 //! 3. for each h on a grid the (a, b) that best match those coefficients (weighted by their
 //!    normal matrix, i.e. the per-pixel least squares) give a misfit χ²(h), with the noise
 //!    estimated from the fit's residual.
@@ -42,8 +43,11 @@ use crate::measurement::Quality;
 pub const EXPOSED_MIN: f32 = 0.3;
 /// Largest exposed fraction.
 pub const EXPOSED_MAX: f32 = 0.8;
-/// The optics' point-spread function: Gaussian standard deviation, pixels.
+/// The optics' point-spread function: Gaussian standard deviation, pixels (nominal).
 pub const PSF_SIGMA_PX: f32 = 0.35;
+/// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
+/// no numeric pixel-sensitivity profile), pixels.
+pub const PSF_SIGMAS_PX: [f32; 3] = [0.25, PSF_SIGMA_PX, 0.45];
 /// Shortest lattice period searched, pixels.
 pub const PERIOD_MIN_PX: f32 = 2.9;
 /// Longest lattice period searched, pixels.
@@ -51,15 +55,15 @@ pub const PERIOD_MAX_PX: f32 = 24.0;
 /// Least fundamental amplitude of the axial profile to (re)detect the lattice, K.
 pub const MIN_LATTICE_K: f32 = 0.3;
 /// χ² bonus of the hypothesis the supervisor's prior expects.
-pub const PRIOR_CHI2: f32 = 9.0;
+pub const PRIOR_CHI2: f32 = 25.0;
 /// χ² bonus of the previous frame's hypothesis when there is no prior.
 pub const CONTINUITY_CHI2: f32 = 4.0;
 /// χ² margin within which two hypotheses are both allowed by the image.
-pub const AMBIGUOUS_CHI2: f32 = 4.0;
+pub const AMBIGUOUS_CHI2: f32 = 25.0;
 /// χ² margin of the confidence set over h.
 pub const CONFIDENCE_CHI2: f32 = 4.0;
 /// Largest bound of a resolved frame, K.
-pub const RESOLVED_BOUND_K: f32 = 1.0;
+pub const RESOLVED_BOUND_K: f32 = 1.5;
 
 /// Harmonics fitted at most.
 const HARMONICS: usize = 3;
@@ -68,13 +72,17 @@ const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
-const FREQ_STEP: f32 = 0.015;
+const FREQ_STEP: f32 = 0.02;
 /// Relative frequency step of the least-squares refinement.
 const REFINE_STEP: f32 = 0.04;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
 const H_FIRST: f32 = 0.2;
-const H_STEP: f32 = 0.025;
-const H_COUNT: usize = 25;
+const H_STEP: f32 = 0.03;
+const H_COUNT: usize = 21;
+/// Spreads tried.
+const PSFS: usize = PSF_SIGMAS_PX.len();
+/// Candidates: every h under every spread.
+const CANDIDATES: usize = H_COUNT * PSFS;
 
 /// Result of one frame's separation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -126,9 +134,14 @@ fn sinc(x: f32) -> f32 {
 /// Transfer function of pixel footprint and optics at `nu` cycles per pixel along an axis of
 /// slope `slope` (columns per row).
 pub fn transfer(nu: f32, slope: f32) -> f32 {
+    transfer_with(nu, slope, PSF_SIGMA_PX)
+}
+
+/// [`transfer`] with a point-spread function of standard deviation `sigma_px`.
+pub fn transfer_with(nu: f32, slope: f32, sigma_px: f32) -> f32 {
     let inv = 1.0 / crate::fmath::sqrt(1.0 + slope * slope);
     let (ca, sa) = (inv, libm::fabsf(slope) * inv);
-    let g = core::f32::consts::PI * PSF_SIGMA_PX * nu;
+    let g = core::f32::consts::PI * sigma_px * nu;
     sinc(nu * ca) * sinc(nu * sa) * libm::expf(-2.0 * g * g)
 }
 
@@ -348,6 +361,8 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
     // sample at their mean position, their count its weight.
     let (mut yy, mut bins) = (0f32, 0f32);
+    // The normal matrix's upper triangle, packed row by row.
+    let mut tri = [0f32; NP * (NP + 1) / 2];
     for b in 0..p.used {
         let w = p.cnt[b];
         if w == 0.0 {
@@ -366,11 +381,14 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
             c = nc;
         }
         let y = p.sum[b] * inv;
-        for i in 0..n {
+        // Fixed sizes (unused harmonics are zero): unrolled, no bounds checks.
+        let mut k = 0;
+        for i in 0..NP {
             let wx = w * x[i];
             f.rhs[i] += wx * y;
-            for j in i..n {
-                f.normal[i][j] += wx * x[j];
+            for &xj in &x[i..] {
+                tri[k] += wx * xj;
+                k += 1;
             }
         }
         yy += w * y * y;
@@ -379,9 +397,12 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     if bins < n as f32 + 4.0 {
         return None;
     }
-    for i in 0..n {
-        for j in 0..i {
-            f.normal[i][j] = f.normal[j][i];
+    let mut k = 0;
+    for i in 0..NP {
+        for j in i..NP {
+            f.normal[i][j] = tri[k];
+            f.normal[j][i] = tri[k];
+            k += 1;
         }
     }
     f.theta = solve(&f.normal, &f.rhs, n)?;
@@ -455,8 +476,9 @@ enum Hyp {
     SurfaceHot,
 }
 
-fn h_at(i: usize) -> f32 {
-    H_FIRST + i as f32 * H_STEP
+/// The hot-stripe fraction of candidate `j` (candidates run over h, then over the spreads).
+fn h_at(j: usize) -> f32 {
+    H_FIRST + (j % H_COUNT) as f32 * H_STEP
 }
 
 fn in_range(hyp: Hyp, h: f32) -> bool {
@@ -523,8 +545,10 @@ pub fn separate(
         (None, true) => 1.0 / g.period_px,
         (None, false) => return fallback,
     };
-    // Harmonics below 0.45 cycles per pixel, fewer if the fit is ill-conditioned.
-    let mut harmonics = ((0.45 / nu) as usize).clamp(1, HARMONICS);
+    // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile
+    // at many sub-pixel positions); fewer when the fit is ill-conditioned (an untilted axis
+    // aliases them onto each other).
+    let mut harmonics = ((0.75 / nu) as usize).clamp(1, HARMONICS);
     let mut fit = loop {
         match harmonic_fit(&prof, nu, harmonics) {
             Some(f) => break Some(f),
@@ -569,38 +593,75 @@ pub fn separate(
     let (a1, b1) = (fit.theta[1], fit.theta[2]);
     let r1 = crate::fmath::sqrt(a1 * a1 + b1 * b1).max(1e-12);
     let (cpsi, spsi) = (a1 / r1, b1 / r1);
-    let mtf: [f32; HARMONICS] =
-        core::array::from_fn(|k| transfer((k + 1) as f32 * nu, g.axis_slope));
+    let mtf: [[f32; HARMONICS]; PSFS] = core::array::from_fn(|s| {
+        core::array::from_fn(|k| transfer_with((k + 1) as f32 * nu, g.axis_slope, PSF_SIGMAS_PX[s]))
+    });
     let dnd: f32 = (0..n).map(|i| fit.theta[i] * fit.rhs[i]).sum();
     let g00 = fit.normal[0][0];
     let r0 = fit.rhs[0];
-    let mut cand = [Candidate::default(); H_COUNT];
-    for (i, cd) in cand.iter_mut().enumerate() {
-        let h = h_at(i);
-        // v = the model's coefficients per unit gap: (h, 2·S_k·H_k·(cos kψ, sin kψ)).
-        let mut v = [0f32; NP];
-        v[0] = h;
+    // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
+    // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k): the Gram matrix
+    // m = uᵀ·N·u and uᵀ·rhs, computed once, make each candidate a 4 × 4 product.
+    const U: usize = 1 + HARMONICS;
+    let mut basis = [[0f32; NP]; U];
+    basis[0][0] = 1.0;
+    let (mut kc, mut ks) = (cpsi, spsi);
+    for k in 0..harmonics {
+        basis[k + 1][1 + 2 * k] = kc;
+        basis[k + 1][2 + 2 * k] = ks;
+        let nkc = kc * cpsi - ks * spsi;
+        ks = ks * cpsi + kc * spsi;
+        kc = nkc;
+    }
+    let mut m = [[0f32; U]; U];
+    let mut ur = [0f32; U];
+    for (i, bi) in basis.iter().enumerate() {
+        let mut nb = [0f32; NP];
+        for (r, row) in fit.normal.iter().enumerate() {
+            let mut acc = 0f32;
+            for (&x, &y) in row.iter().zip(bi) {
+                acc += x * y;
+            }
+            nb[r] = acc;
+        }
+        for (j, bj) in basis.iter().enumerate() {
+            let mut acc = 0f32;
+            for (&x, &y) in bj.iter().zip(&nb) {
+                acc += x * y;
+            }
+            m[j][i] = acc;
+        }
+        let mut acc = 0f32;
+        for (&x, &y) in bi.iter().zip(&fit.rhs) {
+            acc += x * y;
+        }
+        ur[i] = acc;
+    }
+    let mut cand = [Candidate::default(); CANDIDATES];
+    for (j, cd) in cand.iter_mut().enumerate() {
+        let (psf, h) = (j / H_COUNT, h_at(j));
+        let mut c = [0f32; U];
+        c[0] = h;
         let (s1, c1) = sin_cos_turns(0.5 * h);
         let (mut sk, mut ck) = (s1, c1);
-        let (mut kc, mut ks) = (cpsi, spsi);
         for k in 0..harmonics {
-            let amp = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32) * mtf[k];
-            v[1 + 2 * k] = amp * kc;
-            v[2 + 2 * k] = amp * ks;
+            c[k + 1] = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32) * mtf[psf][k];
             let nsk = sk * c1 + ck * s1;
             ck = ck * c1 - sk * s1;
             sk = nsk;
-            let nkc = kc * cpsi - ks * spsi;
-            ks = ks * cpsi + kc * spsi;
-            kc = nkc;
         }
-        let mut nv = [0f32; NP];
-        for r in 0..n {
-            nv[r] = (0..n).map(|c| fit.normal[r][c] * v[c]).sum();
+        let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
+        for i in 0..U {
+            let mut mc = 0f32;
+            for (&x, &y) in m[i].iter().zip(&c) {
+                mc += x * y;
+            }
+            g11 += c[i] * mc;
+            rv += c[i] * ur[i];
+            if i == 0 {
+                g01 = mc;
+            }
         }
-        let g01 = nv[0];
-        let g11: f32 = (0..n).map(|r| v[r] * nv[r]).sum();
-        let rv: f32 = (0..n).map(|r| v[r] * fit.rhs[r]).sum();
         let det = g00 * g11 - g01 * g01;
         let (mut a, mut b) = if det > 1e-6 * g00 * g11 {
             ((g11 * r0 - g01 * rv) / det, (g00 * rv - g01 * r0) / det)
