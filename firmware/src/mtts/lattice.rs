@@ -72,7 +72,7 @@ const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
-const FREQ_STEP: f32 = 0.02;
+const FREQ_STEP: f32 = 0.025;
 /// Relative frequency step of the least-squares refinement.
 const REFINE_STEP: f32 = 0.04;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
@@ -464,8 +464,8 @@ fn solve(a: &[[f32; NP]; NP], b: &[f32; NP], n: usize) -> Option<[f32; NP]> {
 struct Candidate {
     a: f32,
     b: f32,
-    sd_hot: f32,
-    sd_cold: f32,
+    /// Variance of the larger of T_hot, T_cold per unit pixel-noise variance.
+    var: f32,
     chi2: f32,
 }
 
@@ -638,17 +638,24 @@ pub fn separate(
         ur[i] = acc;
     }
     let mut cand = [Candidate::default(); CANDIDATES];
+    // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
+    let mut shape = [[0f32; HARMONICS]; H_COUNT];
+    for (i, sh) in shape.iter_mut().enumerate() {
+        let (s1, c1) = sin_cos_turns(0.5 * h_at(i));
+        let (mut sk, mut ck) = (s1, c1);
+        for (k, x) in sh.iter_mut().enumerate().take(harmonics) {
+            *x = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32);
+            let nsk = sk * c1 + ck * s1;
+            ck = ck * c1 - sk * s1;
+            sk = nsk;
+        }
+    }
     for (j, cd) in cand.iter_mut().enumerate() {
         let (psf, h) = (j / H_COUNT, h_at(j));
         let mut c = [0f32; U];
         c[0] = h;
-        let (s1, c1) = sin_cos_turns(0.5 * h);
-        let (mut sk, mut ck) = (s1, c1);
-        for k in 0..harmonics {
-            c[k + 1] = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32) * mtf[psf][k];
-            let nsk = sk * c1 + ck * s1;
-            ck = ck * c1 - sk * s1;
-            sk = nsk;
+        for k in 0..HARMONICS {
+            c[k + 1] = shape[j % H_COUNT][k] * mtf[psf][k];
         }
         let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
         for i in 0..U {
@@ -680,11 +687,11 @@ pub fn separate(
         } else {
             (1.0 / g00, 0.0, 0.0)
         };
+        let var_hot = va + vb + 2.0 * cab;
         *cd = Candidate {
             a,
             b,
-            sd_hot: crate::fmath::sqrt((fit.noise2 * (va + vb + 2.0 * cab)).max(0.0)),
-            sd_cold: crate::fmath::sqrt(fit.noise2 * va),
+            var: if var_hot > va { var_hot } else { va },
             chi2: ((dnd - explained) / fit.sigma2).max(0.0),
         };
     }
@@ -735,7 +742,7 @@ pub fn separate(
                 continue;
             }
             let (x1, x2) = temps(c, hy);
-            let sd = c.sd_hot.max(c.sd_cold);
+            let sd = crate::fmath::sqrt(fit.noise2 * c.var);
             let m = libm::fabsf(x1 - mean).max(libm::fabsf(x2 - mean)) + 2.0 * sd;
             if m > merged_spread {
                 merged_spread = m;
