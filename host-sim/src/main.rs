@@ -55,7 +55,7 @@ enum Command {
     /// Run the virtual MLX90640 through the firmware's driver and print a summary.
     Sensor(host_sim::sensor_demo::SensorArgs),
     /// Find the five region temperatures of a 24×32 image (CSV, K, `nan` = broken pixel) and
-    /// print `region,name,temp_k,pixels`.
+    /// print `region,name,temp_k,pixels` and the frame's quality and bound.
     Mtts {
         /// Image CSV: 24 lines of 32 values.
         #[arg(long)]
@@ -72,6 +72,9 @@ enum Command {
         /// Seed of the lloyd and kmeanspp methods.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// The mode's prior: unknown, heater-hotter or surface-hotter.
+        #[arg(long, default_value = "unknown")]
+        prior: String,
     },
     /// Print a standard rendered scene as an image CSV (truth in `#` comment lines).
     Scene {
@@ -137,6 +140,7 @@ fn main() -> ExitCode {
             k,
             method,
             seed,
+            prior,
         } => host_sim::mtts_cli::parse_method(&method).and_then(|method| {
             let config = thermorph::mtts::Config {
                 scale,
@@ -145,7 +149,8 @@ fn main() -> ExitCode {
                 seed,
                 ..Default::default()
             };
-            host_sim::mtts_cli::run(&image, config, &mut std::io::stdout().lock())
+            let prior = host_sim::mtts_cli::parse_prior(&prior)?;
+            host_sim::mtts_cli::run(&image, config, prior, &mut std::io::stdout().lock())
         }),
         Command::Scene { name, seed } => {
             host_sim::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())

@@ -3,7 +3,9 @@
 use std::io::Write;
 use std::path::Path;
 
-use thermorph::mtts::{self, IMG_COLS, IMG_PIXELS, IMG_ROWS, Method, Mtts, REGION_NAMES, Scratch};
+use thermorph::mtts::{
+    self, IMG_COLS, IMG_PIXELS, IMG_ROWS, Method, Mtts, Prior, REGION_NAMES, Scratch,
+};
 
 use crate::scene::standard_scenes;
 
@@ -91,13 +93,35 @@ pub fn method_name(m: Method) -> &'static str {
         .map_or("exact", |(n, _)| *n)
 }
 
-/// Run MTTS on an image file and write `region,name,temp_k,pixels` (pixels: upsampled pixels
-/// in the region's cluster).
-pub fn run(path: &Path, config: mtts::Config, out: &mut impl Write) -> Result<(), String> {
+/// Prior names, as `--prior` reads them.
+pub const PRIORS: [(&str, Prior); 3] = [
+    ("unknown", Prior::Unknown),
+    ("heater-hotter", Prior::HeaterHotter),
+    ("surface-hotter", Prior::SurfaceHotter),
+];
+
+/// Parse a prior name.
+pub fn parse_prior(s: &str) -> Result<Prior, String> {
+    PRIORS
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|(_, p)| *p)
+        .ok_or_else(|| format!("prior `{s}` is not unknown, heater-hotter or surface-hotter"))
+}
+
+/// Run MTTS on an image file with a prior and write `region,name,temp_k,pixels` (pixels:
+/// upsampled pixels in the region's cluster), then a `# quality <q>, bound <b> K` line.
+pub fn run(
+    path: &Path,
+    config: mtts::Config,
+    prior: Prior,
+    out: &mut impl Write,
+) -> Result<(), String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
     let img = parse_image(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut m = Mtts::new(config).map_err(|e| e.to_string())?;
+    m.set_prior(prior);
     let mut scratch = Box::new(Scratch::new());
     let res = m
         .process(&img, &mut scratch)
@@ -112,6 +136,11 @@ pub fn run(path: &Path, config: mtts::Config, out: &mut impl Write) -> Result<()
             r.pixels
         );
     }
+    s += &format!(
+        "# quality {}, bound {:.3} K\n",
+        res.quality.name(),
+        res.bound.k()
+    );
     out.write_all(s.as_bytes()).map_err(|e| e.to_string())
 }
 

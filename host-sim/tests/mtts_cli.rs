@@ -36,7 +36,18 @@ fn scene_then_mtts_finds_the_truth() {
         .collect();
     let path = tmp("heating.csv", &scene.stdout);
     for method in ["exact", "lloyd", "kmeanspp"] {
-        let out = run(&["mtts", "--image", &path, "--method", method, "--seed", "3"]);
+        // The heating mode's prior: the heater area is the hotter target.
+        let out = run(&[
+            "mtts",
+            "--image",
+            &path,
+            "--method",
+            method,
+            "--seed",
+            "3",
+            "--prior",
+            "heater-hotter",
+        ]);
         assert!(
             out.status.success(),
             "{}",
@@ -45,8 +56,13 @@ fn scene_then_mtts_finds_the_truth() {
         let csv = String::from_utf8(out.stdout).unwrap();
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines[0], "region,name,temp_k,pixels");
-        assert_eq!(lines.len(), 6);
-        let names: Vec<&str> = lines[1..]
+        assert_eq!(lines.len(), 7);
+        assert!(
+            lines[6].starts_with("# quality resolved, bound "),
+            "{}",
+            lines[6]
+        );
+        let names: Vec<&str> = lines[1..6]
             .iter()
             .map(|l| l.split(',').nth(1).unwrap())
             .collect();

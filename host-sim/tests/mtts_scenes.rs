@@ -2,11 +2,22 @@
 //! the hot-zone inversion, tilt, shift, springs, noise and low contrast.
 
 use host_sim::scene::{Scene, standard_scenes};
-use thermorph::mtts::{Config, Method, Mtts, Output, Scratch};
+use thermorph::mtts::{Config, Method, Mtts, Output, Prior, Quality, Scratch};
+
+/// The mode's prior for a scene: the heating modes expect the heater hotter, forming the
+/// surface.
+fn mode_prior(scene: &Scene) -> Prior {
+    if scene.temps.heater_k >= scene.temps.surface_k {
+        Prior::HeaterHotter
+    } else {
+        Prior::SurfaceHotter
+    }
+}
 
 fn run(scene: &Scene, config: Config, seeds: u64) -> Vec<(Output, [f64; 5])> {
     let mut scratch = Box::new(Scratch::new());
     let mut m = Mtts::new(config).unwrap();
+    m.set_prior(mode_prior(scene));
     (1..=seeds)
         .map(|seed| {
             let r = scene.render(seed);
@@ -16,15 +27,26 @@ fn run(scene: &Scene, config: Config, seeds: u64) -> Vec<(Output, [f64; 5])> {
 }
 
 #[test]
-fn t1_and_t2_within_2_k_on_every_standard_scene() {
+fn t1_and_t2_within_1_k_on_every_standard_scene_or_merged_and_said_so() {
+    let mut resolved = 0;
     for scene in standard_scenes() {
         for (out, truth) in run(&scene, Config::default(), 4) {
-            for z in 0..2 {
-                let err = (out.regions[z].temp.k() as f64 - truth[z]).abs();
-                assert!(err <= 2.0, "{}: T{} off by {err:.2} K", scene.name, z + 1);
+            if out.quality == Quality::Resolved {
+                resolved += 1;
+                for z in 0..2 {
+                    let err = (out.regions[z].temp.k() as f64 - truth[z]).abs();
+                    assert!(err <= 1.0, "{}: T{} off by {err:.2} K", scene.name, z + 1);
+                }
+            } else {
+                assert_eq!(out.quality, Quality::Merged, "{}", scene.name);
+                let d = scene.geometry.exposed;
+                let mean = d * truth[0] + (1.0 - d) * truth[1];
+                let err = (out.t1().k() as f64 - mean).abs();
+                assert!(err <= 1.0, "{}: merged value off by {err:.2} K", scene.name);
             }
         }
     }
+    assert!(resolved >= 44, "{resolved} of 48 frames resolved");
 }
 
 #[test]
@@ -47,7 +69,37 @@ fn heater_area_stays_region_1_through_the_inversion() {
         // cluster T1 — the SMP surface here.
         let hottest = out.clusters.means[out.clusters.k - 1];
         assert!((hottest - out.clustered[1].k()).abs() < 1e-3);
-        assert_eq!(out.quality, thermorph::mtts::Quality::Resolved);
+        assert_eq!(out.quality, Quality::Resolved);
+    }
+}
+
+#[test]
+fn without_a_prior_there_is_no_swap_on_any_standard_scene() {
+    let mut scratch = Box::new(Scratch::new());
+    for scene in standard_scenes() {
+        for seed in 1..=3 {
+            let r = scene.render(seed);
+            let out = Mtts::new(Config::default())
+                .unwrap()
+                .process(&r.image_k, &mut scratch)
+                .unwrap();
+            let (t1, t2) = (out.t1().k() as f64, out.t2().k() as f64);
+            match out.quality {
+                Quality::Resolved => assert!(
+                    (t1 - t2) * (r.truth_k[0] - r.truth_k[1]) >= 0.0,
+                    "{}: swapped",
+                    scene.name
+                ),
+                // Merged: both carry the area-weighted mean, within 1 K of the truth's.
+                Quality::Merged => {
+                    let d = scene.geometry.exposed;
+                    let mean = d * r.truth_k[0] + (1.0 - d) * r.truth_k[1];
+                    assert!((t1 - mean).abs() <= 1.0, "{}: {t1} vs {mean}", scene.name);
+                    assert_eq!(t1, t2);
+                }
+                Quality::Fallback => panic!("{}: the lattice is visible", scene.name),
+            }
+        }
     }
 }
 

@@ -11,9 +11,11 @@
 //! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
 //! are known:
 //! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
-//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's);
+//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's),
+//!    refined to the minimum of step 2's residual;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
-//!    that lie below 0.45 cycles per pixel (at most three); c is the fundamental's phase;
+//!    that lie below 0.75 cycles per pixel (at most three, fewer if ill-conditioned); c is
+//!    the fundamental's phase;
 //! 3. for each h on a grid the (a, b) that best match those coefficients (weighted by their
 //!    normal matrix, i.e. the per-pixel least squares) give a misfit χ²(h), with the noise
 //!    estimated from the fit's residual.
@@ -27,7 +29,8 @@
 //! nothing to pick between two allowed hypotheses the frame is [`Quality::Merged`].
 //!
 //! The bound: the spread of T1 and T2 over the h whose χ² is within [`CONFIDENCE_CHI2`] of the
-//! best, plus two standard errors of (a, b). A frame is resolved when the hypothesis is decided
+//! best (χ² with the fit's residual variance, which includes the model's own mismatch), plus
+//! two standard errors of (a, b) from the pixel noise (the scatter within ¼ px bins). A frame is resolved when the hypothesis is decided
 //! and the bound is at most [`RESOLVED_BOUND_K`]; else merged: both targets carry the core's
 //! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
 //! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
@@ -40,8 +43,11 @@ use crate::measurement::Quality;
 pub const EXPOSED_MIN: f32 = 0.3;
 /// Largest exposed fraction.
 pub const EXPOSED_MAX: f32 = 0.8;
-/// The optics' point-spread function: Gaussian standard deviation, pixels.
+/// The optics' point-spread function: Gaussian standard deviation, pixels (nominal).
 pub const PSF_SIGMA_PX: f32 = 0.35;
+/// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
+/// no numeric pixel-sensitivity profile), pixels.
+pub const PSF_SIGMAS_PX: [f32; 3] = [0.25, PSF_SIGMA_PX, 0.45];
 /// Shortest lattice period searched, pixels.
 pub const PERIOD_MIN_PX: f32 = 2.9;
 /// Longest lattice period searched, pixels.
@@ -49,15 +55,15 @@ pub const PERIOD_MAX_PX: f32 = 24.0;
 /// Least fundamental amplitude of the axial profile to (re)detect the lattice, K.
 pub const MIN_LATTICE_K: f32 = 0.3;
 /// χ² bonus of the hypothesis the supervisor's prior expects.
-pub const PRIOR_CHI2: f32 = 9.0;
+pub const PRIOR_CHI2: f32 = 25.0;
 /// χ² bonus of the previous frame's hypothesis when there is no prior.
 pub const CONTINUITY_CHI2: f32 = 4.0;
 /// χ² margin within which two hypotheses are both allowed by the image.
-pub const AMBIGUOUS_CHI2: f32 = 4.0;
+pub const AMBIGUOUS_CHI2: f32 = 25.0;
 /// χ² margin of the confidence set over h.
 pub const CONFIDENCE_CHI2: f32 = 4.0;
 /// Largest bound of a resolved frame, K.
-pub const RESOLVED_BOUND_K: f32 = 1.0;
+pub const RESOLVED_BOUND_K: f32 = 1.5;
 
 /// Harmonics fitted at most.
 const HARMONICS: usize = 3;
@@ -66,11 +72,17 @@ const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
-const FREQ_STEP: f32 = 0.012;
+const FREQ_STEP: f32 = 0.025;
+/// Relative frequency step of the least-squares refinement.
+const REFINE_STEP: f32 = 0.04;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
 const H_FIRST: f32 = 0.2;
-const H_STEP: f32 = 0.025;
-const H_COUNT: usize = 25;
+const H_STEP: f32 = 0.03;
+const H_COUNT: usize = 21;
+/// Spreads tried.
+const PSFS: usize = PSF_SIGMAS_PX.len();
+/// Candidates: every h under every spread.
+const CANDIDATES: usize = H_COUNT * PSFS;
 
 /// Result of one frame's separation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,9 +134,14 @@ fn sinc(x: f32) -> f32 {
 /// Transfer function of pixel footprint and optics at `nu` cycles per pixel along an axis of
 /// slope `slope` (columns per row).
 pub fn transfer(nu: f32, slope: f32) -> f32 {
+    transfer_with(nu, slope, PSF_SIGMA_PX)
+}
+
+/// [`transfer`] with a point-spread function of standard deviation `sigma_px`.
+pub fn transfer_with(nu: f32, slope: f32, sigma_px: f32) -> f32 {
     let inv = 1.0 / crate::fmath::sqrt(1.0 + slope * slope);
     let (ca, sa) = (inv, libm::fabsf(slope) * inv);
-    let g = core::f32::consts::PI * PSF_SIGMA_PX * nu;
+    let g = core::f32::consts::PI * sigma_px * nu;
     sinc(nu * ca) * sinc(nu * sa) * libm::expf(-2.0 * g * g)
 }
 
@@ -162,6 +179,8 @@ struct Profile {
     reference: f32,
     total: f32,
     mean_dev: f32,
+    /// Σ of squared values less the reference, K².
+    sq: f32,
     lo: f32,
     hi: f32,
 }
@@ -186,6 +205,7 @@ impl Profile {
             reference: 0.0,
             total: 0.0,
             mean_dev: 0.0,
+            sq: 0.0,
             lo: f32::INFINITY,
             hi: f32::NEG_INFINITY,
         };
@@ -202,6 +222,7 @@ impl Profile {
                 p.cnt[b] += 1.0;
                 p.tsum[b] += t;
                 p.total += 1.0;
+                p.sq += y * y;
                 s += y;
                 if b >= p.used {
                     p.used = b + 1;
@@ -302,7 +323,7 @@ fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)>
     }
     let (l, c, r) = (at_best_prev, best_a, at_best_next);
     let den = l - 2.0 * c + r;
-    let off = if den < -1e-9 {
+    let off = if den < -1e-9 && best_i > 0 && best_i < n {
         (0.5 * (l - r) / den).clamp(-0.5, 0.5)
     } else {
         0.0
@@ -319,6 +340,11 @@ struct HarmonicFit {
     rhs: [f32; NP],
     theta: [f32; NP],
     sigma2: f32,
+    /// Pixel noise variance: the scatter of the pixels within a fine bin (same lattice
+    /// phase), K².
+    noise2: f32,
+    /// Weighted residual sum of squares, K².
+    rss: f32,
 }
 
 fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
@@ -329,10 +355,14 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
         rhs: [0.0; NP],
         theta: [0.0; NP],
         sigma2: 0.0,
+        noise2: 0.0,
+        rss: 0.0,
     };
     // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
     // sample at their mean position, their count its weight.
     let (mut yy, mut bins) = (0f32, 0f32);
+    // The normal matrix's upper triangle, packed row by row.
+    let mut tri = [0f32; NP * (NP + 1) / 2];
     for b in 0..p.used {
         let w = p.cnt[b];
         if w == 0.0 {
@@ -351,11 +381,14 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
             c = nc;
         }
         let y = p.sum[b] * inv;
-        for i in 0..n {
+        // Fixed sizes (unused harmonics are zero): unrolled, no bounds checks.
+        let mut k = 0;
+        for i in 0..NP {
             let wx = w * x[i];
             f.rhs[i] += wx * y;
-            for j in i..n {
-                f.normal[i][j] += wx * x[j];
+            for &xj in &x[i..] {
+                tri[k] += wx * xj;
+                k += 1;
             }
         }
         yy += w * y * y;
@@ -364,16 +397,25 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     if bins < n as f32 + 4.0 {
         return None;
     }
-    for i in 0..n {
-        for j in 0..i {
-            f.normal[i][j] = f.normal[j][i];
+    let mut k = 0;
+    for i in 0..NP {
+        for j in i..NP {
+            f.normal[i][j] = tri[k];
+            f.normal[j][i] = tri[k];
+            k += 1;
         }
     }
     f.theta = solve(&f.normal, &f.rhs, n)?;
     let fit: f32 = (0..n).map(|i| f.theta[i] * f.rhs[i]).sum();
     // Σ w·r² over the bins is (bins − n)·σ² for a pixel noise σ.
     let floor_k = 0.05f32;
-    f.sigma2 = ((yy - fit) / (bins - n as f32)).max(floor_k * floor_k);
+    f.rss = yy - fit;
+    f.sigma2 = (f.rss / (bins - n as f32)).max(floor_k * floor_k);
+    f.noise2 = if p.total > bins {
+        ((p.sq - yy) / (p.total - bins)).clamp(floor_k * floor_k, f.sigma2)
+    } else {
+        f.sigma2
+    };
     Some(f)
 }
 
@@ -422,8 +464,8 @@ fn solve(a: &[[f32; NP]; NP], b: &[f32; NP], n: usize) -> Option<[f32; NP]> {
 struct Candidate {
     a: f32,
     b: f32,
-    sd_hot: f32,
-    sd_cold: f32,
+    /// Variance of the larger of T_hot, T_cold per unit pixel-noise variance.
+    var: f32,
     chi2: f32,
 }
 
@@ -434,8 +476,9 @@ enum Hyp {
     SurfaceHot,
 }
 
-fn h_at(i: usize) -> f32 {
-    H_FIRST + i as f32 * H_STEP
+/// The hot-stripe fraction of candidate `j` (candidates run over h, then over the spreads).
+fn h_at(j: usize) -> f32 {
+    H_FIRST + (j % H_COUNT) as f32 * H_STEP
 }
 
 fn in_range(hyp: Hyp, h: f32) -> bool {
@@ -443,7 +486,7 @@ fn in_range(hyp: Hyp, h: f32) -> bool {
         Hyp::HeaterHot => h,
         Hyp::SurfaceHot => 1.0 - h,
     };
-    d >= EXPOSED_MIN - 1e-4 && d <= EXPOSED_MAX + 1e-4
+    (EXPOSED_MIN - 1e-4..=EXPOSED_MAX + 1e-4).contains(&d)
 }
 
 /// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
@@ -480,7 +523,7 @@ pub fn separate(
         quality: Quality::Fallback,
     };
     let length = prof.length() as f32;
-    let p_max = PERIOD_MAX_PX.min(length / 1.5);
+    let p_max = PERIOD_MAX_PX.min(length / 1.2);
     let (lo, hi, step) = if g.lattice_known {
         let nu = 1.0 / g.period_px;
         (0.88 * nu, 1.12 * nu, 0.004)
@@ -502,15 +545,40 @@ pub fn separate(
         (None, true) => 1.0 / g.period_px,
         (None, false) => return fallback,
     };
-    // Harmonics below 0.45 cycles per pixel, fewer if the fit is ill-conditioned.
-    let mut harmonics = ((0.45 / nu) as usize).clamp(1, HARMONICS);
-    let fit = loop {
+    // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile
+    // at many sub-pixel positions); fewer when the fit is ill-conditioned (an untilted axis
+    // aliases them onto each other).
+    let mut harmonics = ((0.75 / nu) as usize).clamp(1, HARMONICS);
+    let mut fit = loop {
         match harmonic_fit(&prof, nu, harmonics) {
             Some(f) => break Some(f),
             None if harmonics > 1 => harmonics -= 1,
             None => break None,
         }
     };
+    // The periodogram's peak is biased when the core shows few periods: refine the frequency
+    // to the least-squares residual's minimum (a parabola through ν(1 ± δ) and ν).
+    let mut nu = nu;
+    if let Some(f0) = &fit {
+        let d = REFINE_STEP * nu;
+        let rss = |x: &Option<HarmonicFit>| x.as_ref().map(|f| f.rss);
+        let lo = harmonic_fit(&prof, nu - d, harmonics);
+        let hi = harmonic_fit(&prof, nu + d, harmonics);
+        if let (Some(a), Some(b)) = (rss(&lo), rss(&hi)) {
+            let c = f0.rss;
+            let den = a - 2.0 * c + b;
+            if den > 0.0 {
+                let off = (0.5 * (a - b) / den).clamp(-1.5, 1.5);
+                let refined = nu + off * d;
+                if let Some(f) = harmonic_fit(&prof, refined, harmonics) {
+                    if f.rss < c {
+                        nu = refined;
+                        fit = Some(f);
+                    }
+                }
+            }
+        }
+    }
     let Some(fit) = fit else {
         return if g.lattice_known {
             Separation {
@@ -525,38 +593,82 @@ pub fn separate(
     let (a1, b1) = (fit.theta[1], fit.theta[2]);
     let r1 = crate::fmath::sqrt(a1 * a1 + b1 * b1).max(1e-12);
     let (cpsi, spsi) = (a1 / r1, b1 / r1);
-    let mtf: [f32; HARMONICS] =
-        core::array::from_fn(|k| transfer((k + 1) as f32 * nu, g.axis_slope));
+    let mtf: [[f32; HARMONICS]; PSFS] = core::array::from_fn(|s| {
+        core::array::from_fn(|k| transfer_with((k + 1) as f32 * nu, g.axis_slope, PSF_SIGMAS_PX[s]))
+    });
     let dnd: f32 = (0..n).map(|i| fit.theta[i] * fit.rhs[i]).sum();
     let g00 = fit.normal[0][0];
     let r0 = fit.rhs[0];
-    let mut cand = [Candidate::default(); H_COUNT];
-    for (i, cd) in cand.iter_mut().enumerate() {
-        let h = h_at(i);
-        // v = the model's coefficients per unit gap: (h, 2·S_k·H_k·(cos kψ, sin kψ)).
-        let mut v = [0f32; NP];
-        v[0] = h;
-        let (s1, c1) = sin_cos_turns(0.5 * h);
+    // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
+    // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k): the Gram matrix
+    // m = uᵀ·N·u and uᵀ·rhs, computed once, make each candidate a 4 × 4 product.
+    const U: usize = 1 + HARMONICS;
+    let mut basis = [[0f32; NP]; U];
+    basis[0][0] = 1.0;
+    let (mut kc, mut ks) = (cpsi, spsi);
+    for k in 0..harmonics {
+        basis[k + 1][1 + 2 * k] = kc;
+        basis[k + 1][2 + 2 * k] = ks;
+        let nkc = kc * cpsi - ks * spsi;
+        ks = ks * cpsi + kc * spsi;
+        kc = nkc;
+    }
+    let mut m = [[0f32; U]; U];
+    let mut ur = [0f32; U];
+    for (i, bi) in basis.iter().enumerate() {
+        let mut nb = [0f32; NP];
+        for (r, row) in fit.normal.iter().enumerate() {
+            let mut acc = 0f32;
+            for (&x, &y) in row.iter().zip(bi) {
+                acc += x * y;
+            }
+            nb[r] = acc;
+        }
+        for (j, bj) in basis.iter().enumerate() {
+            let mut acc = 0f32;
+            for (&x, &y) in bj.iter().zip(&nb) {
+                acc += x * y;
+            }
+            m[j][i] = acc;
+        }
+        let mut acc = 0f32;
+        for (&x, &y) in bi.iter().zip(&fit.rhs) {
+            acc += x * y;
+        }
+        ur[i] = acc;
+    }
+    let mut cand = [Candidate::default(); CANDIDATES];
+    // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
+    let mut shape = [[0f32; HARMONICS]; H_COUNT];
+    for (i, sh) in shape.iter_mut().enumerate() {
+        let (s1, c1) = sin_cos_turns(0.5 * h_at(i));
         let (mut sk, mut ck) = (s1, c1);
-        let (mut kc, mut ks) = (cpsi, spsi);
-        for k in 0..harmonics {
-            let amp = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32) * mtf[k];
-            v[1 + 2 * k] = amp * kc;
-            v[2 + 2 * k] = amp * ks;
+        for (k, x) in sh.iter_mut().enumerate().take(harmonics) {
+            *x = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32);
             let nsk = sk * c1 + ck * s1;
             ck = ck * c1 - sk * s1;
             sk = nsk;
-            let nkc = kc * cpsi - ks * spsi;
-            ks = ks * cpsi + kc * spsi;
-            kc = nkc;
         }
-        let mut nv = [0f32; NP];
-        for r in 0..n {
-            nv[r] = (0..n).map(|c| fit.normal[r][c] * v[c]).sum();
+    }
+    for (j, cd) in cand.iter_mut().enumerate() {
+        let (psf, h) = (j / H_COUNT, h_at(j));
+        let mut c = [0f32; U];
+        c[0] = h;
+        for k in 0..HARMONICS {
+            c[k + 1] = shape[j % H_COUNT][k] * mtf[psf][k];
         }
-        let g01 = nv[0];
-        let g11: f32 = (0..n).map(|r| v[r] * nv[r]).sum();
-        let rv: f32 = (0..n).map(|r| v[r] * fit.rhs[r]).sum();
+        let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
+        for i in 0..U {
+            let mut mc = 0f32;
+            for (&x, &y) in m[i].iter().zip(&c) {
+                mc += x * y;
+            }
+            g11 += c[i] * mc;
+            rv += c[i] * ur[i];
+            if i == 0 {
+                g01 = mc;
+            }
+        }
         let det = g00 * g11 - g01 * g01;
         let (mut a, mut b) = if det > 1e-6 * g00 * g11 {
             ((g11 * r0 - g01 * rv) / det, (g00 * rv - g01 * r0) / det)
@@ -575,11 +687,11 @@ pub fn separate(
         } else {
             (1.0 / g00, 0.0, 0.0)
         };
+        let var_hot = va + vb + 2.0 * cab;
         *cd = Candidate {
             a,
             b,
-            sd_hot: crate::fmath::sqrt((fit.sigma2 * (va + vb + 2.0 * cab)).max(0.0)),
-            sd_cold: crate::fmath::sqrt(fit.sigma2 * va),
+            var: if var_hot > va { var_hot } else { va },
             chi2: ((dnd - explained) / fit.sigma2).max(0.0),
         };
     }
@@ -630,7 +742,7 @@ pub fn separate(
                 continue;
             }
             let (x1, x2) = temps(c, hy);
-            let sd = c.sd_hot.max(c.sd_cold);
+            let sd = crate::fmath::sqrt(fit.noise2 * c.var);
             let m = libm::fabsf(x1 - mean).max(libm::fabsf(x2 - mean)) + 2.0 * sd;
             if m > merged_spread {
                 merged_spread = m;

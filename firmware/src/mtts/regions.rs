@@ -2,10 +2,12 @@
 //! radiation zone and the background — by where its pixels lie, not by its temperature rank.
 //!
 //! Method (at the sensor's 32×24 resolution, on the inpainted image):
-//! 1. Contrast: background level `bg` = 20th percentile, top = 95th percentile. Below
-//!    [`MIN_CONTRAST_K`] of contrast the geometry is not re-estimated: the previous frame's is
-//!    kept (or, on the first frame, a centred vertical cylinder of the default width).
-//! 2. Cylinder: pixels above bg + ½·contrast form a mask; each row's mask centroid and width
+//! 1. Contrast: background level `bg` = the median of the outer columns, contrast = the 95th
+//!    percentile of |value − bg| (the cylinder may be warmer or colder than the background).
+//!    Below [`MIN_CONTRAST_K`] of contrast the geometry is not re-estimated: the previous
+//!    frame's is kept (or, on the first frame, a centred vertical cylinder of the default
+//!    width).
+//! 2. Cylinder: pixels farther than ½·contrast from bg form a mask; each row's mask centroid and width
 //!    give, by weighted least squares, the axis `col = a + b·row` (shift and tilt) and the
 //!    half-width `w` (median row width, perpendicular). Every pixel gets a perpendicular
 //!    distance ratio u = |d|/w and an axial coordinate t along the axis.
@@ -222,11 +224,26 @@ fn percentiles_20_95(v: &[f32; IMG_PIXELS]) -> (f32, f32) {
 /// Re-estimate the cylinder from an image (finite values); `None` when the contrast is too low
 /// or too few rows show it.
 pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
-    let (bg, top) = percentiles_20_95(img);
-    if top - bg < MIN_CONTRAST_K {
+    // The background: the median of the outer columns (the cylinder is near the middle). The
+    // cylinder may be warmer or colder than it (a cold block in a warm room, or a heater
+    // colder than the background in forming), so the mask is on the distance from it.
+    let mut border = [0f32; 2 * IMG_ROWS];
+    for r in 0..IMG_ROWS {
+        border[2 * r] = img[r * IMG_COLS];
+        border[2 * r + 1] = img[r * IMG_COLS + IMG_COLS - 1];
+    }
+    border.sort_unstable_by(f32::total_cmp);
+    let bg = 0.5 * (border[IMG_ROWS - 1] + border[IMG_ROWS]);
+    let mut dev = [0f32; IMG_PIXELS];
+    for (d, &v) in dev.iter_mut().zip(img.iter()) {
+        *d = libm::fabsf(v - bg);
+    }
+    let (_, top) = percentiles_20_95(&dev);
+    if top < MIN_CONTRAST_K {
         return None;
     }
-    let thr = bg + 0.5 * (top - bg);
+    let thr = 0.5 * top;
+    let img = &dev;
     let mut widths = [0f32; IMG_ROWS];
     let mut nrows = 0;
     let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0f32, 0f32, 0f32, 0f32, 0f32);
