@@ -46,7 +46,7 @@ pub struct Settings {
     /// Weight of T1 in Tc in stepping: 0 brings the colder region (the whole cross-section) to
     /// `hot_k`.
     pub w1_step: f32,
-    /// Weight of T1 in Tc in recovery: 0.3 — on the film alone (1) the outer layer stays below
+    /// Weight of T1 in Tc in recovery: 0.5 — on the film alone (1) the outer layer stays below
     /// 340 K and the column cannot come back straight; on the colder alone (0) the reheat is
     /// slow (measured on the simulated block, README's control section).
     pub w1_recover: f32,
@@ -132,7 +132,7 @@ impl Settings {
         functional_band_k: 50.0,
         w1_standby: 1.0,
         w1_step: 0.0,
-        w1_recover: 0.3,
+        w1_recover: 0.5,
         w1_form: 0.0,
         heater_cap_k: 393.0,
         heater_cap_band_k: 4.0,

@@ -236,3 +236,52 @@ fn stuck_on_spring_never_makes_the_supervisor_switch_it_or_trip_falsely() {
     println!("spring C stuck on from 30 s: spring C reaches {hottest:.1} K; no sensor sees it");
     assert!(rows.iter().all(|r| fault(r).is_none()));
 }
+
+#[test]
+fn recovery_with_rested_springs_brings_the_column_back_straight() {
+    // Stepping, forming, then 450 s in standby (the springs back to martensite in still air),
+    // then recovery: the stored bend is released and the column ends straight.
+    let sc = paper::scene(1200.0, 298.15, false).unwrap();
+    let mut stage = 0;
+    let mut formed_at = f64::NAN;
+    let mut react = |t: f64, s: &thermorph::supervisor::Supervisor| -> Option<String> {
+        let (mode, phase) = (s.mode().name(), s.mode().phase_name());
+        let line = match stage {
+            0 if t >= paper::STEP_AT_S => "mode step-large AB",
+            1 if mode == "step-large" && phase == "hold" => "mode form",
+            2 if mode == "standby" => {
+                formed_at = t;
+                stage += 1;
+                return None;
+            }
+            3 if t >= formed_at + 450.0 => "mode recover",
+            _ => return None,
+        };
+        stage += 1;
+        Some(line.into())
+    };
+    let rows = host_sim::run::run_with(&sc, &mut |_| {}, &mut react)
+        .unwrap()
+        .rows;
+    let start = rows
+        .iter()
+        .position(|r| mode(r) == "recover")
+        .expect("recovery ran");
+    let bent = rows[start].obs.bend_deg;
+    let t0 = rows[start].obs.time_s - 0.25;
+    let within = rows[start..]
+        .iter()
+        .find(|r| r.obs.bend_deg <= 2.0)
+        .map(|r| r.obs.time_s - t0)
+        .expect("the column comes back within 2° of straight");
+    let last = rows.last().unwrap();
+    println!(
+        "recovery from {bent:.1}° with rested springs: within 2° after {within:.1} s; \
+         {:.2}° at the end",
+        last.obs.bend_deg
+    );
+    assert!(bent > 30.0, "the shape was locked: {bent}");
+    assert!(within <= 90.0, "{within}");
+    assert!(last.obs.bend_deg <= 2.0 && mode(last) == "standby");
+    assert!(rows.iter().all(|r| fault(r).is_none()));
+}
