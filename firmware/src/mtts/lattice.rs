@@ -47,7 +47,7 @@ pub const EXPOSED_MAX: f32 = 0.8;
 pub const PSF_SIGMA_PX: f32 = 0.35;
 /// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
 /// no numeric pixel-sensitivity profile), pixels.
-pub const PSF_SIGMAS_PX: [f32; 3] = [0.25, PSF_SIGMA_PX, 0.45];
+pub const PSF_SIGMAS_PX: [f32; 2] = [0.28, 0.42];
 /// Shortest lattice period searched, pixels.
 pub const PERIOD_MIN_PX: f32 = 2.9;
 /// Longest lattice period searched, pixels.
@@ -55,15 +55,18 @@ pub const PERIOD_MAX_PX: f32 = 24.0;
 /// Least fundamental amplitude of the axial profile to (re)detect the lattice, K.
 pub const MIN_LATTICE_K: f32 = 0.3;
 /// χ² bonus of the hypothesis the supervisor's prior expects.
-pub const PRIOR_CHI2: f32 = 25.0;
+pub const PRIOR_CHI2: f32 = 60.0;
 /// χ² bonus of the previous frame's hypothesis when there is no prior.
 pub const CONTINUITY_CHI2: f32 = 4.0;
 /// χ² margin within which two hypotheses are both allowed by the image.
-pub const AMBIGUOUS_CHI2: f32 = 25.0;
+pub const AMBIGUOUS_CHI2: f32 = 60.0;
 /// χ² margin of the confidence set over h.
 pub const CONFIDENCE_CHI2: f32 = 4.0;
-/// Largest bound of a resolved frame, K.
-pub const RESOLVED_BOUND_K: f32 = 1.5;
+/// Largest fraction of the estimated gap |T1 − T2| the bound of a resolved frame may reach
+/// (when it exceeds [`RESOLVED_BOUND_K`]): the targets stand apart by several bounds.
+pub const RESOLVED_FRACTION: f32 = 0.25;
+/// Bound up to which a decided frame is resolved whatever its gap, K.
+pub const RESOLVED_BOUND_K: f32 = 1.0;
 
 /// Harmonics fitted at most.
 const HARMONICS: usize = 3;
@@ -773,7 +776,8 @@ pub fn separate(
     if found.is_none() {
         *g = kept;
     }
-    if decided && spread <= RESOLVED_BOUND_K {
+    if decided && (spread <= RESOLVED_BOUND_K || spread <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
+    {
         Separation {
             t1_k: t1,
             t2_k: t2,
