@@ -12,7 +12,7 @@
 //! are known:
 //! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
 //!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's),
-//!    refined to the minimum of step 2's residual;
+//!    refined to the minimum of the residual of a least-squares fit of mean and fundamental;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
 //!    that lie below 0.75 cycles per pixel (at most three, fewer if ill-conditioned); c is
 //!    the fundamental's phase;
@@ -75,7 +75,7 @@ const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
-const FREQ_STEP: f32 = 0.025;
+const FREQ_STEP: f32 = 0.03;
 /// Relative frequency step of the least-squares refinement.
 const REFINE_STEP: f32 = 0.04;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
@@ -422,6 +422,49 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     Some(f)
 }
 
+/// Residual sum of squares (weighted, K²) of the least-squares fit of the mean and the
+/// fundamental at `nu` to the fine bins; `None` if it is ill-conditioned.
+fn fundamental_rss(p: &Profile, nu: f32) -> Option<f32> {
+    let (mut n0, mut nc, mut ns, mut ncc, mut ncs, mut nss) = (0f32, 0f32, 0f32, 0f32, 0f32, 0f32);
+    let (mut r0, mut rc, mut rs, mut yy) = (0f32, 0f32, 0f32, 0f32);
+    for b in 0..p.used {
+        let w = p.cnt[b];
+        if w == 0.0 {
+            continue;
+        }
+        let inv = 1.0 / w;
+        let (sn, cs) = sin_cos_turns(nu * (p.tsum[b] * inv));
+        let y = p.sum[b] * inv;
+        let (wc, ws) = (w * cs, w * sn);
+        n0 += w;
+        nc += wc;
+        ns += ws;
+        ncc += wc * cs;
+        ncs += wc * sn;
+        nss += ws * sn;
+        r0 += w * y;
+        rc += wc * y;
+        rs += ws * y;
+        yy += w * y * y;
+    }
+    let mut a = [[0f32; NP]; NP];
+    a[0][0] = n0;
+    a[0][1] = nc;
+    a[1][0] = nc;
+    a[0][2] = ns;
+    a[2][0] = ns;
+    a[1][1] = ncc;
+    a[1][2] = ncs;
+    a[2][1] = ncs;
+    a[2][2] = nss;
+    let mut r = [0f32; NP];
+    r[0] = r0;
+    r[1] = rc;
+    r[2] = rs;
+    let x = solve(&a, &r, 3)?;
+    Some(yy - (x[0] * r0 + x[1] * rc + x[2] * rs))
+}
+
 /// Solve the symmetric positive definite system `a·x = b` (size n) by Cholesky; `None` when a
 /// pivot is not clearly positive (an ill-conditioned fit).
 fn solve(a: &[[f32; NP]; NP], b: &[f32; NP], n: usize) -> Option<[f32; NP]> {
@@ -548,40 +591,32 @@ pub fn separate(
         (None, true) => 1.0 / g.period_px,
         (None, false) => return fallback,
     };
+    // The periodogram's peak is biased when the core shows few periods: refine the frequency
+    // to the minimum of the residual of a least-squares fit of the mean and the fundamental
+    // (a parabola through ν(1 ± δ) and ν).
+    let mut nu = nu;
+    let d = REFINE_STEP * nu;
+    if let (Some(a), Some(c), Some(b)) = (
+        fundamental_rss(&prof, nu - d),
+        fundamental_rss(&prof, nu),
+        fundamental_rss(&prof, nu + d),
+    ) {
+        let den = a - 2.0 * c + b;
+        if den > 0.0 {
+            nu += (0.5 * (a - b) / den).clamp(-1.5, 1.5) * d;
+        }
+    }
     // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile
     // at many sub-pixel positions); fewer when the fit is ill-conditioned (an untilted axis
     // aliases them onto each other).
     let mut harmonics = ((0.75 / nu) as usize).clamp(1, HARMONICS);
-    let mut fit = loop {
+    let fit = loop {
         match harmonic_fit(&prof, nu, harmonics) {
             Some(f) => break Some(f),
             None if harmonics > 1 => harmonics -= 1,
             None => break None,
         }
     };
-    // The periodogram's peak is biased when the core shows few periods: refine the frequency
-    // to the least-squares residual's minimum (a parabola through ν(1 ± δ) and ν).
-    let mut nu = nu;
-    if let Some(f0) = &fit {
-        let d = REFINE_STEP * nu;
-        let rss = |x: &Option<HarmonicFit>| x.as_ref().map(|f| f.rss);
-        let lo = harmonic_fit(&prof, nu - d, harmonics);
-        let hi = harmonic_fit(&prof, nu + d, harmonics);
-        if let (Some(a), Some(b)) = (rss(&lo), rss(&hi)) {
-            let c = f0.rss;
-            let den = a - 2.0 * c + b;
-            if den > 0.0 {
-                let off = (0.5 * (a - b) / den).clamp(-1.5, 1.5);
-                let refined = nu + off * d;
-                if let Some(f) = harmonic_fit(&prof, refined, harmonics) {
-                    if f.rss < c {
-                        nu = refined;
-                        fit = Some(f);
-                    }
-                }
-            }
-        }
-    }
     let Some(fit) = fit else {
         return if g.lattice_known {
             Separation {
