@@ -64,9 +64,11 @@ impl Camera {
     fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
         let rig = Rig::realistic(seed, SensorConfig::default())?;
         rig.set_noise(noise_k);
+        let mut mtts = Mtts::new(mtts::Config::default()).map_err(|e| e.to_string())?;
+        mtts.set_prior(mtts::Prior::HeaterHotter); // until the supervisor's SensingHint is wired
         Ok(Camera {
             rig,
-            mtts: Mtts::new(mtts::Config::default()).map_err(|e| e.to_string())?,
+            mtts,
             scratch: Box::new(Scratch::new()),
             params: DecodeParams::default(),
             subpages: 0,

@@ -463,6 +463,25 @@ mod tests {
     }
 
     #[test]
+    fn finds_a_cylinder_colder_than_the_background() {
+        // A cold block (heater 290 K, rings 295 K) in a 305 K room: the 20th percentile is
+        // inside the cylinder, the outer columns' median is the room.
+        let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+            let (r, c) = (p / IMG_COLS, p % IMG_COLS);
+            if (c as f32 - 14.0).abs() < 6.0 {
+                if r % 5 < 3 { 290.0 } else { 295.0 }
+            } else {
+                305.0
+            }
+        });
+        assert_eq!(border_median(&img), 305.0);
+        let (col0, slope, half) = fit_cylinder(&img).unwrap();
+        assert!((col0 - 14.0).abs() < 0.6, "{col0}");
+        assert!(slope.abs() < 0.05, "{slope}");
+        assert!((half - 6.0).abs() < 1.0, "{half}");
+    }
+
+    #[test]
     fn uniform_scene_keeps_previous_geometry() {
         let img = [300.0f32; IMG_PIXELS];
         let prev = Geometry {
