@@ -2,23 +2,27 @@
 //! surface) by least squares on the region-mix forward model of the cylinder's core, with a
 //! bound and a per-frame quality (resolved, merged, fallback).
 //!
+//! Constants (weights, thresholds, spreads, grid) were tuned on the scene family's seen seeds
+//! only (`host_sim::scene_family::SEEN`).
+//!
 //! Model. Along the axis coordinate t the core shows a square wave: stripes of the hotter
 //! target, a fraction h of each period P, on the colder one. A sensor pixel integrates its
 //! footprint (a unit square, projected on the tilted axis: two boxes of widths cos α and
-//! sin α) through the optics' spread (a Gaussian of [`PSF_SIGMA_PX`]), so its value is
+//! sin α) through the optics' spread (a Gaussian; the datasheet gives no numeric profile, so
+//! its σ is a nuisance parameter tried at each of [`PSF_SIGMAS_PX`]), so its value is
 //! `a + b·f(t)` with f the square wave seen through that transfer function H:
 //! `f(t) = h + Σ_k 2·sin(πkh)/(πk)·H(k/P)·cos(2πk(t − c)/P)`, a the colder temperature, b the
 //! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
 //! are known:
 //! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
-//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's),
-//!    refined to the minimum of the residual of a least-squares fit of mean and fundamental;
+//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's), refined to the minimum
+//!    of the residual of a least-squares fit of mean and fundamental;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
 //!    that lie below 0.75 cycles per pixel (at most three, fewer if ill-conditioned); c is
 //!    the fundamental's phase;
-//! 3. for each h on a grid the (a, b) that best match those coefficients (weighted by their
-//!    normal matrix, i.e. the per-pixel least squares) give a misfit χ²(h), with the noise
-//!    estimated from the fit's residual.
+//! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
+//!    (weighted by their normal matrix, i.e. the per-pixel least squares) give a misfit χ²,
+//!    with the noise estimated from the fit's residual.
 //!
 //! Which target is hotter is ambiguous in the image alone: hot stripes of fraction h are the
 //! heater if the exposed fraction d = h, or the surface if d = 1 − h. The block's exposed
@@ -30,8 +34,9 @@
 //!
 //! The bound: the spread of T1 and T2 over the h whose χ² is within [`CONFIDENCE_CHI2`] of the
 //! best (χ² with the fit's residual variance, which includes the model's own mismatch), plus
-//! two standard errors of (a, b) from the pixel noise (the scatter within ¼ px bins). A frame is resolved when the hypothesis is decided
-//! and the bound is at most [`RESOLVED_BOUND_K`]; else merged: both targets carry the core's
+//! two standard errors of (a, b) from the pixel noise (the scatter within ¼ px bins). A frame
+//! is resolved when the hypothesis is decided and the bound is at most [`RESOLVED_BOUND_K`] or
+//! at most [`RESOLVED_FRACTION`] of the estimated gap; else merged: both targets carry the core's
 //! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
 //! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
 
