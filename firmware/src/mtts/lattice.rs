@@ -2,23 +2,27 @@
 //! surface) by least squares on the region-mix forward model of the cylinder's core, with a
 //! bound and a per-frame quality (resolved, merged, fallback).
 //!
+//! Constants (weights, thresholds, spreads, grid) were tuned on the scene family's seen seeds
+//! only (`host_sim::scene_family::SEEN`).
+//!
 //! Model. Along the axis coordinate t the core shows a square wave: stripes of the hotter
 //! target, a fraction h of each period P, on the colder one. A sensor pixel integrates its
 //! footprint (a unit square, projected on the tilted axis: two boxes of widths cos α and
-//! sin α) through the optics' spread (a Gaussian of [`PSF_SIGMA_PX`]), so its value is
+//! sin α) through the optics' spread (a Gaussian; the datasheet gives no numeric profile, so
+//! its σ is a nuisance parameter tried at each of [`PSF_SIGMAS_PX`]), so its value is
 //! `a + b·f(t)` with f the square wave seen through that transfer function H:
 //! `f(t) = h + Σ_k 2·sin(πkh)/(πk)·H(k/P)·cos(2πk(t − c)/P)`, a the colder temperature, b the
 //! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
 //! are known:
 //! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
-//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's),
-//!    refined to the minimum of step 2's residual;
+//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's), refined to the minimum
+//!    of the residual of a least-squares fit of mean and fundamental;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
 //!    that lie below 0.75 cycles per pixel (at most three, fewer if ill-conditioned); c is
 //!    the fundamental's phase;
-//! 3. for each h on a grid the (a, b) that best match those coefficients (weighted by their
-//!    normal matrix, i.e. the per-pixel least squares) give a misfit χ²(h), with the noise
-//!    estimated from the fit's residual.
+//! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
+//!    (weighted by their normal matrix, i.e. the per-pixel least squares) give a misfit χ²,
+//!    with the noise estimated from the fit's residual.
 //!
 //! Which target is hotter is ambiguous in the image alone: hot stripes of fraction h are the
 //! heater if the exposed fraction d = h, or the surface if d = 1 − h. The block's exposed
@@ -30,8 +34,9 @@
 //!
 //! The bound: the spread of T1 and T2 over the h whose χ² is within [`CONFIDENCE_CHI2`] of the
 //! best (χ² with the fit's residual variance, which includes the model's own mismatch), plus
-//! two standard errors of (a, b) from the pixel noise (the scatter within ¼ px bins). A frame is resolved when the hypothesis is decided
-//! and the bound is at most [`RESOLVED_BOUND_K`]; else merged: both targets carry the core's
+//! two standard errors of (a, b) from the pixel noise (the scatter within ¼ px bins). A frame
+//! is resolved when the hypothesis is decided and the bound is at most [`RESOLVED_BOUND_K`] or
+//! at most [`RESOLVED_FRACTION`] of the estimated gap; else merged: both targets carry the core's
 //! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
 //! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
 
@@ -47,7 +52,7 @@ pub const EXPOSED_MAX: f32 = 0.8;
 pub const PSF_SIGMA_PX: f32 = 0.35;
 /// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
 /// no numeric pixel-sensitivity profile), pixels.
-pub const PSF_SIGMAS_PX: [f32; 3] = [0.25, PSF_SIGMA_PX, 0.45];
+pub const PSF_SIGMAS_PX: [f32; 2] = [0.28, 0.42];
 /// Shortest lattice period searched, pixels.
 pub const PERIOD_MIN_PX: f32 = 2.9;
 /// Longest lattice period searched, pixels.
@@ -55,15 +60,18 @@ pub const PERIOD_MAX_PX: f32 = 24.0;
 /// Least fundamental amplitude of the axial profile to (re)detect the lattice, K.
 pub const MIN_LATTICE_K: f32 = 0.3;
 /// χ² bonus of the hypothesis the supervisor's prior expects.
-pub const PRIOR_CHI2: f32 = 25.0;
+pub const PRIOR_CHI2: f32 = 60.0;
 /// χ² bonus of the previous frame's hypothesis when there is no prior.
 pub const CONTINUITY_CHI2: f32 = 4.0;
 /// χ² margin within which two hypotheses are both allowed by the image.
-pub const AMBIGUOUS_CHI2: f32 = 25.0;
+pub const AMBIGUOUS_CHI2: f32 = 60.0;
 /// χ² margin of the confidence set over h.
 pub const CONFIDENCE_CHI2: f32 = 4.0;
-/// Largest bound of a resolved frame, K.
-pub const RESOLVED_BOUND_K: f32 = 1.5;
+/// Largest fraction of the estimated gap |T1 − T2| the bound of a resolved frame may reach
+/// (when it exceeds [`RESOLVED_BOUND_K`]): the targets stand apart by several bounds.
+pub const RESOLVED_FRACTION: f32 = 0.25;
+/// Bound up to which a decided frame is resolved whatever its gap, K.
+pub const RESOLVED_BOUND_K: f32 = 1.0;
 
 /// Harmonics fitted at most.
 const HARMONICS: usize = 3;
@@ -72,7 +80,7 @@ const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
-const FREQ_STEP: f32 = 0.025;
+const FREQ_STEP: f32 = 0.03;
 /// Relative frequency step of the least-squares refinement.
 const REFINE_STEP: f32 = 0.04;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
@@ -419,6 +427,49 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     Some(f)
 }
 
+/// Residual sum of squares (weighted, K²) of the least-squares fit of the mean and the
+/// fundamental at `nu` to the fine bins; `None` if it is ill-conditioned.
+fn fundamental_rss(p: &Profile, nu: f32) -> Option<f32> {
+    let (mut n0, mut nc, mut ns, mut ncc, mut ncs, mut nss) = (0f32, 0f32, 0f32, 0f32, 0f32, 0f32);
+    let (mut r0, mut rc, mut rs, mut yy) = (0f32, 0f32, 0f32, 0f32);
+    for b in 0..p.used {
+        let w = p.cnt[b];
+        if w == 0.0 {
+            continue;
+        }
+        let inv = 1.0 / w;
+        let (sn, cs) = sin_cos_turns(nu * (p.tsum[b] * inv));
+        let y = p.sum[b] * inv;
+        let (wc, ws) = (w * cs, w * sn);
+        n0 += w;
+        nc += wc;
+        ns += ws;
+        ncc += wc * cs;
+        ncs += wc * sn;
+        nss += ws * sn;
+        r0 += w * y;
+        rc += wc * y;
+        rs += ws * y;
+        yy += w * y * y;
+    }
+    let mut a = [[0f32; NP]; NP];
+    a[0][0] = n0;
+    a[0][1] = nc;
+    a[1][0] = nc;
+    a[0][2] = ns;
+    a[2][0] = ns;
+    a[1][1] = ncc;
+    a[1][2] = ncs;
+    a[2][1] = ncs;
+    a[2][2] = nss;
+    let mut r = [0f32; NP];
+    r[0] = r0;
+    r[1] = rc;
+    r[2] = rs;
+    let x = solve(&a, &r, 3)?;
+    Some(yy - (x[0] * r0 + x[1] * rc + x[2] * rs))
+}
+
 /// Solve the symmetric positive definite system `a·x = b` (size n) by Cholesky; `None` when a
 /// pivot is not clearly positive (an ill-conditioned fit).
 fn solve(a: &[[f32; NP]; NP], b: &[f32; NP], n: usize) -> Option<[f32; NP]> {
@@ -545,40 +596,32 @@ pub fn separate(
         (None, true) => 1.0 / g.period_px,
         (None, false) => return fallback,
     };
+    // The periodogram's peak is biased when the core shows few periods: refine the frequency
+    // to the minimum of the residual of a least-squares fit of the mean and the fundamental
+    // (a parabola through ν(1 ± δ) and ν).
+    let mut nu = nu;
+    let d = REFINE_STEP * nu;
+    if let (Some(a), Some(c), Some(b)) = (
+        fundamental_rss(&prof, nu - d),
+        fundamental_rss(&prof, nu),
+        fundamental_rss(&prof, nu + d),
+    ) {
+        let den = a - 2.0 * c + b;
+        if den > 0.0 {
+            nu += (0.5 * (a - b) / den).clamp(-1.5, 1.5) * d;
+        }
+    }
     // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile
     // at many sub-pixel positions); fewer when the fit is ill-conditioned (an untilted axis
     // aliases them onto each other).
     let mut harmonics = ((0.75 / nu) as usize).clamp(1, HARMONICS);
-    let mut fit = loop {
+    let fit = loop {
         match harmonic_fit(&prof, nu, harmonics) {
             Some(f) => break Some(f),
             None if harmonics > 1 => harmonics -= 1,
             None => break None,
         }
     };
-    // The periodogram's peak is biased when the core shows few periods: refine the frequency
-    // to the least-squares residual's minimum (a parabola through ν(1 ± δ) and ν).
-    let mut nu = nu;
-    if let Some(f0) = &fit {
-        let d = REFINE_STEP * nu;
-        let rss = |x: &Option<HarmonicFit>| x.as_ref().map(|f| f.rss);
-        let lo = harmonic_fit(&prof, nu - d, harmonics);
-        let hi = harmonic_fit(&prof, nu + d, harmonics);
-        if let (Some(a), Some(b)) = (rss(&lo), rss(&hi)) {
-            let c = f0.rss;
-            let den = a - 2.0 * c + b;
-            if den > 0.0 {
-                let off = (0.5 * (a - b) / den).clamp(-1.5, 1.5);
-                let refined = nu + off * d;
-                if let Some(f) = harmonic_fit(&prof, refined, harmonics) {
-                    if f.rss < c {
-                        nu = refined;
-                        fit = Some(f);
-                    }
-                }
-            }
-        }
-    }
     let Some(fit) = fit else {
         return if g.lattice_known {
             Separation {
@@ -773,7 +816,8 @@ pub fn separate(
     if found.is_none() {
         *g = kept;
     }
-    if decided && spread <= RESOLVED_BOUND_K {
+    if decided && (spread <= RESOLVED_BOUND_K || spread <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
+    {
         Separation {
             t1_k: t1,
             t2_k: t2,

@@ -422,7 +422,7 @@ impl Mtts {
         let (mut g, fresh) = regions::update_geometry(work, &self.geometry, xy);
         let sep = lattice::separate(work, xy, &mut g, self.prior);
         self.geometry = g;
-        let o = regions::overlap(work, &g, xy, clusters);
+        let (o, range) = regions::overlap_and_range(work, &g, xy, clusters);
         let pick = regions::assign(&o, clusters.k);
         let mut regions: [Region; REGIONS] = core::array::from_fn(|z| {
             let zone_pixels = o[z].iter().sum();
@@ -443,26 +443,13 @@ impl Mtts {
         let clustered = [regions[0].temp, regions[1].temp];
         regions[0].temp = Kelvin(sep.t1_k);
         regions[1].temp = Kelvin(sep.t2_k);
-        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
-        for (&u, &v) in xy.u.iter().zip(work.iter()) {
-            // Plain comparisons: `f32::min` is a library call on the Cortex-M4.
-            if u < regions::EDGE_U {
-                if v < mn {
-                    mn = v;
-                }
-                if v > mx {
-                    mx = v;
-                }
-            }
-        }
-        let on = mn <= mx;
         Output {
             regions,
             quality: sep.quality,
             bound: Kelvin(sep.bound_k),
             clustered,
-            cylinder_min: on.then_some(Kelvin(mn)),
-            cylinder_max: on.then_some(Kelvin(mx)),
+            cylinder_min: range.map(|r| Kelvin(r.0)),
+            cylinder_max: range.map(|r| Kelvin(r.1)),
             clusters: *clusters,
             geometry: g,
             fresh,

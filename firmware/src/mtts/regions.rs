@@ -186,8 +186,56 @@ pub struct Fresh {
     pub cylinder_fresh: bool,
 }
 
-/// Return the 20th and 95th percentiles of `v`, to 1/256 of its range: a counting pass over
-/// 256 bins (a copy and a selection would cost ten times as much on the Cortex-M4).
+/// Return the 95th percentile of |v − bg|, to 1/256 of its range: a counting pass over 256
+/// bins (a copy and a selection would cost ten times as much on the Cortex-M4).
+fn deviation_95(v: &[f32; IMG_PIXELS], bg: f32) -> f32 {
+    let mut hi = 0f32;
+    for &x in v.iter() {
+        let d = libm::fabsf(x - bg);
+        if d > hi {
+            hi = d;
+        }
+    }
+    if hi <= 0.0 {
+        return 0.0;
+    }
+    let scale = 255.0 / hi;
+    let mut count = [0u16; 256];
+    for &x in v.iter() {
+        count[(libm::fabsf(x - bg) * scale) as usize & 255] += 1;
+    }
+    let target = (0.95 * (IMG_PIXELS - 1) as f32) as u32;
+    let mut acc = 0u32;
+    for (b, &c) in count.iter().enumerate() {
+        acc += c as u32;
+        if acc > target {
+            return (b as f32 + 0.5) / scale;
+        }
+    }
+    hi
+}
+
+/// Return the median of the outer columns (insertion sort of 48 values).
+fn border_median(img: &[f32; IMG_PIXELS]) -> f32 {
+    let mut b = [0f32; 2 * IMG_ROWS];
+    for r in 0..IMG_ROWS {
+        for (k, v) in [img[r * IMG_COLS], img[r * IMG_COLS + IMG_COLS - 1]]
+            .into_iter()
+            .enumerate()
+        {
+            let mut i = 2 * r + k;
+            while i > 0 && b[i - 1] > v {
+                b[i] = b[i - 1];
+                i -= 1;
+            }
+            b[i] = v;
+        }
+    }
+    0.5 * (b[IMG_ROWS - 1] + b[IMG_ROWS])
+}
+
+/// Return the 20th and 95th percentiles of `v`, to 1/256 of its range.
+#[cfg(test)]
 fn percentiles_20_95(v: &[f32; IMG_PIXELS]) -> (f32, f32) {
     let (mut lo, mut hi) = (v[0], v[0]);
     for &x in v.iter() {
@@ -227,23 +275,12 @@ pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
     // The background: the median of the outer columns (the cylinder is near the middle). The
     // cylinder may be warmer or colder than it (a cold block in a warm room, or a heater
     // colder than the background in forming), so the mask is on the distance from it.
-    let mut border = [0f32; 2 * IMG_ROWS];
-    for r in 0..IMG_ROWS {
-        border[2 * r] = img[r * IMG_COLS];
-        border[2 * r + 1] = img[r * IMG_COLS + IMG_COLS - 1];
-    }
-    border.sort_unstable_by(f32::total_cmp);
-    let bg = 0.5 * (border[IMG_ROWS - 1] + border[IMG_ROWS]);
-    let mut dev = [0f32; IMG_PIXELS];
-    for (d, &v) in dev.iter_mut().zip(img.iter()) {
-        *d = libm::fabsf(v - bg);
-    }
-    let (_, top) = percentiles_20_95(&dev);
+    let bg = border_median(img);
+    let top = deviation_95(img, bg);
     if top < MIN_CONTRAST_K {
         return None;
     }
     let thr = 0.5 * top;
-    let img = &dev;
     let mut widths = [0f32; IMG_ROWS];
     let mut nrows = 0;
     let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0f32, 0f32, 0f32, 0f32, 0f32);
@@ -251,7 +288,7 @@ pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
         let row = &img[r * IMG_COLS..(r + 1) * IMG_COLS];
         let (mut n, mut sc) = (0f32, 0f32);
         for (c, &v) in row.iter().enumerate() {
-            if v > thr {
+            if libm::fabsf(v - bg) > thr {
                 n += 1.0;
                 sc += c as f32;
             }
@@ -310,12 +347,34 @@ pub type Overlap = [[u16; MAX_K]; REGIONS];
 
 /// Count, for every pixel, its zone and its value's cluster.
 pub fn overlap(img: &[f32; IMG_PIXELS], g: &Geometry, xy: &Coords, cl: &Clusters) -> Overlap {
+    overlap_and_range(img, g, xy, cl).0
+}
+
+/// [`overlap`], with the lowest and highest value over the cylinder (core and edges, zones
+/// 1–3), `None` when no pixel lies on it — one pass instead of two.
+pub fn overlap_and_range(
+    img: &[f32; IMG_PIXELS],
+    g: &Geometry,
+    xy: &Coords,
+    cl: &Clusters,
+) -> (Overlap, Option<(f32, f32)>) {
     let mut o = [[0u16; MAX_K]; REGIONS];
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
     for p in 0..IMG_PIXELS {
+        let v = img[p];
         let z = g.zone_of(xy.u[p], xy.t[p]) as usize;
-        o[z][cl.label(img[p])] += 1;
+        o[z][cl.label(v)] += 1;
+        // Plain comparisons: `f32::min` is a library call on the Cortex-M4.
+        if z <= Zone::Edge as usize {
+            if v < lo {
+                lo = v;
+            }
+            if v > hi {
+                hi = v;
+            }
+        }
     }
-    o
+    (o, (lo <= hi).then_some((lo, hi)))
 }
 
 /// Assign a cluster to every region (see the module doc); `None` for a zone with no pixels
@@ -401,6 +460,25 @@ mod tests {
         assert!((col0 - 13.0).abs() < 1.0, "{col0}");
         assert!((slope - 0.15).abs() < 0.05, "{slope}");
         assert!((half - 6.0).abs() < 1.5, "{half}");
+    }
+
+    #[test]
+    fn finds_a_cylinder_colder_than_the_background() {
+        // A cold block (heater 290 K, rings 295 K) in a 305 K room: the 20th percentile is
+        // inside the cylinder, the outer columns' median is the room.
+        let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+            let (r, c) = (p / IMG_COLS, p % IMG_COLS);
+            if (c as f32 - 14.0).abs() < 6.0 {
+                if r % 5 < 3 { 290.0 } else { 295.0 }
+            } else {
+                305.0
+            }
+        });
+        assert_eq!(border_median(&img), 305.0);
+        let (col0, slope, half) = fit_cylinder(&img).unwrap();
+        assert!((col0 - 14.0).abs() < 0.6, "{col0}");
+        assert!(slope.abs() < 0.05, "{slope}");
+        assert!((half - 6.0).abs() < 1.0, "{half}");
     }
 
     #[test]
