@@ -227,7 +227,7 @@ mod tests {
         }
         async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), NorError> {
             let at = offset as usize;
-            if at % 4 != 0 || bytes.len() % 4 != 0 {
+            if !at.is_multiple_of(4) || !bytes.len().is_multiple_of(4) {
                 return Err(NorError(NorFlashErrorKind::NotAligned));
             }
             for (i, w) in bytes.chunks(4).enumerate() {

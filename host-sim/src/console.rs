@@ -201,7 +201,7 @@ impl Block {
         }
         self.plant.step(&inputs, self.tick_s);
         self.ticks += 1;
-        if self.ticks % self.ticks_per_period != 0 {
+        if !self.ticks.is_multiple_of(self.ticks_per_period) {
             return Ok(());
         }
         let t1_s = self.time_s();

@@ -5,8 +5,26 @@
 
 use std::process::Command;
 
-/// Rows the plant cannot reach yet, with why.
-const PLANT_SHORTFALLS: &[(&str, &str)] = &[];
+/// Rows the simulated block cannot reach, with why (docs/PLANT-API.md and the closing notes of
+/// the plant work give the evidence).
+const PLANT_SHORTFALLS: &[(&str, &str)] = &[
+    (
+        "pulse_drop_deg",
+        "a spring in still air cools < 1 K in a 2 s pulse (the duct keeps the fan's air off the \
+         springs, thesis 6.3.2), too little to give back stroke; the angle creeps +0.1..+0.6°",
+    ),
+    (
+        "recovery_time_s",
+        "back to back, springs A and B are still ≈ 80 % austenite (≈ 420 s to martensite in \
+         still air) and hold the column bent; with rested springs the column is within 2° after \
+         66 s (closed_loop::recovery_with_rested_springs_brings_the_column_back_straight)",
+    ),
+    (
+        "cycle_time_s",
+        "recovery must reheat the colder layer to release the stored bend: ≥ 35 s of the 41 W \
+         heater for the wall alone, so the cycle takes ≈ 165 s",
+    ),
+];
 
 #[test]
 fn every_figure_passes_or_is_a_known_plant_shortfall() {
@@ -23,8 +41,9 @@ fn every_figure_passes_or_is_a_known_plant_shortfall() {
             if f.pass { "pass" } else { "FAIL" }
         );
         match (f.pass, known) {
-            (true, None) | (false, Some(_)) => {}
+            (true, None) => {}
             (false, None) => wrong.push(format!("{k} fails: sim {}", f.sim)),
+            (false, Some((_, why))) => println!("  known shortfall: {why}"),
             (true, Some(_)) => wrong.push(format!("{k} passes: take it off PLANT_SHORTFALLS")),
         }
     }

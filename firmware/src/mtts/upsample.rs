@@ -169,7 +169,7 @@ impl Upsampler {
             for g in out.g[..out.n].iter_mut() {
                 let w = &wrapped[g.phase as usize..][..g.len as usize];
                 let l = w.len();
-                g.mirrored = l % 2 == 0
+                g.mirrored = l.is_multiple_of(2)
                     && (0..l).all(|j| {
                         (0..4).all(|i| w[j][i].to_bits() == w[l - 1 - j][3 - i].to_bits())
                     });

@@ -87,6 +87,8 @@ const OUTSTANDING: usize = 4;
 static LINES: Channel<CriticalSectionRawMutex, Item, OUTSTANDING> = Channel::new();
 
 /// A line for the console's transmitter.
+// Every slot of the channel holds a whole reply anyway (no heap to box it in).
+#[allow(clippy::large_enum_variant)]
 enum Out {
     /// The reply to one line.
     Reply(Reply),
@@ -507,9 +509,9 @@ async fn main(spawner: Spawner) {
         }
         // LD2: a 50 ms flash every second, or 10 Hz while a fault is latched.
         let on = if supervisor.fault().is_some() {
-            tick % 2 == 0
+            tick.is_multiple_of(2)
         } else {
-            tick % 20 == 0
+            tick.is_multiple_of(20)
         };
         if on {
             led.set_high();
