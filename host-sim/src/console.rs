@@ -30,7 +30,6 @@ use std::time::{Duration, Instant};
 use thermorph::command::parse_read;
 use thermorph::console::{LineReader, MAX_LINE};
 use thermorph::measurement::Measurement;
-use thermorph::measurement::SensingHint;
 use thermorph::settings::Settings;
 use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
@@ -210,7 +209,7 @@ impl Block {
         let hint = self
             .control
             .as_ref()
-            .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
+            .map_or_else(crate::run::open_loop_hint, |c| c.supervisor.sensing_hint());
         self.measurement = measure(self.camera.as_mut(), &obs, sensor_fault, t1_s, period, hint).1;
         Ok(())
     }

@@ -182,6 +182,16 @@ impl Camera {
     }
 }
 
+/// What an open-loop scene (no supervisor to give the mode's prior) tells the camera: the
+/// heating modes' prior, the heater area the hotter — a clear spatial verdict still wins over
+/// it (MTTS) — and Tc on the SMP surface.
+pub(crate) fn open_loop_hint() -> SensingHint {
+    SensingHint {
+        prior: thermorph::mtts::Prior::HeaterHotter,
+        ..SensingHint::default()
+    }
+}
+
 /// Measure the block at the end of a period, as the supervisor will see it: through the camera
 /// chain, or (camera off) the true temperatures — nothing while a sensor fault is injected.
 /// Returns the region temperatures to record (the latest frame's) and the measurement for the
@@ -539,7 +549,7 @@ pub fn run_with(
         let truth_k = camera_temps(&obs).regions();
         let hint = control
             .as_ref()
-            .map_or_else(SensingHint::default, |c| c.supervisor.sensing_hint());
+            .map_or_else(open_loop_hint, |c| c.supervisor.sensing_hint());
         let (measured_k, new) = measure(
             camera.as_mut(),
             &obs,

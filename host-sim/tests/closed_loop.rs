@@ -163,9 +163,10 @@ fn sensor_nack_mid_stepping_makes_outputs_safe_within_the_loss_window() {
         first(&rows, |r| fault(r).is_some()).unwrap() > 150.0,
         "no trip before the NACKs"
     );
-    let t = first(&rows, |r| fault(r) == Some("sensor-loss")).expect("sensor loss trips");
+    // A row's time is the end of its period; the outputs were decided at its start.
+    let t = first(&rows, |r| fault(r) == Some("sensor-loss")).expect("sensor loss trips") - 0.25;
     println!(
-        "sensor NACK from 150 s: sensor-loss latched at {t:.2} s ({:.2} s after)",
+        "sensor NACK from 150 s: sensor-loss latched, outputs safe, at {t:.2} s ({:.2} s after)",
         t - 150.0
     );
     assert!(
