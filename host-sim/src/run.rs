@@ -348,13 +348,15 @@ fn truth_measurement(
 
 /// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):
 /// the heater film through the lattice gaps, the SMP outer surface, edges and radiation zone
-/// between it and the background (the ambient), and the springs at their mean.
+/// between it and the background (the ambient), and the springs at the hottest one's
+/// temperature (the renderer draws one spring temperature; a spring heating out of turn is
+/// what the camera must not miss).
 pub fn camera_temps(obs: &Observation) -> Temps {
     Temps::from_surfaces(
         obs.ambient_k,
         obs.heater_k,
         obs.smp_outer_k,
-        obs.springs_k.iter().sum::<f64>() / 3.0,
+        obs.springs_k.iter().copied().fold(f64::MIN, f64::max),
     )
 }
 

@@ -212,11 +212,14 @@ fn frozen_frames_trip_sensor_loss() {
 }
 
 #[test]
-fn stuck_on_spring_never_makes_the_supervisor_switch_it_or_trip_falsely() {
+fn stuck_on_spring_is_seen_hot_by_the_camera_and_trips_over_temperature() {
+    // Nothing in the pin map senses a spring's current: the supervisor never commands C, and
+    // the camera sees the wire heating (the radiation zone's temperature) until it is above
+    // t_max_k: over-temperature latches (heater and springs off; the stuck MOSFET is hardware).
     let sc = scene(
         "stuck",
-        120.0,
-        false,
+        150.0,
+        true,
         "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
          [[fault]]\nat = \"30 s\"\nkind = \"stuck-spring\"\nspring = \"C\"\nstuck = \"on\"\n",
     );
@@ -230,12 +233,16 @@ fn stuck_on_spring_never_makes_the_supervisor_switch_it_or_trip_falsely() {
             .filter(|r| r.obs.time_s > 30.0)
             .all(|r| r.inputs.springs_on[2])
     );
-    let hottest = rows
-        .iter()
-        .map(|r| r.obs.springs_k[2])
-        .fold(f64::MIN, f64::max);
-    println!("spring C stuck on from 30 s: spring C reaches {hottest:.1} K; no sensor sees it");
-    assert!(rows.iter().all(|r| fault(r).is_none()));
+    let at = rows.iter().find(|r| fault(r).is_some()).expect("the hot spring trips");
+    let t = at.obs.time_s - 0.25;
+    println!(
+        "spring C stuck on from 30 s: {} latched at {t:.2} s ({:.1} s after), spring C at {:.0} K",
+        fault(at).unwrap_or("-"),
+        t - 30.0,
+        at.obs.springs_k[2]
+    );
+    assert_eq!(fault(at), Some("over-temperature"));
+    assert!(t - 30.0 <= 100.0, "{t}");
 }
 
 #[test]
