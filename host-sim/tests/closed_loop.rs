@@ -233,7 +233,10 @@ fn stuck_on_spring_is_seen_hot_by_the_camera_and_trips_over_temperature() {
             .filter(|r| r.obs.time_s > 30.0)
             .all(|r| r.inputs.springs_on[2])
     );
-    let at = rows.iter().find(|r| fault(r).is_some()).expect("the hot spring trips");
+    let at = rows
+        .iter()
+        .find(|r| fault(r).is_some())
+        .expect("the hot spring trips");
     let t = at.obs.time_s - 0.25;
     println!(
         "spring C stuck on from 30 s: {} latched at {t:.2} s ({:.1} s after), spring C at {:.0} K",
