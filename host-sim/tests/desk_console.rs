@@ -1,0 +1,198 @@
+//! The researcher's desk against the simulator's console on a real pseudo-terminal, as it runs
+//! against the board's ST-LINK port: `host-sim console --pty` (the firmware's supervisor and
+//! console behind a pty) driven by `thermorph-desk run` with a script that preheats, steps with
+//! two springs, forms and recovers, recording the telemetry, then `thermorph-desk plot`.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const SIM: &str = env!("CARGO_BIN_EXE_host-sim");
+const DESK: &str = env!("CARGO_BIN_EXE_thermorph-desk");
+
+/// `host-sim console --pty` on a scene, stopped with SIGINT when dropped.
+struct Console {
+    child: Child,
+    path: String,
+}
+
+impl Console {
+    fn start(scene: &str, speed: &str, settings: &std::path::Path) -> Console {
+        let mut child = Command::new(SIM)
+            .args(["console", "--pty", "--speed", speed, "--settings"])
+            .arg(settings)
+            .arg(scene)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start host-sim console");
+        let mut first = String::new();
+        BufReader::new(child.stdout.as_mut().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        let path = first.trim().to_string();
+        assert!(
+            path.starts_with("/dev/pts/"),
+            "the console printed {first:?}"
+        );
+        Console { child, path }
+    }
+}
+
+impl Drop for Console {
+    fn drop(&mut self) {
+        // SIGINT through kill(1): the console ends cleanly on it (as on Ctrl-C).
+        let _ = Command::new("kill")
+            .args(["-INT", &self.child.id().to_string()])
+            .status();
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Run the desk with a time limit; returns (success, stdout, stderr).
+fn desk(args: &[&str], limit: Duration) -> (bool, String, String) {
+    let started = Instant::now();
+    let mut child = Command::new(DESK)
+        .args(args)
+        .env("HOME", std::env::temp_dir())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start thermorph-desk");
+    let mut out = child.stdout.take().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let out_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = out.read_to_string(&mut s);
+        s
+    });
+    let err_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = err.read_to_string(&mut s);
+        s
+    });
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if started.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("thermorph-desk {args:?} still running after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    (
+        status.success(),
+        out_t.join().unwrap(),
+        err_t.join().unwrap(),
+    )
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "thermorph-desk-console-{name}-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
+    let dir = scratch("cycle");
+    // The open-loop scene's block without its timed duties (the console plays none), camera
+    // off to keep the test quick; 20× real time.
+    let console = Console::start("open-loop", "20", &dir.join("settings.bin"));
+    let script = dir.join("cycle.txt");
+    std::fs::write(
+        &script,
+        "mode standby\n\
+         wait tc_k >= 322 within 30\n\
+         expect fault == none\n\
+         mode step-large AB\n\
+         wait phase == spring within 60\n\
+         expect springs == AB\n\
+         wait phase == hold within 60\n\
+         mode form\n\
+         wait mode == standby within 60\n\
+         mode recover\n\
+         wait mode == standby within 60\n\
+         expect fault == none\n",
+    )
+    .unwrap();
+    let csv = dir.join("cycle.csv");
+    let (ok, stdout, stderr) = desk(
+        &[
+            "run",
+            &console.path,
+            script.to_str().unwrap(),
+            "--record",
+            csv.to_str().unwrap(),
+        ],
+        Duration::from_secs(240),
+    );
+    assert!(ok, "{stdout}\n{stderr}");
+    assert!(stdout.contains("script passed"), "{stdout}");
+
+    // The recording: the library's telemetry fields, every mode of the cycle, both springs
+    // stepping, the recovery's pulse on all three, the film at the stepping temperature.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for f in thermorph::supervisor::report::TELEMETRY_FIELDS {
+        assert!(header.contains(&f), "{f} missing from {header:?}");
+    }
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(rows.len() > 100, "{} rows", rows.len());
+    for m in ["standby", "step-large", "form", "recover"] {
+        assert!(rows.iter().any(|r| r[col("mode")] == m), "no {m} recorded");
+    }
+    assert!(rows.iter().any(|r| r[col("springs")] == "AB"));
+    assert!(
+        rows.iter()
+            .any(|r| r[col("mode")] == "recover" && r[col("springs")] == "ABC")
+    );
+    let hottest = rows
+        .iter()
+        .filter_map(|r| r[col("t1_k")].parse::<f64>().ok())
+        .fold(f64::MIN, f64::max);
+    assert!(hottest > 357.0, "{hottest}");
+    assert!(rows.iter().all(|r| r[col("fault")] == "none"));
+
+    let png = dir.join("cycle.png");
+    let (ok, stdout, stderr) = desk(
+        &[
+            "plot",
+            csv.to_str().unwrap(),
+            "--out",
+            png.to_str().unwrap(),
+        ],
+        Duration::from_secs(30),
+    );
+    assert!(ok, "{stdout}\n{stderr}");
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+    let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+    assert_eq!(width, host_sim::plot::WIDTH_PX);
+    assert!(
+        height > 600 && bytes.len() > 20_000,
+        "{width}×{height}, {} bytes",
+        bytes.len()
+    );
+    drop(console);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
