@@ -18,7 +18,7 @@ fn main() {
         println!("cargo:rustc-link-search={}", out.display());
     }
 
-    let (eeprom, frames) = host_sim::sensor_demo::bench_input("heating-358").unwrap();
+    let (eeprom, frames) = host_sim::sensor::demo::bench_input("heating-358").unwrap();
     let mut src = String::new();
     let words = |src: &mut String, name: &str, w: &[u16]| {
         write!(

@@ -11,7 +11,7 @@ use thermorph::mlx90640::{Calibration, DecodeParams, Image};
 use thermorph::mtts::{Config, Method, Mtts, Scratch};
 
 fn stages(c: &mut Criterion) {
-    let (eeprom, frames) = host_sim::sensor_demo::bench_input("heating-358").unwrap();
+    let (eeprom, frames) = host_sim::sensor::demo::bench_input("heating-358").unwrap();
     let cal = Calibration::from_eeprom(&eeprom).unwrap();
     let params = DecodeParams::default();
     let mut image = Image::new();

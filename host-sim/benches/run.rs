@@ -1,12 +1,12 @@
 //! Whole-run speed: a 110 s scene (heat, bend with two springs, form, recover) at full
-//! fidelity through `host_sim::run::run`, with the camera off (true temperatures to the
+//! fidelity through `host_sim::runs::run::run`, with the camera off (true temperatures to the
 //! controller; the issue's target is ≤ 11 ms, 10⁴× real time) and on (every 8 Hz subpage
 //! rendered, encoded by the virtual MLX90640, read by the firmware's driver, and MTTS on
 //! every whole frame).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use host_sim::run::run;
-use host_sim::scenario::parse;
+use host_sim::runs::run::run;
+use host_sim::runs::scenario::parse;
 
 /// The thesis's step–form–recover cycle squeezed into 110 s, open loop.
 const SCENE_110_S: &str = r#"

@@ -48,12 +48,12 @@ enum Command {
         ta_shift: f32,
     },
     /// Play a scene against the simulated block; write timeseries.csv, summary.json, plot.png.
-    Run(host_sim::run::RunArgs),
+    Run(host_sim::runs::run::RunArgs),
     /// The simulated block behind the board's console, in real time (or `--speed` times it), on
     /// stdin/stdout or on a pseudo-terminal whose path is printed; Ctrl-C ends it.
-    Console(host_sim::console::ConsoleArgs),
+    Console(host_sim::console::sim::ConsoleArgs),
     /// Run the virtual MLX90640 through the firmware's driver and print a summary.
-    Sensor(host_sim::sensor_demo::SensorArgs),
+    Sensor(host_sim::sensor::demo::SensorArgs),
     /// Find the five region temperatures of a 24×32 image (CSV, K, `nan` = broken pixel) and
     /// print `region,name,temp_k,pixels` and the frame's quality and bound.
     Mtts {
@@ -91,7 +91,7 @@ enum Command {
         out: PathBuf,
     },
     /// Measure the MTTS work-precision table (speed against error) and print it as markdown.
-    MttsWp(host_sim::mtts_wp::WpArgs),
+    MttsWp(host_sim::sensing::mtts_wp::WpArgs),
     /// Run the thesis's experiments (camera on, the firmware's supervisor) and print each
     /// SPEC section 8 figure beside the thesis's, with its tolerance and pass/fail.
     Paper {
@@ -110,10 +110,12 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command.unwrap_or(Command::Run(host_sim::run::RunArgs {
-        scene: "cycle".into(),
-        ..Default::default()
-    })) {
+    let result = match cli
+        .command
+        .unwrap_or(Command::Run(host_sim::runs::run::RunArgs {
+            scene: "cycle".into(),
+            ..Default::default()
+        })) {
         Command::Decode {
             eeprom,
             frames,
@@ -125,15 +127,15 @@ fn main() -> ExitCode {
                 reflected: None,
                 ta_shift_k: ta_shift,
             };
-            host_sim::decode::decode_files(&eeprom, &frames, &params).and_then(|img| {
+            host_sim::sensing::decode::decode_files(&eeprom, &frames, &params).and_then(|img| {
                 let stdout = std::io::stdout();
                 let mut out = std::io::BufWriter::new(stdout.lock());
-                host_sim::decode::write_csv(&img, &mut out).map_err(|e| e.to_string())
+                host_sim::sensing::decode::write_csv(&img, &mut out).map_err(|e| e.to_string())
             })
         }
-        Command::Run(args) => host_sim::run::cli(&args),
-        Command::Console(args) => host_sim::console::cli(&args),
-        Command::Sensor(args) => host_sim::sensor_demo::run(&args),
+        Command::Run(args) => host_sim::runs::run::cli(&args),
+        Command::Console(args) => host_sim::console::sim::cli(&args),
+        Command::Sensor(args) => host_sim::sensor::demo::run(&args),
         Command::Mtts {
             image,
             scale,
@@ -141,7 +143,7 @@ fn main() -> ExitCode {
             method,
             seed,
             prior,
-        } => host_sim::mtts_cli::parse_method(&method).and_then(|method| {
+        } => host_sim::sensing::mtts_cli::parse_method(&method).and_then(|method| {
             let config = thermorph::mtts::Config {
                 scale,
                 k,
@@ -149,19 +151,19 @@ fn main() -> ExitCode {
                 seed,
                 ..Default::default()
             };
-            let prior = host_sim::mtts_cli::parse_prior(&prior)?;
-            host_sim::mtts_cli::run(&image, config, prior, &mut std::io::stdout().lock())
+            let prior = host_sim::sensing::mtts_cli::parse_prior(&prior)?;
+            host_sim::sensing::mtts_cli::run(&image, config, prior, &mut std::io::stdout().lock())
         }),
         Command::Scene { name, seed } => {
-            host_sim::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
+            host_sim::sensing::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
         }
         Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
-        Command::MttsWp(args) => host_sim::mtts_wp::run(&args),
+        Command::MttsWp(args) => host_sim::sensing::mtts_wp::run(&args),
         Command::Paper {
             json,
             no_camera,
             out,
-        } => host_sim::paper::cli(json, !no_camera, out.as_deref()),
+        } => host_sim::runs::paper::cli(json, !no_camera, out.as_deref()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

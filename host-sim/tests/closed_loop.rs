@@ -2,9 +2,9 @@
 //! cycle at three ambients, and the fault scenes of the controller issue, each with its
 //! detection time printed (`cargo test -p host-sim --test closed_loop -- --nocapture`).
 
-use host_sim::paper;
-use host_sim::run::{Row, run};
-use host_sim::scenario;
+use host_sim::runs::paper;
+use host_sim::runs::run::{Row, run};
+use host_sim::runs::scenario;
 
 /// A closed-loop scene: `body` adds commands and faults to a 298.15 K base.
 fn scene(name: &str, duration_s: f64, camera: bool, body: &str) -> scenario::Scenario {
@@ -271,7 +271,7 @@ fn recovery_with_rested_springs_brings_the_column_back_straight() {
         stage += 1;
         Some(line.into())
     };
-    let rows = host_sim::run::run_with(&sc, &mut |_| {}, &mut react)
+    let rows = host_sim::runs::run::run_with(&sc, &mut |_| {}, &mut react)
         .unwrap()
         .rows;
     let start = rows

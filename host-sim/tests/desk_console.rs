@@ -187,7 +187,7 @@ fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
     let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
     let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
-    assert_eq!(width, host_sim::plot::WIDTH_PX);
+    assert_eq!(width, host_sim::runs::plot::WIDTH_PX);
     assert!(
         height > 600 && bytes.len() > 20_000,
         "{width}×{height}, {} bytes",

@@ -16,10 +16,10 @@ use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use host_sim::desk::telemetry::csv_header;
+use host_sim::console::desk::telemetry::csv_header;
 use host_sim::plant::{Inputs, Plant, PlantConfig};
-use host_sim::plot::Table;
-use host_sim::run::{camera_temps, inputs_of};
+use host_sim::runs::plot::Table;
+use host_sim::runs::run::{camera_temps, inputs_of};
 use thermorph::console::LineReader;
 use thermorph::measurement::{Measurement, Quality, controlled_temperature};
 use thermorph::settings::Settings;
@@ -398,7 +398,7 @@ fn connect_run_a_full_cycle_record_and_plot() {
         p.stdout
     );
     let (w, h) = png_size(&png);
-    assert_eq!(w, host_sim::plot::WIDTH_PX);
+    assert_eq!(w, host_sim::runs::plot::WIDTH_PX);
     assert!(h > 600, "{h}");
     if let Some(keep) = std::env::var_os("DESK_E2E_KEEP") {
         std::fs::copy(&png, PathBuf::from(&keep).join("desk-cycle.png")).unwrap();

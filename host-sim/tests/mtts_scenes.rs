@@ -1,7 +1,7 @@
 //! MTTS on rendered scenes: region temperatures against ground truth, region identity through
 //! the hot-zone inversion, tilt, shift, springs, noise and low contrast.
 
-use host_sim::scene::{Scene, standard_scenes};
+use host_sim::sensing::scene::{Scene, standard_scenes};
 use thermorph::mtts::{Config, Method, Mtts, Output, Prior, Quality, Scratch};
 
 /// The mode's prior for a scene: the heating modes expect the heater hotter, forming the

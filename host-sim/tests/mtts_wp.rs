@@ -3,9 +3,9 @@
 
 use std::process::Command;
 
-use host_sim::mtts_wp::{self, M4Counts, WpConfig, optimal_sse, pareto};
-use host_sim::scene::standard_scenes;
-use host_sim::virtual_mlx::Rng;
+use host_sim::sensing::mtts_wp::{self, M4Counts, WpConfig, optimal_sse, pareto};
+use host_sim::sensing::scene::standard_scenes;
+use host_sim::sensor::virtual_mlx::Rng;
 use thermorph::mtts::Method;
 
 /// Plain O(k·n²) dynamic programme over all contiguous splits, f64.

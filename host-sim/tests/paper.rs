@@ -28,9 +28,9 @@ const PLANT_SHORTFALLS: &[(&str, &str)] = &[
 
 #[test]
 fn every_figure_passes_or_is_a_known_plant_shortfall() {
-    let table = host_sim::paper::figures(true, None).unwrap();
+    let table = host_sim::runs::paper::figures(true, None).unwrap();
     let keys: Vec<&str> = table.iter().map(|(k, _)| *k).collect();
-    assert_eq!(keys, host_sim::paper::KEYS);
+    assert_eq!(keys, host_sim::runs::paper::KEYS);
     let mut wrong = Vec::new();
     for (k, f) in &table {
         let known = PLANT_SHORTFALLS.iter().find(|(n, _)| n == k);
@@ -65,7 +65,7 @@ fn json_has_exactly_the_spec_keys() {
     let obj = v.as_object().unwrap();
     let mut keys: Vec<&str> = obj.keys().map(|k| k.as_str()).collect();
     keys.sort();
-    let mut want = host_sim::paper::KEYS.to_vec();
+    let mut want = host_sim::runs::paper::KEYS.to_vec();
     want.sort();
     assert_eq!(keys, want);
     for (k, f) in obj {

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
-use host_sim::run::{CSV_HEADER, Progress, run};
-use host_sim::scenario::parse;
+use host_sim::runs::run::{CSV_HEADER, Progress, run};
+use host_sim::runs::scenario::parse;
 
 fn host_sim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_host-sim"))
@@ -41,7 +41,7 @@ fn default_scene_writes_csv_json_and_png() {
     let csv = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some(CSV_HEADER));
-    let scene = host_sim::scenario::load("cycle").unwrap();
+    let scene = host_sim::runs::scenario::load("cycle").unwrap();
     let header: Vec<&str> = CSV_HEADER.split(',').collect();
     let text_cols = ["mode", "phase", "fault"];
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
@@ -159,7 +159,7 @@ fn runs_are_deterministic_and_actions_reach_the_plant() {
 
 #[test]
 fn faults_scene_trips_resets_and_logs() {
-    let scene = host_sim::scenario::load("faults").unwrap();
+    let scene = host_sim::runs::scenario::load("faults").unwrap();
     let r = run(&scene, &mut |_| ()).unwrap();
     let at = |t: f64| {
         r.rows
@@ -193,7 +193,7 @@ fn faults_scene_trips_resets_and_logs() {
 
 #[test]
 fn camera_on_measures_what_the_plant_shows() {
-    let mut scene = host_sim::scenario::load("open-loop").unwrap();
+    let mut scene = host_sim::runs::scenario::load("open-loop").unwrap();
     scene.duration_s = 60.0;
     scene.camera.enabled = true;
     let on = run(&scene, &mut |_| ()).unwrap();

@@ -2,10 +2,10 @@
 //! sensor: which subpages form a frame (pairing, gaps, repeated parity, errors between),
 //! frozen data, the supervisor's hint, too many broken pixels and implausible frames.
 
-use host_sim::eeprom;
-use host_sim::sensor_demo::demo_scene;
-use host_sim::sim_time::SimClock;
-use host_sim::virtual_mlx::VirtualMlx90640;
+use host_sim::sensor::demo::demo_scene;
+use host_sim::sensor::eeprom;
+use host_sim::sensor::sim_time::SimClock;
+use host_sim::sensor::virtual_mlx::VirtualMlx90640;
 use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
 use thermorph::mlx90640::{
     Control, Error as DriverError, PIXELS, ReadingPattern, RefreshRate, Resolution, SubpageFrame,

@@ -3,9 +3,9 @@
 
 use embassy_futures::block_on;
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
-use host_sim::sensor_demo::{Rig, round_trip};
-use host_sim::sim_time::{SimClock, SimDelay};
-use host_sim::virtual_mlx::{Fault, HeapBuffers, VirtualBus};
+use host_sim::sensor::demo::{Rig, round_trip};
+use host_sim::sensor::sim_time::{SimClock, SimDelay};
+use host_sim::sensor::virtual_mlx::{Fault, HeapBuffers, VirtualBus};
 use thermorph::measurement::Measurement;
 use thermorph::mlx90640::calc::FrameError;
 use thermorph::mlx90640::{
@@ -21,7 +21,7 @@ type TestSensor = Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>;
 
 /// The library's sensing pipeline on the rig's bus (it sets the sensor up itself).
 fn sensor(r: &Rig) -> TestSensor {
-    r.bus.0.borrow_mut().field_k = host_sim::sensor_demo::demo_scene();
+    r.bus.0.borrow_mut().field_k = host_sim::sensor::demo::demo_scene();
     Sensor::new(
         r.bus.clone(),
         SimDelay::new(r.clock.clone()),
@@ -394,11 +394,13 @@ fn image_errors_leave_the_image_unchanged() {
 
 #[test]
 fn driver_reads_a_real_eeprom_over_the_bus() {
-    let Some(dir) = host_sim::data::require_mlx90640_dir("driver_reads_a_real_eeprom_over_the_bus")
+    let Some(dir) =
+        host_sim::sensing::data::require_mlx90640_dir("driver_reads_a_real_eeprom_over_the_bus")
     else {
         return;
     };
-    let words = host_sim::dump::read_eeprom(&dir.join("melexis_example_eeprom.hex")).unwrap();
+    let words =
+        host_sim::sensing::dump::read_eeprom(&dir.join("melexis_example_eeprom.hex")).unwrap();
     let r = Rig::new(words, 1, Config::default()).unwrap();
     let direct = thermorph::mlx90640::Calibration::from_eeprom(&words).unwrap();
     assert_eq!(*r.cal, direct);

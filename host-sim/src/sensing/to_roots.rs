@@ -25,9 +25,9 @@ use thermorph::mlx90640::{
     RefreshRate, Resolution, Roots, SubpageFrame, SubpageInfo, calculate_to_with,
 };
 
-use crate::dump::{read_eeprom, read_frame};
-use crate::sim_time::SimClock;
-use crate::virtual_mlx::{Rng, VirtualMlx90640};
+use crate::sensing::dump::{read_eeprom, read_frame};
+use crate::sensor::sim_time::SimClock;
+use crate::sensor::virtual_mlx::{Rng, VirtualMlx90640};
 
 /// `libm::sqrtf` (software, correctly rounded: bit-identical to `VSQRT`), fourth root as two.
 #[derive(Clone, Copy, Debug, Default)]
@@ -264,10 +264,10 @@ pub fn real_cases(dir: &Path) -> Result<Vec<Case>, String> {
 /// 263–573 K (through every extended range), both subpages, 18-bit chess plus one 16-bit and
 /// one 19-bit interleaved pair of the first scene.
 pub fn synthetic_cases(sensors: u64, random_fields: usize) -> Result<Vec<Case>, String> {
-    let scenes = crate::scene::standard_scenes();
+    let scenes = crate::sensing::scene::standard_scenes();
     let mut out = Vec::new();
     for seed in 1..=sensors {
-        let eeprom = crate::eeprom::realistic(seed).encode()?;
+        let eeprom = crate::sensor::eeprom::realistic(seed).encode()?;
         let mut dev =
             VirtualMlx90640::new(eeprom, SimClock::new(), seed).map_err(|e| e.to_string())?;
         let cal = Box::new(dev.calibration().clone());
@@ -285,7 +285,7 @@ pub fn synthetic_cases(sensors: u64, random_fields: usize) -> Result<Vec<Case>, 
         }
         let mut rng = Rng::new(seed ^ 0x0007_0075);
         for _ in 0..random_fields {
-            let field = crate::sensor_demo::random_field(&mut rng, 263.0, 573.0);
+            let field = crate::sensor::demo::random_field(&mut rng, 263.0, 573.0);
             shoot(&mut dev, Resolution::Bits18, ReadingPattern::Chess, field);
         }
         let first = scenes[0].render(seed).image_k;

@@ -13,9 +13,9 @@ use thermorph::mlx90640::{
     Resolution, SubpageFrame,
 };
 
-use crate::eeprom;
-use crate::sim_time::{SimClock, SimDelay};
-use crate::virtual_mlx::{Rng, VirtualBus, VirtualMlx90640};
+use crate::sensor::eeprom;
+use crate::sensor::sim_time::{SimClock, SimDelay};
+use crate::sensor::virtual_mlx::{Rng, VirtualBus, VirtualMlx90640};
 
 /// A virtual sensor and the firmware driver reading it.
 pub struct Rig {
@@ -91,7 +91,7 @@ pub fn bench_input(scene: &str) -> Result<([u16; 832], [SubpageFrame; 2]), Strin
         Resolution::Bits18,
         ReadingPattern::Chess,
     ));
-    let s = crate::scene::standard_scenes()
+    let s = crate::sensing::scene::standard_scenes()
         .into_iter()
         .find(|s| s.name == scene)
         .ok_or_else(|| format!("no scene `{scene}`"))?;

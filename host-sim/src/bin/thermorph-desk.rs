@@ -13,7 +13,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Parser, Subcommand};
-use host_sim::desk::{connect, link::DEFAULT_BAUD, ports, record, script};
+use host_sim::console::desk::{connect, link::DEFAULT_BAUD, ports, record, script};
 
 #[derive(Parser)]
 #[command(
@@ -73,7 +73,7 @@ enum Command {
         #[arg(long, default_value = "3", value_parser = secs)]
         silence: Duration,
     },
-    /// Run an experiment script (see `host_sim::desk::script`); exit 1 at the first failure.
+    /// Run an experiment script (see `host_sim::console::desk::script`); exit 1 at the first failure.
     Run {
         /// Serial port.
         port: String,
@@ -181,8 +181,8 @@ fn main() -> ExitCode {
             &mut |l| println!("{l}"),
         )
         .map(|()| println!("script passed")),
-        Command::Plot { csv, out, title } => host_sim::plot::plot_csv(&csv, &out, title.as_deref())
-            .map(|i| {
+        Command::Plot { csv, out, title } => {
+            host_sim::runs::plot::plot_csv(&csv, &out, title.as_deref()).map(|i| {
                 println!(
                     "wrote {} ({}x{} px: {})",
                     out.display(),
@@ -190,7 +190,8 @@ fn main() -> ExitCode {
                     i.size_px.1,
                     i.panels.join(", ")
                 )
-            }),
+            })
+        }
         Command::Ports => ports::list().map(|l| {
             if l.is_empty() {
                 println!("no serial ports found");

@@ -17,7 +17,7 @@
 use thermorph::block::LATTICE_GAP_FRACTION;
 use thermorph::mtts::{IMG_COLS, IMG_PIXELS, IMG_ROWS, REGIONS};
 
-use crate::virtual_mlx::Rng;
+use crate::sensor::virtual_mlx::Rng;
 
 /// Where the block sits in the image.
 #[derive(Clone, Copy, Debug, PartialEq)]

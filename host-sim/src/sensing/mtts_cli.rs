@@ -7,7 +7,7 @@ use thermorph::mtts::{
     self, IMG_COLS, IMG_PIXELS, IMG_ROWS, Method, Mtts, Prior, REGION_NAMES, Scratch,
 };
 
-use crate::scene::standard_scenes;
+use crate::sensing::scene::standard_scenes;
 
 /// Parse an image CSV: 24 lines of 32 comma-separated Kelvin values (`nan` for a broken pixel);
 /// blank lines and lines starting with `#` are skipped. Errors name the line and column.

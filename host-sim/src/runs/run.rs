@@ -7,7 +7,7 @@
 //! - camera off: the true temperatures straight from the plant (region 1 = heater film,
 //!   2 = SMP outer surface, 3–5 from them and the ambient as in [`camera_temps`]);
 //! - camera on: the plant's surface temperatures are rendered into the camera's view
-//!   ([`crate::scene::render`]; the column's tilt in the image is half its bending angle —
+//!   ([`crate::sensing::scene::render`]; the column's tilt in the image is half its bending angle —
 //!   the chord of a constant-curvature arc — projected on the image plane), encoded by the
 //!   virtual MLX90640, read over the simulated I2C bus at 8 Hz subpages by the firmware's own
 //!   sensing pipeline ([`thermorph::sensing`]: driver, subpage pairing, error policy, MTTS).
@@ -15,7 +15,7 @@
 //! A sensor fault with the camera off means no measurement at all (`nan` in the CSV). Outputs,
 //! written by [`write_outputs`] into one folder: `timeseries.csv` (one row a period),
 //! `summary.json` ([`Summary`]: run figures and the SPEC section 8 figures that an open-loop
-//! scene shows, beside the thesis's) and `plot.png` ([`crate::plot`]).
+//! scene shows, beside the thesis's) and `plot.png` ([`crate::runs::plot`]).
 
 use std::io::Write;
 use std::path::Path;
@@ -37,11 +37,11 @@ use thermorph::supervisor::{Decision, Supervisor};
 use thermorph::units::{Kelvin, Millis};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
-use crate::scenario::{FaultKind, Scenario};
-use crate::scene::{self, Geometry, Temps};
-use crate::sensor_demo::Rig;
-use crate::sim_time::{SimClock, SimDelay};
-use crate::virtual_mlx::{HeapBuffers, VirtualBus};
+use crate::runs::scenario::{FaultKind, Scenario};
+use crate::sensing::scene::{self, Geometry, Temps};
+use crate::sensor::demo::Rig;
+use crate::sensor::sim_time::{SimClock, SimDelay};
+use crate::sensor::virtual_mlx::{HeapBuffers, VirtualBus};
 
 /// One control period of a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -138,7 +138,7 @@ impl Camera {
     pub(crate) fn update(
         &mut self,
         obs: &Observation,
-        fault: Option<crate::virtual_mlx::Fault>,
+        fault: Option<crate::sensor::virtual_mlx::Fault>,
         t_s: f64,
         hint: SensingHint,
     ) -> Option<Measurement> {
@@ -199,7 +199,7 @@ pub(crate) fn open_loop_hint() -> SensingHint {
 pub(crate) fn measure(
     camera: Option<&mut Camera>,
     obs: &Observation,
-    sensor_fault: Option<crate::virtual_mlx::Fault>,
+    sensor_fault: Option<crate::sensor::virtual_mlx::Fault>,
     t_s: f64,
     period: u64,
     hint: SensingHint,
@@ -250,7 +250,7 @@ impl Control {
         &mut self,
         now: Millis,
         m: Option<&Measurement>,
-        lines: &[crate::scenario::CommandLine],
+        lines: &[crate::runs::scenario::CommandLine],
         replies: &mut Vec<ReplyRecord>,
     ) -> Inputs {
         let mut d = self.supervisor.step(now, m, None);
@@ -527,7 +527,7 @@ pub fn run_with(
                 next_command += 1;
             }
             if let Some(line) = react(t0_s, &c.supervisor) {
-                lines.push(crate::scenario::CommandLine { at_s: t0_s, line });
+                lines.push(crate::runs::scenario::CommandLine { at_s: t0_s, line });
             }
             let d = c.step(now, measurement.take().as_ref(), &lines, &mut replies);
             cmd = d;
@@ -760,10 +760,10 @@ pub fn figures(rows: &[Row]) -> Vec<Figure> {
 }
 
 /// The SPEC section 8 figures a closed-loop run shows, measured as `host-sim paper` measures
-/// them ([`crate::paper::measure`]: from the supervisor's modes and phases, Tc, and the
+/// them ([`crate::runs::paper::measure`]: from the supervisor's modes and phases, Tc, and the
 /// plant's bend and k_b).
 pub fn closed_loop_figures(rows: &[Row]) -> Vec<Figure> {
-    let f = crate::paper::measure(rows);
+    let f = crate::runs::paper::measure(rows);
     let fig = Figure::new;
     let mean_drop = (!f.pulse_drop_deg.is_empty())
         .then(|| f.pulse_drop_deg.iter().sum::<f64>() / f.pulse_drop_deg.len() as f64);
@@ -866,7 +866,7 @@ pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), String> {
     let text = serde_json::to_string_pretty(&result.summary).map_err(|e| e.to_string())?;
     std::fs::write(&json, text + "\n").map_err(|e| format!("{}: {e}", json.display()))?;
     let png = dir.join("plot.png");
-    crate::plot::write_png(&result.rows, &result.summary.scene, &png)?;
+    crate::runs::plot::write_png(&result.rows, &result.summary.scene, &png)?;
     Ok(())
 }
 
@@ -1091,7 +1091,7 @@ impl Progress {
 /// `host-sim run`: load the scene, run it with a progress bar, write the outputs, print the
 /// summary.
 pub fn cli(args: &RunArgs) -> Result<(), String> {
-    let scenario = crate::scenario::load(&args.scene)?;
+    let scenario = crate::runs::scenario::load(&args.scene)?;
     let dir = args
         .out
         .clone()

@@ -1,7 +1,7 @@
 //! A virtual MLX90640 on a simulated I2C bus, for the real driver to read.
 //!
 //! The device holds an EEPROM (any 832 words: a real dump or one written by
-//! [`crate::eeprom`]), serves the status and control registers, and measures a subpage every
+//! [`crate::sensor::eeprom`]), serves the status and control registers, and measures a subpage every
 //! refresh period of simulated time, alternating subpages. A measurement encodes the true
 //! temperature field (K per pixel, plus sensor noise), the sensor temperature Ta and the supply
 //! Vdd into raw RAM words by inverting the calibration the EEPROM describes — the exact
@@ -40,7 +40,7 @@ use thermorph::mlx90640::Image;
 use thermorph::sensing::{Buffers, BusStuck, Clock, Parts, RecoverBus, Storage};
 use thermorph::units::Millis;
 
-use crate::sim_time::SimClock;
+use crate::sensor::sim_time::SimClock;
 
 /// Bit time on the simulated bus, ns (400 kHz).
 pub const BIT_TIME_NS: u64 = 2_500;

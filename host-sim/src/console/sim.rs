@@ -11,8 +11,8 @@
 //! The block is the scene's plant, camera and injected faults (its timed duties and console
 //! lines are not played: the person at the console drives the block), advanced in ticks of at
 //! most [`TICK_S`] so that telemetry runs at up to 20 Hz; the supervisor gets a measurement once
-//! per scene period, as in `host-sim run` ([`crate::run`]'s `Control`, camera chain,
-//! [`measure`] and [`inputs_of`]). `save` writes the settings record
+//! per scene period, as in `host-sim run` ([`crate::runs::run`]'s `Control`, camera chain,
+//! `measure` and [`inputs_of`](crate::runs::run::inputs_of)). `save` writes the settings record
 //! ([`thermorph::settings::Record`]) to the settings file, `load` reads it, and the console
 //! starts with the file's settings (a bad or old file: the defaults and a `# warning` line).
 //!
@@ -37,8 +37,8 @@ use thermorph::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot}
 use thermorph::units::Millis;
 
 use crate::plant::{Plant, PlantConfig};
-use crate::run::{Camera, Control, inputs_of, measure};
-use crate::scenario::{FaultKind, Scenario};
+use crate::runs::run::{Camera, Control, inputs_of, measure};
+use crate::runs::scenario::{FaultKind, Scenario};
 
 /// Longest tick of the simulated block, s: the supervisor steps at least this often (telemetry
 /// runs at up to 20 Hz).
@@ -209,7 +209,9 @@ impl Block {
         let hint = self
             .control
             .as_ref()
-            .map_or_else(crate::run::open_loop_hint, |c| c.supervisor.sensing_hint());
+            .map_or_else(crate::runs::run::open_loop_hint, |c| {
+                c.supervisor.sensing_hint()
+            });
         self.measurement = measure(self.camera.as_mut(), &obs, sensor_fault, t1_s, period, hint).1;
         Ok(())
     }
@@ -401,7 +403,7 @@ pub fn cli(args: &ConsoleArgs) -> Result<(), String> {
     if !(args.speed.is_finite() && args.speed > 0.0) {
         return Err(format!("--speed {}: must be a positive number", args.speed));
     }
-    let scenario = crate::scenario::load(&args.scene)?;
+    let scenario = crate::runs::scenario::load(&args.scene)?;
     let store = SettingsFile::new(settings_path(args));
     let stop = Arc::new(AtomicBool::new(false));
     {

@@ -10,9 +10,9 @@
 //!   the divide-and-conquer speed-up (O(K·n·log n), exact because the optimal split is
 //!   monotone), independent of the firmware's binned solver;
 //! - Cortex-M4 instruction counts parsed from a saved `scripts/bench-m4` output ([`M4Counts`]);
-//! - the roots table (variant, max |ΔTo| against the f64 reference of [`crate::to_roots`],
+//! - the roots table (variant, max |ΔTo| against the f64 reference of [`crate::sensing::to_roots`],
 //!   to_768 instructions) and the Pareto fronts of both tables ([`pareto`]);
-//! - the scene family ([`crate::scene_family`]): T1/T2 error distributions by lattice period
+//! - the scene family ([`crate::sensing::scene_family`]): T1/T2 error distributions by lattice period
 //!   and gap on the tuning seeds and on unseen ones, quality, swaps ([`family_outcomes`],
 //!   [`family_markdown`]).
 
@@ -26,10 +26,10 @@ use clap::Args;
 use thermorph::mtts::upsample::{UpsampleScratch, Upsampler};
 use thermorph::mtts::{self, Config, IMG_PIXELS, Method, Mtts, Prior, Quality, Scratch};
 
-use crate::mtts_cli::method_name;
-use crate::scene::{Scene, standard_scenes};
-use crate::scene_family::Member;
-use crate::to_roots;
+use crate::sensing::mtts_cli::method_name;
+use crate::sensing::scene::{Scene, standard_scenes};
+use crate::sensing::scene_family::Member;
+use crate::sensing::to_roots;
 
 /// Options of `host-sim mtts-wp`.
 #[derive(Args, Clone, Debug)]
@@ -598,7 +598,7 @@ pub fn markdown(cfg: &WpConfig, rows: &[Row], roots: &[RootsRow]) -> String {
          (Melexis example, datasheet example, Signaloid, ceri) and synthetic subpages of three \
          virtual sensors (the twelve scenes, random fields of 263–573 K through every \
          extended range, 16/18/19-bit) — is compared with an f64 evaluation of the same \
-         formulas (`host_sim::to_roots::to_f64`). to_768: both subpages of bench-m4's frame \
+         formulas (`host_sim::sensing::to_roots::to_f64`). to_768: both subpages of bench-m4's frame \
          (To and bad-pixel correction), Cortex-M4F under QEMU (`wp_roots` lines).\n"
     );
     let _ = writeln!(
@@ -806,12 +806,12 @@ pub fn run(args: &WpArgs) -> Result<(), String> {
     let m4 = args.m4.as_deref().map(M4Counts::read).transpose()?;
     let cfg = WpConfig::full(args.seeds);
     let mut rows = measure(&cfg)?;
-    let dir = crate::data::mlx90640_dir();
+    let dir = crate::sensing::data::mlx90640_dir();
     if !dir.is_dir() {
         return Err(format!(
             "sensor data folder {} is missing (the roots table reads the real dumps; set {})",
             dir.display(),
-            crate::data::DATA_DIR_ENV
+            crate::sensing::data::DATA_DIR_ENV
         ));
     }
     let cases = to_roots::cases(Some(&dir))?;
@@ -983,7 +983,7 @@ pub fn family_headline(outs: &[FamilyOutcome]) -> (f64, f64, usize, f64) {
 /// The scene-family section of the table: `count` members from the tuning seeds and `count`
 /// unseen ones, with the mode's prior; then the unseen ones without a prior.
 pub fn family_section(count: u64) -> String {
-    use crate::scene_family::{SEEN, UNSEEN};
+    use crate::sensing::scene_family::{SEEN, UNSEEN};
     let seen = family_outcomes(SEEN, count, true);
     let unseen = family_outcomes(UNSEEN, count, true);
     let blind = family_outcomes(UNSEEN, count, false);
@@ -992,7 +992,7 @@ pub fn family_section(count: u64) -> String {
     let _ = writeln!(
         s,
         "`host-sim mtts-wp --family-only --family {count}` (the full run: `--family 3000`). \
-         Members of `host_sim::scene_family` (period 3–8 px, width 6–20 px, exposed fraction \
+         Members of `host_sim::sensing::scene_family` (period 3–8 px, width 6–20 px, exposed fraction \
          0.3–0.8, tilt ±15°, shifts, 50–100 mm, footprint ⊗ Gaussian PSF σ 0.25–0.45 px, noise \
          0–0.5 K, T1 − T2 within ±20 K), first frames of the default MTTS (s = 4, exact, K = 5) \
          with the mode's prior (heating modes: heater hotter; forming: surface hotter). Seen: \

@@ -1,7 +1,7 @@
 //! Scene files: what a simulator run does, read from TOML and checked before anything runs.
 //!
 //! This module owns the scene-file format and its bundled scenes (`host-sim/scenes/*.toml`,
-//! built into the binary). (The camera renderer of one image is [`crate::scene`]; a scene
+//! built into the binary). (The camera renderer of one image is [`crate::sensing::scene`]; a scene
 //! *file* here is a whole run.) A file gives:
 //!
 //! ```toml
@@ -48,13 +48,13 @@ use std::ops::Range;
 use std::path::Path;
 
 use crate::plant::{Fidelity, Integrator, SmaFidelity, SmpFidelity, ThermalFidelity};
-use crate::virtual_mlx::Fault as SensorFault;
+use crate::sensor::virtual_mlx::Fault as SensorFault;
 
 /// The bundled scenes: (name, TOML text). The first is the default of `host-sim run`.
 pub const BUNDLED: [(&str, &str); 3] = [
-    ("cycle", include_str!("../scenes/cycle.toml")),
-    ("open-loop", include_str!("../scenes/open-loop.toml")),
-    ("faults", include_str!("../scenes/faults.toml")),
+    ("cycle", include_str!("../../scenes/cycle.toml")),
+    ("open-loop", include_str!("../../scenes/open-loop.toml")),
+    ("faults", include_str!("../../scenes/faults.toml")),
 ];
 
 /// Highest control period a scene may ask for, s (the firmware's control period).
@@ -289,7 +289,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
     let mut max_step_s = crate::plant::PlantConfig::default().max_step_s;
     let mut camera = CameraSettings {
         enabled: false,
-        noise_k: crate::virtual_mlx::DEFAULT_NOISE_K,
+        noise_k: crate::sensor::virtual_mlx::DEFAULT_NOISE_K,
         seed: 1,
     };
     if let Some((k, item)) = root.get_key_value("fidelity") {

@@ -1,0 +1,12 @@
+//! Runs and scenes: the block played through scenes, with the firmware's supervisor in the loop
+//! or timed duties, and what a run writes.
+//!
+//! - [`scenario`]: scene files (TOML) and the bundled scenes (`host-sim/scenes/`).
+//! - [`run`]: `host-sim run`: the run loop, the camera chain, CSV, JSON and PNG outputs.
+//! - [`paper`]: `host-sim paper`, the thesis's experiments against the real supervisor.
+//! - [`plot`]: the PNG plots (of a run and of a desk recording).
+
+pub mod paper;
+pub mod plot;
+pub mod run;
+pub mod scenario;
