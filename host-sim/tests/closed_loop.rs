@@ -296,3 +296,48 @@ fn recovery_with_rested_springs_brings_the_column_back_straight() {
     assert!(last.obs.bend_deg <= 2.0 && mode(last) == "standby");
     assert!(rows.iter().all(|r| fault(r).is_none()));
 }
+
+#[test]
+fn autotune_on_the_simulated_block_sets_gains_and_aborts_cleanly() {
+    // A relay test from power-up (camera on): it finishes with gains near the shipped ones and
+    // hands over to standby; a timeout too short to finish aborts without any fault (the
+    // runaway check never trips on the relay).
+    let sc = scene(
+        "tune",
+        300.0,
+        true,
+        "[[command]]\nat = \"0 s\"\nline = \"autotune\"\n\
+         [[command]]\nat = \"290 s\"\nline = \"log\"\n\
+         [[command]]\nat = \"290 s\"\nline = \"get kp\"\n",
+    );
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let log = &r.summary.replies[1].reply;
+    println!("{log}\n{}", r.summary.replies[2].reply);
+    assert!(log.contains("autotune done"), "{log}");
+    let kp: f64 = r.summary.replies[2]
+        .reply
+        .trim_start_matches("ok kp=")
+        .trim_end_matches(" 1/K")
+        .parse()
+        .unwrap();
+    let shipped = thermorph::settings::DEFAULT_GAINS.kp_per_k as f64;
+    assert!(
+        (kp / shipped - 1.0).abs() < 0.5,
+        "kp {kp} vs shipped {shipped}"
+    );
+    assert!(r.summary.faults.is_empty(), "{:?}", r.summary.faults);
+    assert_eq!(mode(r.rows.last().unwrap()), "standby");
+
+    let sc = scene(
+        "tune-timeout",
+        120.0,
+        false,
+        "[[command]]\nat = \"0 s\"\nline = \"set tune_timeout_s 60\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"autotune\"\n\
+         [[command]]\nat = \"110 s\"\nline = \"log\"\n",
+    );
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let log = &r.summary.replies[2].reply;
+    assert!(log.contains("autotune aborted (timeout)"), "{log}");
+    assert!(r.summary.faults.is_empty(), "{:?}", r.summary.faults);
+}
