@@ -36,8 +36,8 @@ use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot};
 use thermorph::units::Millis;
 
-use crate::plant::{Plant, PlantConfig};
-use crate::runs::run::{Camera, Control, inputs_of, measure};
+use crate::plant::Plant;
+use crate::runs::run::{Camera, Control, block_of, inputs_of, measure};
 use crate::runs::scenario::{FaultKind, Scenario};
 
 /// Longest tick of the simulated block, s: the supervisor steps at least this often (telemetry
@@ -128,18 +128,7 @@ pub struct Block {
 impl Block {
     /// The block of `scenario` at time 0, its supervisor started with `settings`.
     pub fn new(scenario: Scenario, settings: Settings) -> Result<Self, String> {
-        let plant = Plant::new(&PlantConfig {
-            ambient_k: scenario.ambient_k,
-            initial_k: scenario.initial_k,
-            fidelity: scenario.fidelity,
-            integrator: scenario.integrator,
-            max_step_s: scenario.max_step_s,
-        })?;
-        let camera = if scenario.camera.enabled {
-            Some(Camera::new(scenario.camera.seed, scenario.camera.noise_k)?)
-        } else {
-            None
-        };
+        let (plant, camera) = block_of(&scenario)?;
         let mut control = Control::new(Millis(0));
         control.supervisor = Supervisor::new(Millis(0), settings);
         let ticks_per_period = (scenario.period_s / TICK_S).ceil().max(1.0) as u64;

@@ -463,6 +463,23 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResu
     run_with(scenario, progress, &mut |_, _| None)
 }
 
+/// The plant and (if the scene has it on) the camera chain of `scenario`, at time 0.
+pub(crate) fn block_of(scenario: &Scenario) -> Result<(Plant, Option<Camera>), String> {
+    let plant = Plant::new(&PlantConfig {
+        ambient_k: scenario.ambient_k,
+        initial_k: scenario.initial_k,
+        fidelity: scenario.fidelity,
+        integrator: scenario.integrator,
+        max_step_s: scenario.max_step_s,
+    })?;
+    let camera = if scenario.camera.enabled {
+        Some(Camera::new(scenario.camera.seed, scenario.camera.noise_k)?)
+    } else {
+        None
+    };
+    Ok((plant, camera))
+}
+
 /// Decides console lines from the supervisor's state (for experiments that enter modes back to
 /// back): called each period with the time and the supervisor; a returned line is sent then.
 pub type Reactor<'a> = dyn FnMut(f64, &Supervisor) -> Option<String> + 'a;
@@ -474,18 +491,7 @@ pub fn run_with(
     progress: &mut dyn FnMut(f64),
     react: &mut Reactor<'_>,
 ) -> Result<RunResult, String> {
-    let mut plant = Plant::new(&PlantConfig {
-        ambient_k: scenario.ambient_k,
-        initial_k: scenario.initial_k,
-        fidelity: scenario.fidelity,
-        integrator: scenario.integrator,
-        max_step_s: scenario.max_step_s,
-    })?;
-    let mut camera = if scenario.camera.enabled {
-        Some(Camera::new(scenario.camera.seed, scenario.camera.noise_k)?)
-    } else {
-        None
-    };
+    let (mut plant, mut camera) = block_of(scenario)?;
     let steps = (scenario.duration_s / scenario.period_s).round().max(1.0) as usize;
     let mut rows = Vec::with_capacity(steps);
     let mut cmd = Inputs::default();
