@@ -239,8 +239,9 @@ pub struct Decision {
     pub reply: Option<Reply>,
     /// A telemetry line is due: the board writes [`Supervisor::write_telemetry`].
     pub telemetry: bool,
-    /// The step used a measurement at most `sensor_timeout_s` old, or sensor loss is latched:
-    /// the control loop is alive, so the board may feed its watchdog.
+    /// The step used a measurement at most `sensor_timeout_s` old, or a fault (sensor loss, or
+    /// one latched before it) holds the outputs safe: the control loop is alive, so the board
+    /// may feed its watchdog. A loop that stops stepping feeds nothing.
     pub alive: bool,
     /// A `save` or `load` to carry out: then `reply` is `None`, and the caller gives the
     /// outcome to [`Supervisor::finish_store`] for the command's reply ([`store`]).
@@ -477,7 +478,6 @@ impl Supervisor {
             s.next_at = Millis(s.next_at.0 + s.period_ms as u64).max(now);
         }
 
-        let sensor_lost = matches!(self.fault, Some(f) if f.kind == FaultKind::SensorLoss);
         let store = self.store.take();
         Decision {
             outputs,
@@ -485,7 +485,9 @@ impl Supervisor {
             reply: if store.is_some() { None } else { reply },
             store,
             telemetry,
-            alive: age_s <= self.settings.sensor_timeout_s || sensor_lost,
+            // A stale measurement always latches sensor loss in this same step unless another
+            // fault already holds the outputs safe: either way the loop is alive.
+            alive: age_s <= self.settings.sensor_timeout_s || self.fault.is_some(),
         }
     }
 

@@ -316,3 +316,27 @@ fn telemetry_comes_at_its_rate() {
     }
     assert_eq!(lines, 20);
 }
+
+#[test]
+fn alive_while_measured_or_safe_even_with_the_sensor_gone_under_an_estop() {
+    let mut r = Rig::new();
+    r.run(5.0);
+    let d = r.sup.step(Millis(r.now_ms), None, None);
+    assert!(d.alive, "a fresh measurement");
+    // The e-stop first, then the sensor goes: sensor loss cannot latch over the e-stop, but the
+    // outputs are safe and the loop runs, so the watchdog is fed (no reset loop).
+    r.sup.step(Millis(r.now_ms), None, Some(Command::EStop));
+    r.sensor = false;
+    r.run(3.0);
+    let d = r.sup.step(Millis(r.now_ms), None, None);
+    assert_eq!(r.sup.fault().map(|f| f.code()), Some("estop"));
+    assert!(d.alive && d.outputs == Outputs::OFF);
+    // Without a fault, a stale measurement latches sensor loss in the same step.
+    let mut r = Rig::new();
+    r.run(5.0);
+    r.sensor = false;
+    r.run(1.25);
+    let d = r.sup.step(Millis(r.now_ms), None, None);
+    assert_eq!(r.sup.fault().map(|f| f.code()), Some("sensor-loss"));
+    assert!(d.alive);
+}
