@@ -3,13 +3,15 @@
 //! console behind a pty) driven by `thermorph-desk run` with a script that preheats, steps with
 //! two springs, forms and recovers, recording the telemetry, then `thermorph-desk plot`.
 
-use std::io::{BufRead, BufReader, Read};
-use std::path::PathBuf;
+use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SIM: &str = env!("CARGO_BIN_EXE_host-sim");
-const DESK: &str = env!("CARGO_BIN_EXE_thermorph-desk");
+
+mod common;
+
+use common::{desk, png_size, scratch};
 
 /// `host-sim console --pty` on a scene, stopped with SIGINT when dropped.
 struct Console {
@@ -58,57 +60,6 @@ impl Drop for Console {
     }
 }
 
-/// Run the desk with a time limit; returns (success, stdout, stderr).
-fn desk(args: &[&str], limit: Duration) -> (bool, String, String) {
-    let started = Instant::now();
-    let mut child = Command::new(DESK)
-        .args(args)
-        .env("HOME", std::env::temp_dir())
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start thermorph-desk");
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let out_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = out.read_to_string(&mut s);
-        s
-    });
-    let err_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = err.read_to_string(&mut s);
-        s
-    });
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if started.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("thermorph-desk {args:?} still running after {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    (
-        status.success(),
-        out_t.join().unwrap(),
-        err_t.join().unwrap(),
-    )
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "thermorph-desk-console-{name}-{}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 #[test]
 fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
     let dir = scratch("cycle");
@@ -133,7 +84,7 @@ fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
     )
     .unwrap();
     let csv = dir.join("cycle.csv");
-    let (ok, stdout, stderr) = desk(
+    let run = desk(
         &[
             "run",
             &console.path,
@@ -141,10 +92,11 @@ fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
             "--record",
             csv.to_str().unwrap(),
         ],
+        "",
         Duration::from_secs(240),
     );
-    assert!(ok, "{stdout}\n{stderr}");
-    assert!(stdout.contains("script passed"), "{stdout}");
+    assert!(run.ok, "{}\n{}", run.stdout, run.stderr);
+    assert!(run.stdout.contains("script passed"), "{}", run.stdout);
 
     // The recording: the library's telemetry fields, every mode of the cycle, both springs
     // stepping, the recovery's pulse on all three, the film at the stepping temperature.
@@ -173,20 +125,19 @@ fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
     assert!(rows.iter().all(|r| r[col("fault")] == "none"));
 
     let png = dir.join("cycle.png");
-    let (ok, stdout, stderr) = desk(
+    let plot = desk(
         &[
             "plot",
             csv.to_str().unwrap(),
             "--out",
             png.to_str().unwrap(),
         ],
+        "",
         Duration::from_secs(30),
     );
-    assert!(ok, "{stdout}\n{stderr}");
+    assert!(plot.ok, "{}\n{}", plot.stdout, plot.stderr);
     let bytes = std::fs::read(&png).unwrap();
-    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
-    let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
-    let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+    let (width, height) = png_size(&png);
     assert_eq!(width, host_sim::runs::plot::WIDTH_PX);
     assert!(
         height > 600 && bytes.len() > 20_000,

@@ -10,8 +10,7 @@
 use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
 use std::os::fd::{AsRawFd, OwnedFd};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::path::PathBuf;
 use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -27,7 +26,9 @@ use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
 use thermorph::units::{Kelvin, Millis};
 
-const DESK: &str = env!("CARGO_BIN_EXE_thermorph-desk");
+mod common;
+
+use common::{desk, png_size, scratch};
 
 /// How the fake board behaves.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -212,79 +213,6 @@ impl Drop for FakeBoard {
             let _ = t.join();
         }
     }
-}
-
-struct Outcome {
-    ok: bool,
-    stdout: String,
-    stderr: String,
-    took: Duration,
-}
-
-/// Run the desk with `args` (and `stdin`), killing it and failing if it outlives `limit`.
-fn desk(args: &[&str], stdin: &str, limit: Duration) -> Outcome {
-    let started = Instant::now();
-    let mut child = Command::new(DESK)
-        .args(args)
-        .env("HOME", std::env::temp_dir())
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start thermorph-desk");
-    let mut input = child.stdin.take().unwrap();
-    let text = stdin.to_string();
-    let feeder = std::thread::spawn(move || {
-        let _ = input.write_all(text.as_bytes());
-    });
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let out_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = out.read_to_string(&mut s);
-        s
-    });
-    let err_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = err.read_to_string(&mut s);
-        s
-    });
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if started.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!(
-                "thermorph-desk {args:?} still running after {limit:?}; stderr: {}",
-                err_t.join().unwrap()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    feeder.join().unwrap();
-    Outcome {
-        ok: status.success(),
-        stdout: out_t.join().unwrap(),
-        stderr: err_t.join().unwrap(),
-        took: started.elapsed(),
-    }
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("desk-e2e-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn png_size(path: &Path) -> (u32, u32) {
-    let bytes = std::fs::read(path).unwrap();
-    let reader = png::Decoder::new(std::io::Cursor::new(bytes))
-        .read_info()
-        .unwrap();
-    (reader.info().width, reader.info().height)
 }
 
 /// Connect, then a script that preheats, steps with two springs, forms and recovers while it
