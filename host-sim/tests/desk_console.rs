@@ -12,6 +12,8 @@ const SIM: &str = env!("CARGO_BIN_EXE_host-sim");
 mod common;
 
 use common::{desk, png_size, scratch};
+use host_sim::console::desk::telemetry::csv_header;
+use host_sim::runs::plot::Table;
 
 /// `host-sim console --pty` on a scene, stopped with SIGINT when dropped.
 struct Console {
@@ -101,28 +103,23 @@ fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
     // The recording: the library's telemetry fields, every mode of the cycle, both springs
     // stepping, the recovery's pulse on all three, the film at the stepping temperature.
     let text = std::fs::read_to_string(&csv).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    for f in thermorph::supervisor::report::TELEMETRY_FIELDS {
-        assert!(header.contains(&f), "{f} missing from {header:?}");
-    }
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert!(rows.len() > 100, "{} rows", rows.len());
+    assert_eq!(text.lines().next().unwrap(), csv_header());
+    let t = Table::parse(&text).unwrap();
+    assert!(t.len() > 100, "{} rows", t.len());
+    let (modes, springs) = (t.text("mode").unwrap(), t.text("springs").unwrap());
     for m in ["standby", "step-large", "form", "recover"] {
-        assert!(rows.iter().any(|r| r[col("mode")] == m), "no {m} recorded");
+        assert!(modes.contains(&m), "no {m} recorded");
     }
-    assert!(rows.iter().any(|r| r[col("springs")] == "AB"));
+    assert!(springs.contains(&"AB"));
     assert!(
-        rows.iter()
-            .any(|r| r[col("mode")] == "recover" && r[col("springs")] == "ABC")
+        modes
+            .iter()
+            .zip(&springs)
+            .any(|(m, s)| *m == "recover" && *s == "ABC")
     );
-    let hottest = rows
-        .iter()
-        .filter_map(|r| r[col("t1_k")].parse::<f64>().ok())
-        .fold(f64::MIN, f64::max);
+    let hottest = t.num("t1_k").unwrap().into_iter().fold(f64::MIN, f64::max);
     assert!(hottest > 357.0, "{hottest}");
-    assert!(rows.iter().all(|r| r[col("fault")] == "none"));
+    assert!(t.text("fault").unwrap().iter().all(|f| *f == "none"));
 
     let png = dir.join("cycle.png");
     let plot = desk(

@@ -289,12 +289,15 @@ fn line_panel(
     Ok(())
 }
 
+/// A panel's chart: time against a value, both `f64`.
+type Chart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
 fn draw_bands<DB: DrawingBackend>(
-    chart: &mut ChartContext<
-        '_,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
+    chart: &mut Chart<'_, DB>,
     bands: &[Band],
     x: &Range<f64>,
     y: &Range<f64>,
@@ -328,11 +331,7 @@ fn draw_bands<DB: DrawingBackend>(
 }
 
 fn draw_gaps<DB: DrawingBackend>(
-    chart: &mut ChartContext<
-        '_,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
+    chart: &mut Chart<'_, DB>,
     gaps: &[f64],
     y: &Range<f64>,
 ) -> Result<(), String> {
