@@ -17,6 +17,21 @@ pub const DEFAULT_GAINS: PidGains = PidGains {
     kd_s_per_k: 0.061,
 };
 
+/// The springs' heat model's on-time to austenite, s: the heat a 2.3 mm spring at 15 A takes
+/// from room temperature through its transformation (≈1.8 kJ at ≈66 W) with little load. On
+/// the simulated block a spring pulling on the cold column (14 N, its transformation shifted
+/// up ≈8 K) is 95 % austenite after 32 s, when this model reads 1.12 (host-sim's
+/// `plant_calibration::spring_heat_model_tracks_the_plant`).
+pub const SPRING_HEAT_S: f32 = 27.0;
+/// The springs' heat model's cooling time constant, s (still air): after a stepping the
+/// estimate falls to [`SPRING_REST`] in 469 s, where the simulated block's spring is martensite
+/// again after 313 s alone and ≈430 s loaded by the bend: never early.
+pub const SPRING_COOL_S: f32 = 240.0;
+/// The heat estimate below which a spring counts as rested (martensite), fraction: a spring
+/// just below Mf holds ≈19 % of the heat of an austenite one (its sensible heat from room
+/// temperature over the sum of that at Af and the latent heat).
+pub const SPRING_REST: f32 = 0.15;
+
 /// The controller's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
@@ -80,6 +95,22 @@ pub struct Settings {
     pub recover_pulse_s: f32,
     /// Recovery: time held at `hot_k` after the pulse before standby, s.
     pub recover_hold_s: f32,
+    /// Springs' heat model ([`crate::control::SpringHeat`]): full-current on-time that takes a
+    /// spring from room temperature to austenite, s.
+    pub spring_heat_s: f32,
+    /// Springs' heat model: still-air cooling time constant, s.
+    pub spring_cool_s: f32,
+    /// Springs' heat model: a new stepping waits (holding `hot_k`) until every spring's heat
+    /// estimate is at most this (martensite again), fraction of the heat to austenite.
+    pub spring_rest: f32,
+    /// Recovery balances the springs up to this heat estimate, fraction of the heat to
+    /// austenite: above 1, because a loaded spring's transformation temperatures rise with its
+    /// stress (a spring stretched by the bend needs more heat to pull back).
+    pub spring_recover_heat: f32,
+    /// Recovery drives the springs in windows of this on, s (at most `spring_on_max_s`).
+    pub recover_on_s: f32,
+    /// ... and this off, which ends each continuous on-time, s.
+    pub recover_off_s: f32,
     /// Fan duty in forming, fraction.
     pub form_fan: f32,
     /// Split range: loop outputs within ±this drive neither heater nor fan, fraction.
@@ -146,6 +177,12 @@ impl Settings {
         large_steps: 4.0,
         recover_pulse_s: 1.0,
         recover_hold_s: 15.0,
+        spring_heat_s: SPRING_HEAT_S,
+        spring_cool_s: SPRING_COOL_S,
+        spring_rest: SPRING_REST,
+        spring_recover_heat: 1.4,
+        recover_on_s: 7.0,
+        recover_off_s: 1.0,
         form_fan: 1.0,
         fan_deadband: 0.02,
         t_max_k: 373.0,
@@ -183,8 +220,11 @@ impl Settings {
         if self.step_s > self.spring_on_max_s
             || self.recover_pulse_s > self.spring_on_max_s
             || self.prewarm_s > self.spring_on_max_s
+            || self.recover_on_s > self.spring_on_max_s
         {
-            return Err("step_s, prewarm_s and recover_pulse_s must not exceed spring_on_max_s");
+            return Err(
+                "step_s, prewarm_s, recover_pulse_s and recover_on_s must not exceed spring_on_max_s",
+            );
         }
         if self.heater_cap_k + 2.0 > self.t_heater_max_k {
             return Err("heater_cap_k must be at least 2 K below t_heater_max_k");
@@ -447,6 +487,52 @@ pub const PARAMS: &[Param] = &[
         120.0,
         "recovery hold after the pulse",
         |s| s.recover_hold_s
+    ),
+    param!(
+        "spring_heat_s",
+        "s",
+        5.0,
+        120.0,
+        "spring model: on-time from cold to austenite",
+        |s| s.spring_heat_s
+    ),
+    param!(
+        "spring_cool_s",
+        "s",
+        20.0,
+        2000.0,
+        "spring model: cooling time constant",
+        |s| s.spring_cool_s
+    ),
+    pct!(
+        "spring_rest_pct",
+        1.0,
+        90.0,
+        "spring model: rested below, before stepping",
+        |s| s.spring_rest
+    ),
+    pct!(
+        "spring_recover_pct",
+        50.0,
+        250.0,
+        "recovery heats the springs to this",
+        |s| s.spring_recover_heat
+    ),
+    param!(
+        "recover_on_s",
+        "s",
+        0.5,
+        15.0,
+        "recovery: spring window on",
+        |s| s.recover_on_s
+    ),
+    param!(
+        "recover_off_s",
+        "s",
+        0.5,
+        30.0,
+        "recovery: spring window off",
+        |s| s.recover_off_s
     ),
     pct!("form_fan_pct", 10.0, 100.0, "fan duty in forming", |s| s
         .form_fan),

@@ -19,6 +19,10 @@ fn mode(r: &Row) -> &'static str {
     r.control.unwrap().mode
 }
 
+fn phase(r: &Row) -> &'static str {
+    r.control.unwrap().phase
+}
+
 fn fault(r: &Row) -> Option<&'static str> {
     r.control.unwrap().fault
 }
@@ -295,6 +299,56 @@ fn recovery_with_rested_springs_brings_the_column_back_straight() {
     assert!(within <= 90.0, "{within}");
     assert!(last.obs.bend_deg <= 2.0 && mode(last) == "standby");
     assert!(rows.iter().all(|r| fault(r).is_none()));
+}
+
+#[test]
+fn back_to_back_cycles_recover_straight_and_the_second_stepping_waits_for_the_springs() {
+    // Step AB, form, recover at once (springs A and B still austenite), then step AB again
+    // at once: recovery balances the three springs and ends straight; the second stepping
+    // rests until the springs are martensite again and loads as the first did.
+    let sc = paper::scene(2400.0, 298.15, false).unwrap();
+    let mut stage = 0;
+    let mut react = |t: f64, s: &thermorph::supervisor::Supervisor| -> Option<String> {
+        let (mode, phase) = (s.mode().name(), s.mode().phase_name());
+        let line = match stage {
+            0 if t >= paper::STEP_AT_S => "mode step-large AB",
+            1 | 4 if mode == "step-large" && phase == "hold" => "mode form",
+            2 | 5 if mode == "standby" => "mode recover",
+            3 if mode == "standby" => "mode step-large AB",
+            _ => return None,
+        };
+        stage += 1;
+        Some(line.into())
+    };
+    let rows = host_sim::runs::run::run_with(&sc, &mut |_| {}, &mut react)
+        .unwrap()
+        .rows;
+    assert!(rows.iter().all(|r| fault(r).is_none()));
+    let loads: Vec<f64> = rows
+        .windows(2)
+        .filter(|w| phase(&w[0]) == "spring" && phase(&w[1]) == "hold")
+        .map(|w| w[0].obs.bend_deg)
+        .collect();
+    let recovered: Vec<f64> = rows
+        .windows(2)
+        .filter(|w| mode(&w[0]) == "recover" && mode(&w[1]) != "recover")
+        .map(|w| w[1].obs.bend_deg)
+        .collect();
+    let rest_s = rows.iter().filter(|r| phase(r) == "rest").count() as f64 * 0.25;
+    let hottest = rows
+        .iter()
+        .flat_map(|r| r.obs.springs_k)
+        .fold(0.0f64, f64::max);
+    println!(
+        "back to back: loading {loads:.1?}°, straight after each recovery {recovered:.2?}°; \
+         the second stepping rested {rest_s:.0} s; hottest spring {hottest:.0} K"
+    );
+    assert_eq!(loads.len(), 2, "{loads:?}");
+    assert_eq!(recovered.len(), 2, "{recovered:?}");
+    assert!((loads[1] - loads[0]).abs() <= 4.0, "{loads:?}");
+    assert!(recovered.iter().all(|&b| b <= 2.0), "{recovered:?}");
+    assert!(rest_s > 60.0, "{rest_s}");
+    assert!(hottest < 420.0, "{hottest}");
 }
 
 #[test]

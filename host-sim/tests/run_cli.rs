@@ -56,9 +56,11 @@ fn default_scene_writes_csv_json_and_png() {
                 continue;
             }
             let x: f64 = v.parse().unwrap();
-            // Tc is NaN until the first frame and the target while no loop runs (forming);
-            // nothing else may be.
-            let forming = r[header.iter().position(|h| *h == "mode").unwrap()] == "form";
+            // Tc is NaN until the first frame and the target while no loop runs (forming and
+            // recovery's cooling); nothing else may be.
+            let mode = r[header.iter().position(|h| *h == "mode").unwrap()];
+            let phase = r[header.iter().position(|h| *h == "phase").unwrap()];
+            let forming = mode == "form" || (mode == "recover" && phase == "cool");
             assert!(
                 x.is_finite()
                     || (*h == "tc_k" && r[0].parse::<f64>().unwrap() < 1.0)

@@ -11,6 +11,8 @@
 //! - [`SplitRange`]: one loop output in [−1, 1] to heater and fan duty, never both on.
 //! - [`RelayAutotune`]: the Åström–Hägglund relay test, giving `Ku`, `Tu` and gains by a
 //!   [`TuneRule`].
+//! - [`SpringHeat`]: the springs' heat estimate from their switching history (recovery's
+//!   balancing, stepping's rest).
 //!
 //! Nothing here panics: bad input (NaN, infinities, Δt ≤ 0 or too long, invalid gains) gives a
 //! documented safe result.
@@ -33,12 +35,14 @@
 mod autotune;
 mod pid;
 mod split;
+mod spring_heat;
 
 pub use autotune::{
     AbortReason, AutotuneConfig, AutotuneResult, AutotuneStep, RelayAutotune, TuneRule,
 };
 pub use pid::{Pid, PidConfig, PidError, PidGains, PidTerms};
 pub use split::{HeatCool, SplitRange};
+pub use spring_heat::SpringHeat;
 
 #[cfg(test)]
 mod tests;

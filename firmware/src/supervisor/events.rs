@@ -34,7 +34,12 @@ pub enum EventKind {
     TuneAborted(&'static str),
     /// The large stepping ran its last phase.
     SteppingDone,
-    /// A phase that waits for a temperature gave up (`soak`, `reheat` or `form`) and the mode
+    /// Recovery held the column straight and started cooling it (springs still balanced).
+    RecoveryCooling,
+    /// A stepping's soak was done but a spring was still warm: it waits for the springs to rest.
+    SpringsResting,
+    /// A phase that waits for a temperature gave up (`soak`, `reheat`, `form` or `recover`,
+    /// recovery's cooling) and the mode
     /// ended in standby; Tc when it did, K.
     TimedOut {
         /// Which wait.

@@ -17,6 +17,9 @@
 //!   |            [ Stepping: Soak ]  heat until the colder target   |
 //!   |                    |           reaches hot_k and holds it     |
 //!   |                    v           ready_dwell_s                  |
+//!   |            [ Stepping: Rest ]  (only if a spring is still warm|
+//!   |                    |           by its heat estimate) hold     |
+//!   |                    v           hot_k until spring_rest        |
 //!   |            [ Stepping: Prewarm ] springs on prewarm_s, then   |
 //!   |                    |             off prewarm_gap_s            |
 //!   |                    v                                          |
@@ -30,9 +33,11 @@
 //!   |                                                               |
 //!   |  mode form --> [ Forming ] heater off, fan form_fan, until the |
 //!   |                hotter target ≤ form_end_k ------------------->+
-//!   |  mode recover -> [ Recovery: Heat ] to hot_k (as Soak)         |
+//!   |  mode recover -> [ Recovery: Heat ] to hot_k (as Soak), springs |
+//!   |                   balanced to spring_recover_pct (throughout)  |
 //!   |                   -> [ Pulse ] all springs, recover_pulse_s    |
-//!   |                   -> [ Hold ] recover_hold_s at hot_k -------->+
+//!   |                   -> [ Hold ] recover_hold_s at hot_k          |
+//!   |                   -> [ Cool ] as forming, until form_end_k --->+
 //!   |  autotune -> [ Autotune ] relay around tune_k; done or aborted >+
 //!   |  stop -> [ Stopped ] everything off, until a `mode` command
 //!   |
@@ -51,6 +56,12 @@
 //!
 //! Tc is [`controlled_temperature`](crate::measurement::controlled_temperature) of the mode's
 //! [`SensingHint`]: the heating modes control the colder of T1/T2, forming the hotter one.
+//!
+//! The springs: nothing senses them, so the supervisor keeps a heat estimate of each from its
+//! own switching ([`SpringHeat`]). Recovery uses it to bring all three springs to austenite
+//! together — three equal pulls hold the softened column straight while it cools and locks,
+//! where a spring still austenite from the stepping would otherwise hold the bend for minutes —
+//! and a new stepping waits (phase `rest`) until every spring is martensite again.
 
 pub mod events;
 pub mod report;
@@ -59,7 +70,7 @@ pub mod store;
 
 use crate::command::{Command, ModeRequest};
 use crate::control::{
-    AutotuneConfig, AutotuneStep, Pid, PidConfig, RelayAutotune, SplitRange, TuneRule,
+    AutotuneConfig, AutotuneStep, Pid, PidConfig, RelayAutotune, SplitRange, SpringHeat, TuneRule,
 };
 use crate::measurement::{Measurement, SensingHint, controlled_temperature};
 use crate::mtts::Prior;
@@ -90,6 +101,10 @@ pub enum StepPhase {
         /// The first time the colder target was within the ready band, if it still is.
         ready_since: Option<Millis>,
     },
+    /// The soak is done but a spring is still warm from an earlier cycle: holding `hot_k` with
+    /// the springs off until every spring's heat estimate is at most `spring_rest` (a passive
+    /// spring that is still austenite would hold the column against the stepping).
+    Rest,
     /// The springs' pre-warm: on for `prewarm_s` (from room temperature to just below their
     /// transformation, so the first stepping phase loads at once), then off for
     /// `prewarm_gap_s` (which also ends the continuous on-time).
@@ -133,21 +148,44 @@ pub struct Stepping {
 /// Where recovery is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RecoverPhase {
-    /// Heating to `hot_k` (as stepping's soak).
+    /// Heating to `hot_k` (as stepping's soak) while the springs are balanced. Ends once Tc is
+    /// ready and every spring's heat estimate has reached `spring_recover_heat`.
     Heat {
-        /// The first time the colder target was within the ready band, if it still is.
+        /// The first time Tc was within the ready band, if it still is.
         ready_since: Option<Millis>,
     },
-    /// All springs on to clear stress-induced martensite; time left, ms.
+    /// All springs on to clear stress-induced martensite (the thesis's pulse); time left, ms.
     Pulse {
         /// Time left, ms.
         left_ms: u32,
     },
-    /// Holding `hot_k` while the stored strain releases; time left, ms.
+    /// Holding `hot_k` while the stored strain releases and the springs hold the column
+    /// straight; time left, ms.
     Hold {
         /// Time left, ms.
         left_ms: u32,
     },
+    /// Cooling as forming does (heater off, fan `form_fan`) with the springs still balanced, so
+    /// the column locks straight; ends when the hotter target is at `form_end_k`.
+    Cool,
+}
+
+/// Recovery's state: its phase and the springs' drive windows.
+///
+/// Throughout recovery the springs are balanced ([`SpringHeat::balance`]) in windows of
+/// `recover_on_s` on and `recover_off_s` off (within the on-time limit): the coldest springs by their heat
+/// estimate are driven first, until all three have reached `spring_recover_heat`, and topped up
+/// after. Three austenite springs pull the soft column straight together; a spring that stayed
+/// austenite from the stepping would otherwise hold the bend (in still air it takes minutes to
+/// turn martensite again), and the stored strain's release alone cannot undo that.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Recovering {
+    /// Where recovery is.
+    pub phase: RecoverPhase,
+    /// In a window where springs may be on.
+    pub window_on: bool,
+    /// Time left in the window, ms.
+    pub window_left_ms: u32,
 }
 
 /// The supervisor's mode; each variant carries its own state.
@@ -163,7 +201,7 @@ pub enum Mode {
         since: Millis,
     },
     /// Mode 4.
-    Recovery(RecoverPhase),
+    Recovery(Recovering),
     /// A relay autotune.
     Autotune(RelayAutotune),
     /// Everything off until a `mode` command.
@@ -193,14 +231,18 @@ impl Mode {
             Mode::Stepping(s) if s.paused => "paused",
             Mode::Stepping(s) => match s.phase {
                 StepPhase::Soak { .. } => "soak",
+                StepPhase::Rest => "rest",
                 StepPhase::Prewarm { .. } => "prewarm",
                 StepPhase::Spring { .. } => "spring",
                 StepPhase::Pulse { .. } => "pulse",
                 StepPhase::Hold => "hold",
             },
-            Mode::Recovery(RecoverPhase::Heat { .. }) => "heat",
-            Mode::Recovery(RecoverPhase::Pulse { .. }) => "pulse",
-            Mode::Recovery(RecoverPhase::Hold { .. }) => "hold",
+            Mode::Recovery(r) => match r.phase {
+                RecoverPhase::Heat { .. } => "heat",
+                RecoverPhase::Pulse { .. } => "pulse",
+                RecoverPhase::Hold { .. } => "hold",
+                RecoverPhase::Cool => "cool",
+            },
             _ => "-",
         }
     }
@@ -267,6 +309,7 @@ pub struct Supervisor {
     last_step: Millis,
     started: Millis,
     springs: SpringMask,
+    spring_heat: SpringHeat,
     stream: Option<Stream>,
     button_pressed: bool,
     store: Option<store::StoreRequest>,
@@ -294,6 +337,25 @@ fn outer_config(s: &Settings, target_k: f32) -> PidConfig {
 
 fn ms(seconds: f32) -> u32 {
     (seconds * 1000.0 + 0.5) as u32
+}
+
+/// Recovery's balancing drives the springs whose heat estimate is within this of the
+/// coldest's ([`SpringHeat::balance`]): one 0.25 s frame at full current adds ≈0.01.
+const BALANCE_BAND: f32 = 0.05;
+
+/// The first springs-on phase of a stepping: the pre-warm, or the first stepping phase.
+fn first_spring_phase(s: &Settings) -> StepPhase {
+    if s.prewarm_s > 0.0 {
+        StepPhase::Prewarm {
+            on: true,
+            left_ms: ms(s.prewarm_s),
+        }
+    } else {
+        StepPhase::Spring {
+            index: 0,
+            left_ms: ms(s.step_s),
+        }
+    }
 }
 
 impl Supervisor {
@@ -324,6 +386,7 @@ impl Supervisor {
             last_step: now,
             started: now,
             springs: SpringMask::from_bits(1),
+            spring_heat: SpringHeat::COLD,
             stream: None,
             button_pressed: false,
             store: None,
@@ -376,10 +439,19 @@ impl Supervisor {
         self.outputs
     }
 
+    /// Return the springs' heat estimate ([`SpringHeat`]), up to this step's start.
+    pub fn spring_heat(&self) -> &SpringHeat {
+        &self.spring_heat
+    }
+
     /// Return the sensing hint of the mode.
     pub fn sensing_hint(&self) -> SensingHint {
         match self.mode {
-            Mode::Forming { .. } => SensingHint {
+            Mode::Forming { .. }
+            | Mode::Recovery(Recovering {
+                phase: RecoverPhase::Cool,
+                ..
+            }) => SensingHint {
                 prior: Prior::SurfaceHotter,
                 weights: Settings::weights(self.settings.w1_form),
             },
@@ -413,6 +485,13 @@ impl Supervisor {
         let now = now.max(self.last_step);
         let elapsed_ms = now.0.saturating_sub(self.last_step.0).min(u32::MAX as u64) as u32;
         self.last_step = now;
+        // The springs ran with the last decision's outputs since the last step.
+        self.spring_heat.update(
+            self.outputs.springs,
+            elapsed_ms as f32 * 1e-3,
+            self.settings.spring_heat_s,
+            self.settings.spring_cool_s,
+        );
 
         // 1. The measurement: only a valid, newer one is used.
         let fresh = measurement.filter(|m| self.valid(m)).copied();
@@ -500,7 +579,13 @@ impl Supervisor {
     fn loop_active(&self) -> bool {
         !matches!(
             self.mode,
-            Mode::Forming { .. } | Mode::Stopped | Mode::Faulted
+            Mode::Forming { .. }
+                | Mode::Recovery(Recovering {
+                    phase: RecoverPhase::Cool,
+                    ..
+                })
+                | Mode::Stopped
+                | Mode::Faulted
         )
     }
 
@@ -586,6 +671,9 @@ impl Supervisor {
             (since, outcome)
         };
         let mut gave_up: Option<&'static str> = None;
+        // Recovery's cooling: heater off, fan on, as forming (its start restarts the timeout).
+        let mut cooling = false;
+        let mut cool_from: Option<Millis> = None;
         let mut springs = SpringMask::NONE;
         let mut next: Option<Mode> = None;
         let target = match &mut self.mode {
@@ -597,20 +685,18 @@ impl Supervisor {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
                         match go {
-                            Soak::Go if s.prewarm_s > 0.0 => {
-                                st.phase = StepPhase::Prewarm {
-                                    on: true,
-                                    left_ms: ms(s.prewarm_s),
-                                }
+                            Soak::Go if !self.spring_heat.rested(s.spring_rest) => {
+                                self.events.push(now, EventKind::SpringsResting);
+                                st.phase = StepPhase::Rest;
                             }
-                            Soak::Go => {
-                                st.phase = StepPhase::Spring {
-                                    index: 0,
-                                    left_ms: ms(s.step_s),
-                                }
-                            }
+                            Soak::Go => st.phase = first_spring_phase(&s),
                             Soak::GiveUp => gave_up = Some("soak"),
                             Soak::Wait => {}
+                        }
+                    }
+                    StepPhase::Rest => {
+                        if self.spring_heat.rested(s.spring_rest) {
+                            st.phase = first_spring_phase(&s);
                         }
                     }
                     StepPhase::Prewarm { on, left_ms } => {
@@ -675,25 +761,36 @@ impl Supervisor {
                 }
                 s.standby_k
             }
-            Mode::Recovery(phase) => {
-                match phase {
+            Mode::Recovery(rec) => {
+                rec.window_left_ms = rec.window_left_ms.saturating_sub(elapsed_ms);
+                if rec.window_left_ms == 0 {
+                    rec.window_on = !rec.window_on;
+                    rec.window_left_ms = ms(if rec.window_on {
+                        s.recover_on_s
+                    } else {
+                        s.recover_off_s
+                    })
+                    .max(1);
+                }
+                let balanced = self.spring_heat.all_at(s.spring_recover_heat);
+                match &mut rec.phase {
                     RecoverPhase::Heat { ready_since } => {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
                         match go {
-                            Soak::Go => {
-                                *phase = RecoverPhase::Pulse {
+                            Soak::Go if balanced => {
+                                rec.phase = RecoverPhase::Pulse {
                                     left_ms: ms(s.recover_pulse_s),
                                 }
                             }
                             Soak::GiveUp => gave_up = Some("reheat"),
-                            Soak::Wait => {}
+                            Soak::Go | Soak::Wait => {}
                         }
                     }
                     RecoverPhase::Pulse { left_ms } => {
                         *left_ms = left_ms.saturating_sub(elapsed_ms);
                         if *left_ms == 0 {
-                            *phase = RecoverPhase::Hold {
+                            rec.phase = RecoverPhase::Hold {
                                 left_ms: ms(s.recover_hold_s),
                             };
                         }
@@ -701,13 +798,32 @@ impl Supervisor {
                     RecoverPhase::Hold { left_ms } => {
                         *left_ms = left_ms.saturating_sub(elapsed_ms);
                         if *left_ms == 0 {
+                            rec.phase = RecoverPhase::Cool;
+                            cool_from = Some(now);
+                        }
+                    }
+                    RecoverPhase::Cool => {
+                        if hotter.is_some_and(|h| h <= s.form_end_k) {
                             next = Some(Mode::Standby);
+                        } else if now.seconds_since(self.mode_since) > s.form_timeout_s {
+                            gave_up = Some("recover");
                         }
                     }
                 }
-                if matches!(phase, RecoverPhase::Pulse { .. }) {
+                if matches!(rec.phase, RecoverPhase::Pulse { .. }) {
                     springs = SpringMask::ALL;
+                } else if rec.window_on {
+                    springs = self
+                        .spring_heat
+                        .balance(s.spring_recover_heat, BALANCE_BAND);
+                    // A spring near its duty limit sits the window out.
+                    for i in 0..crate::outputs::SPRINGS {
+                        if self.safety.spring_duty(i) >= 0.9 * s.spring_duty_max {
+                            springs = SpringMask::from_bits(springs.bits() & !(1 << i));
+                        }
+                    }
                 }
+                cooling = matches!(rec.phase, RecoverPhase::Cool);
                 s.hot_k
             }
             Mode::Autotune(tuner) => {
@@ -763,11 +879,16 @@ impl Supervisor {
             self.enter(now, m);
             return self.run_mode(now, 0, None, 0.0);
         }
-        if let Mode::Forming { .. } = self.mode {
+        if let Some(t) = cool_from {
+            // The cooling's timeout counts from its own start.
+            self.mode_since = t;
+            self.events.push(t, EventKind::RecoveryCooling);
+        }
+        if matches!(self.mode, Mode::Forming { .. }) || cooling {
             return Outputs {
                 heater: Duty::OFF,
                 fan: Duty::from_fraction(s.form_fan),
-                springs: SpringMask::NONE,
+                springs,
             };
         }
         self.set_target(target);
@@ -930,9 +1051,11 @@ impl Supervisor {
                         })
                     }
                     ModeRequest::Form => Mode::Forming { since: now },
-                    ModeRequest::Recover => {
-                        Mode::Recovery(RecoverPhase::Heat { ready_since: None })
-                    }
+                    ModeRequest::Recover => Mode::Recovery(Recovering {
+                        phase: RecoverPhase::Heat { ready_since: None },
+                        window_on: true,
+                        window_left_ms: ms(self.settings.recover_on_s).max(1),
+                    }),
                 };
                 self.enter(now, mode);
                 Reply::mode(&self.mode, self.springs)

@@ -340,3 +340,83 @@ fn alive_while_measured_or_safe_even_with_the_sensor_gone_under_an_estop() {
     assert_eq!(r.sup.fault().map(|f| f.code()), Some("sensor-loss"));
     assert!(d.alive);
 }
+
+#[test]
+fn recovery_balances_the_springs_then_cools_and_a_new_stepping_waits_for_them_to_rest() {
+    let mut r = Rig::new();
+    r.run(60.0);
+    r.line("mode step-large AB");
+    while r.sup.mode().phase_name() != "hold" {
+        r.run(0.25);
+    }
+    r.line("mode form");
+    while r.sup.mode().name() == "form" {
+        r.run(0.25);
+    }
+    let (a, c) = (r.sup.spring_heat().heat(0), r.sup.spring_heat().heat(2));
+    assert!(a > 0.6 && c == 0.0, "{a} {c}");
+    let start = r.log.len();
+    r.line("mode recover");
+    let mut phases = Vec::new();
+    while r.sup.mode().name() == "recover" && r.log.len() - start < 4 * 600 {
+        let p = r.sup.mode().phase_name();
+        if phases.last() != Some(&p) {
+            phases.push(p);
+        }
+        r.run(0.25);
+    }
+    assert_eq!(phases, ["heat", "pulse", "hold", "cool"]);
+    assert_eq!(r.sup.mode().name(), "standby");
+    assert!(r.sup.fault().is_none(), "{:?}", r.sup.fault());
+    let rec = &r.log[start..];
+    // C, the cold spring, is driven alone first; A and B join once it has caught up.
+    let first = rec.iter().find(|(_, o)| !o.springs.is_empty()).unwrap();
+    assert_eq!(first.1.springs, SpringMask::from_bits(0b100));
+    let joined = rec.iter().position(|(_, o)| o.springs.contains(0)).unwrap();
+    assert!(joined > 4 * 10, "A joined after {joined} frames");
+    // Never longer on than a window, and every spring reached the recovery heat.
+    for i in 0..3 {
+        let mut run = 0;
+        for (_, o) in rec {
+            run = if o.springs.contains(i) { run + 1 } else { 0 };
+            assert!(run <= 28, "spring {i} on for {run} frames");
+        }
+    }
+    let s = Settings::DEFAULT;
+    // Cooling: heater off and fan on, springs still topped up.
+    let cool: Vec<_> = rec.iter().rev().take(20).collect();
+    assert!(
+        cool.iter()
+            .all(|(_, o)| o.heater == Duty::OFF && o.fan != Duty::OFF)
+    );
+    assert!((0..3).all(|i| r.sup.spring_heat().heat(i) > 0.9 * s.spring_recover_heat));
+    // A new stepping right away: soak, then rest until the estimate says martensite.
+    r.line("mode step-large AB");
+    let mut rested_after = None;
+    let t0 = r.now_ms;
+    while r.sup.mode().phase_name() != "prewarm" && r.now_ms - t0 < 2_000_000 {
+        if r.sup.mode().phase_name() == "rest" && rested_after.is_none() {
+            rested_after = Some(r.now_ms);
+        }
+        r.run(0.25);
+    }
+    let rest_from = rested_after.expect("it rests");
+    assert!(r.sup.spring_heat().rested(s.spring_rest));
+    assert!(
+        r.now_ms - rest_from > 100_000,
+        "{} ms",
+        r.now_ms - rest_from
+    );
+    assert!(
+        r.log[start..]
+            .iter()
+            .filter(|(t, _)| *t > rest_from && *t < r.now_ms - 250)
+            .all(|(_, o)| o.springs.is_empty())
+    );
+    assert!(
+        r.sup
+            .events()
+            .iter()
+            .any(|e| e.kind == EventKind::SpringsResting)
+    );
+}

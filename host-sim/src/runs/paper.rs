@@ -148,9 +148,12 @@ pub struct CycleFigures {
     pub formed_k_b: Option<f64>,
     /// That over k_b at the end of stepping.
     pub stiffness_ratio: Option<f64>,
-    /// Recovery's start until the bend is within 2° of straight, s.
+    /// Recovery's start until the bend is within 2° of straight and stays there until recovery
+    /// ends, s.
     pub recovery_time_s: Option<f64>,
-    /// First spring phase's start until recovery ends, s.
+    /// First spring phase's start until recovery has restored the straight posture (the
+    /// thesis's cycle: stepping 30 s + forming 50 s + recovery 40 s; the cooling that locks the
+    /// straight shape after that is not counted), s.
     pub cycle_time_s: Option<f64>,
 }
 
@@ -217,8 +220,15 @@ pub fn measure(rows: &[Row]) -> CycleFigures {
         return f;
     };
     let t_rec = start(rs);
-    f.recovery_time_s = first(rs, &|r| r.obs.bend_deg <= 2.0).map(|i| rows[i].obs.time_s - t_rec);
-    f.cycle_time_s = first(rs, &|r| mode(r) != "recover").map(|i| start(i) - start(s0));
+    // Settled: the bend is within 2° from then until recovery ends (a pass through straight
+    // that swings out again does not count).
+    let re = first(rs, &|r| mode(r) != "recover").unwrap_or(rows.len());
+    let settled = (rs..re)
+        .rev()
+        .take_while(|&i| rows[i].obs.bend_deg <= 2.0)
+        .last();
+    f.recovery_time_s = settled.map(|i| rows[i].obs.time_s - t_rec);
+    f.cycle_time_s = settled.map(|i| rows[i].obs.time_s - start(s0));
     f
 }
 
