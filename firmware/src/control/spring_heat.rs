@@ -56,11 +56,8 @@ impl SpringHeat {
     /// Account `dt_s` with `on` switched on. `heat_s` and `cool_s` are the model's constants,
     /// s; a non-finite or non-positive time or constant leaves the estimate as it was.
     pub fn update(&mut self, on: SpringMask, dt_s: f32, heat_s: f32, cool_s: f32) {
-        if !(dt_s > 0.0 && heat_s > 0.0 && cool_s > 0.0)
-            || !dt_s.is_finite()
-            || !heat_s.is_finite()
-            || !cool_s.is_finite()
-        {
+        let valid = |x: f32| x > 0.0 && x.is_finite();
+        if !(valid(dt_s) && valid(heat_s) && valid(cool_s)) {
             return;
         }
         let decay = libm::expf(-dt_s / cool_s);

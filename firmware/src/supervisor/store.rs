@@ -20,6 +20,8 @@ use crate::control::{Pid, SplitRange};
 use crate::settings::{PARAMS, RECORD_LEN, RECORD_VERSION, Record, Settings};
 
 /// What the caller must do for a `save` or `load`.
+// No allocator to box the record in; a request is made and moved once per `save`.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum StoreRequest {
     /// Write this record, replacing the stored one.
