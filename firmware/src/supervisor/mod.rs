@@ -167,15 +167,18 @@ pub enum RecoverPhase {
     },
     /// Cooling as forming does (heater off, fan `form_fan`) with the springs still balanced, so
     /// the column locks straight; ends when the hotter target is at `form_end_k`.
-    Cool,
+    Cool {
+        /// When the cooling started (its `form_timeout_s` counts from here).
+        since: Millis,
+    },
 }
 
 /// Recovery's state: its phase and the springs' drive windows.
 ///
 /// Throughout recovery the springs are balanced ([`SpringHeat::balance`]) in windows of
-/// `recover_on_s` on and `recover_off_s` off (within the on-time limit): the coldest springs by their heat
-/// estimate are driven first, until all three have reached `spring_recover_heat`, and topped up
-/// after. Three austenite springs pull the soft column straight together; a spring that stayed
+/// `recover_on_s` on and `recover_off_s` off (within the on-time limit): the coldest springs by
+/// their heat estimate are driven first, until all three have reached `spring_recover_heat`,
+/// and topped up after. Three austenite springs pull the soft column straight together; a spring that stayed
 /// austenite from the stepping would otherwise hold the bend (in still air it takes minutes to
 /// turn martensite again), and the stored strain's release alone cannot undo that.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -241,20 +244,33 @@ impl Mode {
                 RecoverPhase::Heat { .. } => "heat",
                 RecoverPhase::Pulse { .. } => "pulse",
                 RecoverPhase::Hold { .. } => "hold",
-                RecoverPhase::Cool => "cool",
+                RecoverPhase::Cool { .. } => "cool",
             },
             _ => "-",
         }
     }
+
+    /// Cooling with the heater off and the fan on (forming, and recovery's last phase): no
+    /// loop runs, and the sensing expects the surface hotter. Since when, if so.
+    pub fn cooling_since(&self) -> Option<Millis> {
+        match *self {
+            Mode::Forming { since }
+            | Mode::Recovery(Recovering {
+                phase: RecoverPhase::Cool { since },
+                ..
+            }) => Some(since),
+            _ => None,
+        }
+    }
 }
 
-/// What a wait for the ready temperature decided this step.
+/// What a wait for a temperature (the ready one, or forming's end) decided this step.
 enum Soak {
     /// Keep heating.
     Wait,
     /// Ready: go on to the next phase.
     Go,
-    /// Not ready within `soak_timeout_s`: give up, back to standby.
+    /// Not there within its timeout: give up, back to standby.
     GiveUp,
 }
 
@@ -449,7 +465,7 @@ impl Supervisor {
         match self.mode {
             Mode::Forming { .. }
             | Mode::Recovery(Recovering {
-                phase: RecoverPhase::Cool,
+                phase: RecoverPhase::Cool { .. },
                 ..
             }) => SensingHint {
                 prior: Prior::SurfaceHotter,
@@ -577,16 +593,7 @@ impl Supervisor {
     }
 
     fn loop_active(&self) -> bool {
-        !matches!(
-            self.mode,
-            Mode::Forming { .. }
-                | Mode::Recovery(Recovering {
-                    phase: RecoverPhase::Cool,
-                    ..
-                })
-                | Mode::Stopped
-                | Mode::Faulted
-        )
+        self.mode.cooling_since().is_none() && !matches!(self.mode, Mode::Stopped | Mode::Faulted)
     }
 
     fn safe_outputs(&self) -> Outputs {
@@ -671,9 +678,17 @@ impl Supervisor {
             (since, outcome)
         };
         let mut gave_up: Option<&'static str> = None;
-        // Recovery's cooling: heater off, fan on, as forming (its start restarts the timeout).
-        let mut cooling = false;
-        let mut cool_from: Option<Millis> = None;
+        // Forming's end, and recovery's cooling's: the hotter target at form_end_k is done
+        // (Go), past form_timeout_s from `since` it gives up.
+        let cooled = |since: Millis| -> Soak {
+            if hotter.is_some_and(|h| h <= s.form_end_k) {
+                Soak::Go
+            } else if now.seconds_since(since) > s.form_timeout_s {
+                Soak::GiveUp
+            } else {
+                Soak::Wait
+            }
+        };
         let mut springs = SpringMask::NONE;
         let mut next: Option<Mode> = None;
         let target = match &mut self.mode {
@@ -753,11 +768,11 @@ impl Supervisor {
                 }
                 s.hot_k
             }
-            Mode::Forming { .. } => {
-                if hotter.is_some_and(|h| h <= s.form_end_k) {
-                    next = Some(Mode::Standby);
-                } else if now.seconds_since(self.mode_since) > s.form_timeout_s {
-                    gave_up = Some("form");
+            Mode::Forming { since } => {
+                match cooled(*since) {
+                    Soak::Go => next = Some(Mode::Standby),
+                    Soak::GiveUp => gave_up = Some("form"),
+                    Soak::Wait => {}
                 }
                 s.standby_k
             }
@@ -798,17 +813,15 @@ impl Supervisor {
                     RecoverPhase::Hold { left_ms } => {
                         *left_ms = left_ms.saturating_sub(elapsed_ms);
                         if *left_ms == 0 {
-                            rec.phase = RecoverPhase::Cool;
-                            cool_from = Some(now);
+                            rec.phase = RecoverPhase::Cool { since: now };
+                            self.events.push(now, EventKind::RecoveryCooling);
                         }
                     }
-                    RecoverPhase::Cool => {
-                        if hotter.is_some_and(|h| h <= s.form_end_k) {
-                            next = Some(Mode::Standby);
-                        } else if now.seconds_since(self.mode_since) > s.form_timeout_s {
-                            gave_up = Some("recover");
-                        }
-                    }
+                    RecoverPhase::Cool { since } => match cooled(*since) {
+                        Soak::Go => next = Some(Mode::Standby),
+                        Soak::GiveUp => gave_up = Some("recover"),
+                        Soak::Wait => {}
+                    },
                 }
                 if matches!(rec.phase, RecoverPhase::Pulse { .. }) {
                     springs = SpringMask::ALL;
@@ -823,7 +836,6 @@ impl Supervisor {
                         }
                     }
                 }
-                cooling = matches!(rec.phase, RecoverPhase::Cool);
                 s.hot_k
             }
             Mode::Autotune(tuner) => {
@@ -879,12 +891,7 @@ impl Supervisor {
             self.enter(now, m);
             return self.run_mode(now, 0, None, 0.0);
         }
-        if let Some(t) = cool_from {
-            // The cooling's timeout counts from its own start.
-            self.mode_since = t;
-            self.events.push(t, EventKind::RecoveryCooling);
-        }
-        if matches!(self.mode, Mode::Forming { .. }) || cooling {
+        if self.mode.cooling_since().is_some() {
             return Outputs {
                 heater: Duty::OFF,
                 fan: Duty::from_fraction(s.form_fan),
