@@ -76,7 +76,7 @@ fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
          expect fault == none\n\
          mode step-large AB\n\
          wait phase == spring within 60\n\
-         expect springs == AB\n\
+         wait springs == AB within 10\n\
          wait phase == hold within 60\n\
          mode form\n\
          wait mode == standby within 60\n\

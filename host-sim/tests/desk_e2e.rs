@@ -251,7 +251,7 @@ fn connect_run_a_full_cycle_record_and_plot() {
          # large stepping with springs A and B at 358 K\n\
          mode step-large AB\n\
          wait phase == spring within 60\n\
-         expect springs == AB\n\
+         wait springs == AB within 10\n\
          wait phase == hold within 60\n\
          # lock the shape, then recover it\n\
          mode form\n\
