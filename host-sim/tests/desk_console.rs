@@ -66,8 +66,9 @@ impl Drop for Console {
 fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
     let dir = scratch("cycle");
     // The open-loop scene's block without its timed duties (the console plays none), camera
-    // off to keep the test quick; 20× real time.
-    let console = Console::start("open-loop", "20", &dir.join("settings.bin"));
+    // off to keep the test quick; 10× real time, so a 6 s spring phase (600 ms) cannot fall
+    // between two of the script's `status` polls.
+    let console = Console::start("open-loop", "10", &dir.join("settings.bin"));
     let script = dir.join("cycle.txt");
     std::fs::write(
         &script,

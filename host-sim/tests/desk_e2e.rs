@@ -219,7 +219,9 @@ impl Drop for FakeBoard {
 /// records the telemetry; then plot the recording.
 #[test]
 fn connect_run_a_full_cycle_record_and_plot() {
-    let board = FakeBoard::start(Behaviour::Board, 40.0);
+    // 10× real time: a 6 s spring phase lasts 600 ms, so the script's `status` polls (every
+    // 200 ms plus the round trip) cannot alias with the 8 s stepping period and miss it.
+    let board = FakeBoard::start(Behaviour::Board, 10.0);
     let dir = scratch("cycle");
 
     let hist = dir.join("history");
