@@ -6,7 +6,7 @@
 //! exactly one place. Values are `f32` in the unit the name ends with (`_k` Kelvin, `_s`
 //! seconds, `_pct` percent, gains per Kelvin of error on a duty fraction).
 
-use crate::control::PidGains;
+use crate::control::{OnTimer, PidGains};
 use crate::mtts::Weights;
 
 /// The PID gains the block ships with: what `autotune` (relay around 340 K, Ziegler–Nichols'
@@ -141,8 +141,18 @@ pub struct Settings {
     pub tune_base: f32,
     /// Autotune: relay amplitude (heater duty swings base ± this), fraction.
     pub tune_amplitude: f32,
-    /// Autotune: longest run before it gives up, s.
+    /// Autotune: longest run before it gives up, s (at most 900 s: a relay test needs minutes).
     pub tune_timeout_s: f32,
+    /// No-response check: the heater at `runaway_duty` or more this long without the film
+    /// rising `runaway_gain_k` is a fault, whatever the mode, s.
+    pub no_response_s: f32,
+    /// While heating on the colder region, this long a run of frames that could not separate
+    /// T1 and T2 (merged or fallback) makes the loop fall back to the film region, with a
+    /// `# warning`, s.
+    pub unresolved_s: f32,
+    /// Idle timeout of the holding phases (stepping's hold and pause): after this the block
+    /// returns to standby with a `log` event, s.
+    pub hold_timeout_s: f32,
 }
 
 impl Settings {
@@ -199,6 +209,9 @@ impl Settings {
         tune_base: 0.4,
         tune_amplitude: 0.3,
         tune_timeout_s: 600.0,
+        no_response_s: 60.0,
+        unresolved_s: 30.0,
+        hold_timeout_s: 600.0,
     };
 
     /// Return Tc weights with `w1` for T1.
@@ -235,7 +248,59 @@ impl Settings {
         if self.form_end_k > self.hot_k {
             return Err("form_end_k must not exceed hot_k");
         }
+        if self.tune_base + self.tune_amplitude > TUNE_DUTY_MAX + 1e-6 {
+            return Err("tune_base_pct + tune_amplitude_pct must not exceed 90 %");
+        }
+        if self.recover_pulse_s > self.recover_on_s {
+            return Err(
+                "recover_pulse_s must not exceed recover_on_s (the pulse runs inside a window)",
+            );
+        }
+        if self.spring_plan_peak_s() > self.spring_on_max_s {
+            return Err(
+                "the springs' phases add up past spring_on_max_s: a gap shorter than 1 s (or 1/8 of the on-time before it) does not end an on-time",
+            );
+        }
         Ok(())
+    }
+
+    /// The longest continuous on-time any planned sequence of spring phases reaches, as the
+    /// on-time limit counts it ([`OnTimer`]: a short gap does not end an on-time): the pre-warm,
+    /// its gap and every stepping phase with the pulses between (large stepping, which includes
+    /// small), and recovery's windows (on, off, repeated; the pulse runs inside an on window), s.
+    pub fn spring_plan_peak_s(&self) -> f32 {
+        let steps = self.large_steps.max(1.0) as usize;
+        let prewarm = (self.prewarm_s > 0.0)
+            .then_some([(true, self.prewarm_s), (false, self.prewarm_gap_s)])
+            .into_iter()
+            .flatten();
+        let stepping = (0..steps).flat_map(|i| {
+            [
+                (true, self.step_s),
+                (false, if i + 1 < steps { self.pulse_s } else { 0.0 }),
+            ]
+        });
+        let windows =
+            (0..16).flat_map(|_| [(true, self.recover_on_s), (false, self.recover_off_s)]);
+        OnTimer::peak_s(prewarm.chain(stepping)).max(OnTimer::peak_s(windows))
+    }
+}
+
+/// The highest relay duty autotune may ask for, fraction (`tune_base + tune_amplitude`).
+pub const TUNE_DUTY_MAX: f32 = 0.9;
+
+impl Settings {
+    /// Return the autotune relay's expected period, s: what the current gains were tuned for
+    /// (Ziegler–Nichols' `Ti = Tu/2`, the rule autotune applies), at least 5 s. The relay
+    /// must switch at least every two of these once cycling.
+    pub fn tune_expected_period_s(&self) -> f32 {
+        let g = self.gains;
+        let tu = if g.ki_per_k_s > 0.0 {
+            2.0 * g.kp_per_k / g.ki_per_k_s
+        } else {
+            f32::INFINITY
+        };
+        tu.max(5.0)
     }
 }
 
@@ -570,7 +635,7 @@ pub const PARAMS: &[Param] = &[
     pct!(
         "spring_duty_max_pct",
         10.0,
-        100.0,
+        80.0,
         "spring duty limit",
         |s| s.spring_duty_max
     ),
@@ -648,9 +713,33 @@ pub const PARAMS: &[Param] = &[
         "tune_timeout_s",
         "s",
         60.0,
-        3600.0,
+        900.0,
         "autotune time limit",
         |s| s.tune_timeout_s
+    ),
+    param!(
+        "no_response_s",
+        "s",
+        20.0,
+        600.0,
+        "fault if the heater runs hard this long and the film does not rise",
+        |s| s.no_response_s
+    ),
+    param!(
+        "unresolved_s",
+        "s",
+        5.0,
+        300.0,
+        "loop falls back to the film after this long unresolved",
+        |s| s.unresolved_s
+    ),
+    param!(
+        "hold_timeout_s",
+        "s",
+        10.0,
+        7200.0,
+        "holding phases return to standby after",
+        |s| s.hold_timeout_s
     ),
 ];
 
@@ -681,6 +770,16 @@ impl Settings {
     /// Return the value of the parameter called `name`.
     pub fn get(&self, name: &str) -> Option<f32> {
         find(name).map(|p| (p.get)(self))
+    }
+
+    /// Return these settings with `gains` (autotune's result), checked as `set kp`, `set ki`
+    /// and `set kd` would check them: a gain out of its range, or not finite, is refused.
+    pub fn with_gains(&self, gains: PidGains) -> Result<Settings, SetError> {
+        let mut next = *self;
+        next.set("kp", gains.kp_per_k)?;
+        next.set("ki", gains.ki_per_k_s)?;
+        next.set("kd", gains.kd_s_per_k)?;
+        Ok(next)
     }
 
     /// Set the parameter called `name` to `value` (in its console unit); on any error nothing

@@ -25,6 +25,7 @@ use crate::settings::{RECORD_LEN, Record, Settings};
 use crate::supervisor::Supervisor;
 use crate::supervisor::report::Reply;
 use crate::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot};
+use crate::units::Millis;
 
 /// The map key of the settings record.
 pub const SETTINGS_KEY: u8 = 1;
@@ -131,16 +132,22 @@ impl<F: NorFlash> FlashStore<F> {
         Settings::DEFAULT
     }
 
-    /// Carry out a step's [`StoreRequest`]; return the command's reply.
-    pub async fn carry_out(&mut self, req: &StoreRequest, supervisor: &mut Supervisor) -> Reply {
+    /// Carry out a step's [`StoreRequest`] (the caller has applied that step's outputs, heater
+    /// and springs off); return the command's reply. `now` tells the time the operation ended.
+    pub async fn carry_out(
+        &mut self,
+        req: &StoreRequest,
+        supervisor: &mut Supervisor,
+        now: impl Fn() -> Millis,
+    ) -> Reply {
         match req {
             StoreRequest::Save(record) => match self.write(record).await {
-                Ok(()) => supervisor.finish_store(StoreOutcome::Saved),
-                Err(e) => supervisor.finish_store(StoreOutcome::Failed(e)),
+                Ok(()) => supervisor.finish_store(now(), StoreOutcome::Saved),
+                Err(e) => supervisor.finish_store(now(), StoreOutcome::Failed(e)),
             },
             StoreRequest::Load => match self.read().await {
-                Ok(b) => supervisor.finish_store(StoreOutcome::Loaded(b)),
-                Err(e) => supervisor.finish_store(StoreOutcome::Failed(e)),
+                Ok(b) => supervisor.finish_store(now(), StoreOutcome::Loaded(b)),
+                Err(e) => supervisor.finish_store(now(), StoreOutcome::Failed(e)),
             },
         }
     }
@@ -353,7 +360,7 @@ mod tests {
             let d = sup.step(Millis(1), None, Some(parse(l).unwrap()));
             match (d.reply, d.store) {
                 (Some(r), None) => r,
-                (None, Some(req)) => block_on(store.carry_out(&req, sup)),
+                (None, Some(req)) => block_on(store.carry_out(&req, sup, || Millis(20))),
                 other => panic!("{other:?}"),
             }
         };

@@ -211,11 +211,12 @@ impl Console {
                         (Some(r), None) => r,
                         (None, Some(StoreRequest::Save(rec))) => {
                             self.flash = Some(rec.to_vec());
-                            self.sup.finish_store(StoreOutcome::Saved)
+                            self.sup.finish_store(Millis(0), StoreOutcome::Saved)
                         }
                         (None, Some(StoreRequest::Load)) => {
                             let f = self.flash.clone();
-                            self.sup.finish_store(StoreOutcome::Loaded(f.as_deref()))
+                            self.sup
+                                .finish_store(Millis(0), StoreOutcome::Loaded(f.as_deref()))
                         }
                         other => panic!("a step gave {other:?}"),
                     }

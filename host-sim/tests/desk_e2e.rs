@@ -22,8 +22,8 @@ use host_sim::runs::run::{camera_temps, inputs_of};
 use thermorph::console::LineReader;
 use thermorph::measurement::{Measurement, Quality, controlled_temperature};
 use thermorph::settings::Settings;
-use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
+use thermorph::supervisor::{SpringMemory, Supervisor};
 use thermorph::units::{Kelvin, Millis};
 
 mod common;
@@ -99,7 +99,8 @@ impl FakeBoard {
         let (tx, rx) = mpsc::channel();
         let thread = std::thread::spawn(move || {
             let mut plant = Plant::new(&PlantConfig::default()).expect("plant");
-            let mut sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+            let mut sup =
+                Supervisor::with_memory(Millis(0), Settings::DEFAULT, SpringMemory::RESTED);
             let mut reader: LineReader = LineReader::new();
             let mut inputs = Inputs::default();
             let started = Instant::now();
@@ -110,7 +111,12 @@ impl FakeBoard {
                 match rx.try_recv() {
                     Ok(Ctl::Vanish) | Err(mpsc::TryRecvError::Disconnected) => return,
                     Ok(Ctl::Reset) => {
-                        sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+                        // A reset keeps RAM: the springs' memory survives it.
+                        sup = Supervisor::with_memory(
+                            Millis(0),
+                            Settings::DEFAULT,
+                            sup.spring_memory(),
+                        );
                         boot_s = t_s;
                         inputs = Inputs::default();
                         reader = LineReader::new();

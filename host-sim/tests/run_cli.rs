@@ -182,15 +182,23 @@ fn faults_scene_trips_resets_and_logs() {
     assert!(at(30.0).inputs.heater_duty == 0.0 && at(30.0).inputs.fan_duty > 0.0);
     // The reset at 45 s finds the cause gone (frames fresh, heater back).
     let replies: Vec<&str> = r.summary.replies.iter().map(|x| x.reply.as_str()).collect();
-    assert_eq!(replies[1], "ok fault cleared, standby");
+    assert_eq!(
+        replies[1],
+        "ok fault cleared, stopped: every output off until a `mode` command"
+    );
+    assert!(replies[2].starts_with("ok mode standby"), "{}", replies[2]);
     // Spring C stuck on 2:00–3:00 though never commanded.
     assert!(at(150.0).inputs.springs_on[2] && !at(150.0).springs_cmd[2]);
     // Sensor NACKs from 4:00: sensor loss within the 1 s window (plus one frame interval).
     let f1 = &r.summary.faults[1];
     assert!(f1.at_s > 240.0 && f1.at_s <= 241.25, "{f1:?}");
     assert!(at(245.0).inputs.heater_duty == 0.0 && !at(245.0).springs_cmd.iter().any(|s| *s));
-    assert_eq!(replies[3], "ok fault cleared, standby");
-    assert!(replies[4].contains("fault sensor-loss") && replies[4].contains("cleared sensor-loss"));
+    assert!(
+        replies[4].starts_with("ok fault cleared, stopped"),
+        "{}",
+        replies[4]
+    );
+    assert!(replies[5].contains("fault sensor-loss") && replies[5].contains("cleared sensor-loss"));
 }
 
 #[test]

@@ -100,6 +100,16 @@ pub struct AutotuneConfig {
     pub timeout_s: f32,
     /// Rule turning `Ku`, `Tu` into gains.
     pub rule: TuneRule,
+    /// Once the relay has switched, the longest it may wait for the next switch, s (two
+    /// expected periods; infinite: no limit). A reading that stops following the relay — a
+    /// camera that looks elsewhere, a heater off its film — aborts with
+    /// [`AbortReason::NotFollowing`] instead of cycling the heater until the timeout.
+    pub follow_s: f32,
+    /// Before the first switch (the heat-up to the band), the least rise of the reading within
+    /// every [`AutotuneConfig::rise_window_s`] while the relay heats, K (0: no check).
+    pub rise_k: f32,
+    /// See [`AutotuneConfig::rise_k`], s.
+    pub rise_window_s: f32,
 }
 
 impl AutotuneConfig {
@@ -117,6 +127,9 @@ impl AutotuneConfig {
             max_overshoot_k: 8.0,
             timeout_s: 1200.0,
             rule: TuneRule::TyreusLuyben,
+            follow_s: f32::INFINITY,
+            rise_k: 0.0,
+            rise_window_s: f32::INFINITY,
         }
     }
 
@@ -133,6 +146,10 @@ impl AutotuneConfig {
             && self.timeout_s.is_finite()
             && self.timeout_s > 0.0
             && self.cycles >= 2
+            && self.follow_s > 0.0
+            && self.rise_k.is_finite()
+            && self.rise_k >= 0.0
+            && self.rise_window_s > 0.0
     }
 }
 
@@ -168,6 +185,9 @@ pub enum AbortReason {
     InvalidConfig,
     /// The cycles measured no usable amplitude or period.
     NoOscillation,
+    /// The reading did not follow the relay: no rise while heating up to the band, or no
+    /// switch within [`AutotuneConfig::follow_s`] once cycling.
+    NotFollowing,
 }
 
 impl AbortReason {
@@ -180,6 +200,7 @@ impl AbortReason {
             Self::InvalidTime => "invalid-time",
             Self::InvalidConfig => "invalid-config",
             Self::NoOscillation => "no-oscillation",
+            Self::NotFollowing => "not-following",
         }
     }
 }
@@ -222,6 +243,10 @@ pub struct RelayAutotune {
     cycles_done: u8,
     amplitude_sum_k: f32,
     period_sum_s: f32,
+    /// The last relay switch, s (None before the first).
+    last_switch_s: Option<f32>,
+    /// The heat-up's rise window: its start and the reading then.
+    rise_window: Option<(f32, f32)>,
 }
 
 impl RelayAutotune {
@@ -239,6 +264,8 @@ impl RelayAutotune {
             cycles_done: 0,
             amplitude_sum_k: 0.0,
             period_sum_s: 0.0,
+            last_switch_s: None,
+            rise_window: None,
         }
     }
 
@@ -247,8 +274,9 @@ impl RelayAutotune {
         &self.config
     }
 
-    /// Feed the measurement `measured_k` taken at `now_s` (any monotonic clock in seconds; f32
-    /// keeps 8 ms resolution for a day of uptime) and return what to do until the next one.
+    /// Feed the measurement `measured_k` taken at `now_s` (a monotonic clock in seconds; pass the
+    /// time since the run started, so `f32` keeps sub-millisecond resolution however long the
+    /// board has been up) and return what to do until the next one.
     /// After `Done` or `Aborted`, every call returns the same again.
     pub fn step(&mut self, now_s: f32, measured_k: f32) -> AutotuneStep {
         match self.state {
@@ -302,6 +330,21 @@ impl RelayAutotune {
         if now_s - start_s > c.timeout_s {
             return Err(AbortReason::Timeout);
         }
+        match self.last_switch_s {
+            Some(t) if now_s - t > c.follow_s => return Err(AbortReason::NotFollowing),
+            Some(_) => {}
+            None if self.heating && c.rise_k > 0.0 => match self.rise_window {
+                None => self.rise_window = Some((now_s, t_k)),
+                Some((t0, y0)) if now_s - t0 >= c.rise_window_s => {
+                    if t_k - y0 < c.rise_k {
+                        return Err(AbortReason::NotFollowing);
+                    }
+                    self.rise_window = Some((now_s, t_k));
+                }
+                Some(_) => {}
+            },
+            None => {}
+        }
         if self.heating {
             self.extreme_k = self.extreme_k.min(t_k);
             if t_k > c.target_k + c.hysteresis_k {
@@ -320,6 +363,7 @@ impl RelayAutotune {
                 self.peak_k = None;
                 self.heating = false;
                 self.extreme_k = t_k;
+                self.last_switch_s = Some(now_s);
             }
         } else {
             self.extreme_k = self.extreme_k.max(t_k);
@@ -329,6 +373,7 @@ impl RelayAutotune {
                 }
                 self.heating = true;
                 self.extreme_k = t_k;
+                self.last_switch_s = Some(now_s);
             }
         }
         Ok(None)

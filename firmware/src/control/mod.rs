@@ -13,6 +13,8 @@
 //!   [`TuneRule`].
 //! - [`SpringHeat`]: the springs' heat estimate from their switching history (recovery's
 //!   balancing, stepping's rest).
+//! - [`OnTimer`]: a spring's continuous on-time as the safety limit counts it (short gaps
+//!   pause it, only a long enough rest clears it).
 //!
 //! Nothing here panics: bad input (NaN, infinities, Δt ≤ 0 or too long, invalid gains) gives a
 //! documented safe result.
@@ -33,6 +35,7 @@
 //! ```
 
 mod autotune;
+mod on_time;
 mod pid;
 mod split;
 mod spring_heat;
@@ -40,6 +43,7 @@ mod spring_heat;
 pub use autotune::{
     AbortReason, AutotuneConfig, AutotuneResult, AutotuneStep, RelayAutotune, TuneRule,
 };
+pub use on_time::{OFF_MIN_S, OFF_RATIO, OnTimer};
 pub use pid::{Pid, PidConfig, PidError, PidGains, PidTerms};
 pub use split::{HeatCool, SplitRange};
 pub use spring_heat::SpringHeat;

@@ -16,8 +16,10 @@
 //! - let the springs rest before a new stepping, so a passive spring is martensite again
 //!   ([`SpringHeat::rested`]).
 //!
-//! The estimate starts cold at power-up: after a reset with hot springs it is low, so a
-//! stepping started at once may load less than it would from cold springs.
+//! After a power-up nothing is known of the springs, so the estimate starts hot
+//! ([`SpringHeat::POWER_UP`]: every spring just austenite) and a first stepping waits in `rest`
+//! until the model has cooled them; across a reset that keeps RAM the board restores the
+//! estimate it had ([`crate::supervisor::SpringMemory`]).
 
 use crate::outputs::{SPRINGS, SpringMask};
 
@@ -52,6 +54,27 @@ impl SpringHeat {
         h: [0.0; SPRINGS],
         austenite: [false; SPRINGS],
     };
+
+    /// Every spring just austenite: what a power-up assumes (a spring may have been driven
+    /// until the moment the power went).
+    pub const POWER_UP: SpringHeat = SpringHeat {
+        h: [1.0; SPRINGS],
+        austenite: [true; SPRINGS],
+    };
+
+    /// Make an estimate from its parts (heats and austenite latches), e.g. restored from memory
+    /// kept across a reset. Non-finite heats become 1 (hot), negative ones 0.
+    pub fn from_parts(h: [f32; SPRINGS], austenite: [bool; SPRINGS]) -> SpringHeat {
+        SpringHeat {
+            h: h.map(|x| if x.is_finite() { x.max(0.0) } else { 1.0 }),
+            austenite,
+        }
+    }
+
+    /// Return the heats and austenite latches (see [`SpringHeat::from_parts`]).
+    pub fn parts(&self) -> ([f32; SPRINGS], [bool; SPRINGS]) {
+        (self.h, self.austenite)
+    }
 
     /// Account `dt_s` with `on` switched on. `heat_s` and `cool_s` are the model's constants,
     /// s; a non-finite or non-positive time or constant leaves the estimate as it was.

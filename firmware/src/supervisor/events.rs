@@ -38,6 +38,8 @@ pub enum EventKind {
     RecoveryCooling,
     /// A stepping's soak was done but a spring was still warm: it waits for the springs to rest.
     SpringsResting,
+    /// A warning also printed on the console (`# warning: …`).
+    Warning(&'static str),
     /// A phase that waits for a temperature gave up (`soak`, `reheat`, `form` or `recover`,
     /// recovery's cooling) and the mode
     /// ended in standby; Tc when it did, K.

@@ -64,6 +64,7 @@
 //! and a new stepping waits (phase `rest`) until every spring is martensite again.
 
 pub mod events;
+pub mod memory;
 pub mod report;
 pub mod safety;
 pub mod store;
@@ -72,7 +73,7 @@ use crate::command::{Command, ModeRequest};
 use crate::control::{
     AutotuneConfig, AutotuneStep, Pid, PidConfig, RelayAutotune, SplitRange, SpringHeat, TuneRule,
 };
-use crate::measurement::{Measurement, SensingHint, controlled_temperature};
+use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
 use crate::mtts::Prior;
 use crate::outputs::{Duty, Outputs, SpringMask};
 use crate::settings::{PARAMS, SetError, Settings};
@@ -81,8 +82,20 @@ use events::{EventKind, EventLog};
 use report::Reply;
 use safety::{Fault, FaultKind, LoopState, Safety};
 
+pub use memory::SpringMemory;
+
 /// Plausible region temperatures for a measurement to count as valid, K.
 pub const VALID_K: (f32, f32) = (200.0, 500.0);
+
+/// Within this of its ceiling (`heater_cap_k − heater_cap_band_k`, where the cascade holds the
+/// film at most) a film counts as held at the ceiling: the no-response check rests, K.
+pub const CEILING_MARGIN_K: f32 = 1.0;
+
+/// The warning when the loop falls back to the film region.
+pub const WARN_UNRESOLVED: &str =
+    "frames unresolved for unresolved_s while heating: the loop holds the film region";
+/// The warning when frames resolve again after a fallback.
+pub const WARN_RESOLVED: &str = "frames resolved again: the loop holds the mode's region";
 
 /// Which stepping mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -143,6 +156,9 @@ pub struct Stepping {
     pub phase: StepPhase,
     /// Paused: springs off and timers held.
     pub paused: bool,
+    /// Since when the stepping has been holding `hot_k` without a spring phase to run (hold or
+    /// paused): past `hold_timeout_s` it returns to standby.
+    pub idle_since: Option<Millis>,
 }
 
 /// Where recovery is.
@@ -301,9 +317,13 @@ pub struct Decision {
     /// one latched before it) holds the outputs safe: the control loop is alive, so the board
     /// may feed its watchdog. A loop that stops stepping feeds nothing.
     pub alive: bool,
-    /// A `save` or `load` to carry out: then `reply` is `None`, and the caller gives the
-    /// outcome to [`Supervisor::finish_store`] for the command's reply ([`store`]).
+    /// A `save` or `load` to carry out: then `reply` is `None`, `outputs` have the heater and
+    /// the springs off (the fan as the mode wants) and the caller applies them *before* the
+    /// flash operation, holds them through it, and gives the outcome to
+    /// [`Supervisor::finish_store`] for the command's reply ([`store`]).
     pub store: Option<store::StoreRequest>,
+    /// A warning to print on the console as `# warning: …` (it is also in the `log`).
+    pub warning: Option<&'static str>,
 }
 
 /// The supervisor.
@@ -329,6 +349,17 @@ pub struct Supervisor {
     stream: Option<Stream>,
     button_pressed: bool,
     store: Option<store::StoreRequest>,
+    /// The sensor-loss window counts from here if it is later than the last measurement: the
+    /// end of a flash operation, which stalls the sensor with the core.
+    sensor_grace: Millis,
+    /// Since when the frames have not separated T1 and T2 (merged or fallback), if they have not.
+    unresolved_since: Option<Millis>,
+    /// The loop holds the film region (too long unresolved while heating on the colder one).
+    film_fallback: bool,
+    /// `stop` was asked with a fault latched: the fan is off too, until `reset`.
+    quiet: bool,
+    /// A warning for this step's decision.
+    warning: Option<&'static str>,
 }
 
 fn pid_config(s: &Settings) -> PidConfig {
@@ -375,8 +406,16 @@ fn first_spring_phase(s: &Settings) -> StepPhase {
 }
 
 impl Supervisor {
-    /// Start in standby at `now` with `settings` (checked; invalid ones give the defaults).
+    /// Start in standby at `now` after a power-up with `settings` (checked; invalid ones give
+    /// the defaults): nothing is known of the springs, so they are assumed hot
+    /// ([`SpringMemory::POWER_UP`]) and a first stepping rests them.
     pub fn new(now: Millis, settings: Settings) -> Self {
+        Self::with_memory(now, settings, SpringMemory::POWER_UP)
+    }
+
+    /// Start as [`Supervisor::new`] with the springs' memory kept across a reset (or, on a test
+    /// bench or in a simulator whose springs start at ambient, [`SpringMemory::RESTED`]).
+    pub fn with_memory(now: Millis, settings: Settings, springs: SpringMemory) -> Self {
         let settings = if settings.check().is_ok() {
             settings
         } else {
@@ -395,17 +434,66 @@ impl Supervisor {
             mode_since: now,
             outputs: Outputs::OFF,
             fault: None,
-            safety: Safety::new(),
+            safety: Safety::with_springs(springs.duty, springs.on_time),
             events: EventLog::new(),
             last: None,
             tc_k: f32::NAN,
             last_step: now,
             started: now,
             springs: SpringMask::from_bits(1),
-            spring_heat: SpringHeat::COLD,
+            spring_heat: springs.heat,
             stream: None,
             button_pressed: false,
             store: None,
+            sensor_grace: now,
+            unresolved_since: None,
+            film_fallback: false,
+            quiet: false,
+            warning: None,
+        }
+    }
+
+    /// Return the springs' memory (heat estimate, duty history, on-time counts) for the board
+    /// to keep across a reset.
+    pub fn spring_memory(&self) -> SpringMemory {
+        let (duty, on_time) = self.safety.springs();
+        SpringMemory {
+            heat: self.spring_heat,
+            duty,
+            on_time,
+        }
+    }
+
+    /// Return the heater loop's and the cascade's outer loop's configurations (as the settings
+    /// last rebuilt them).
+    pub fn loop_configs(&self) -> (&PidConfig, &PidConfig) {
+        (self.pid.config(), self.outer.config())
+    }
+
+    /// Return the fault checks' state (spring on-time counts and duties).
+    pub fn safety(&self) -> &Safety {
+        &self.safety
+    }
+
+    /// Return whether the loop holds the film region because the frames have been unresolved
+    /// for `unresolved_s` while heating.
+    pub fn film_fallback(&self) -> bool {
+        self.film_fallback
+    }
+
+    /// The emergency-stop button's level, read by the board every control period: pressed
+    /// latches the e-stop (over any other fault), and `reset` is refused while it reads
+    /// pressed.
+    pub fn button(&mut self, now: Millis, pressed: bool) {
+        self.button_pressed = pressed;
+        if pressed {
+            self.latch(
+                now,
+                Fault {
+                    kind: FaultKind::EStop,
+                    value: 1.0,
+                },
+            );
         }
     }
 
@@ -475,6 +563,14 @@ impl Supervisor {
                 prior: Prior::Unknown,
                 weights: Settings::weights(self.settings.w1_standby),
             },
+            Mode::Stepping(_) | Mode::Recovery(_) | Mode::Standby | Mode::Autotune(_)
+                if self.film_fallback =>
+            {
+                SensingHint {
+                    prior: Prior::HeaterHotter,
+                    weights: Settings::weights(1.0),
+                }
+            }
             Mode::Stepping(_) => SensingHint {
                 prior: Prior::HeaterHotter,
                 weights: Settings::weights(self.settings.w1_step),
@@ -501,19 +597,36 @@ impl Supervisor {
         let now = now.max(self.last_step);
         let elapsed_ms = now.0.saturating_sub(self.last_step.0).min(u32::MAX as u64) as u32;
         self.last_step = now;
-        // The springs ran with the last decision's outputs since the last step.
+        self.warning = None;
+        // The interval since the last step ran with the last decision's outputs: credit it to
+        // the springs that were on during it (heat estimate, on-time, duty).
+        let ran = self.outputs;
         self.spring_heat.update(
-            self.outputs.springs,
+            ran.springs,
             elapsed_ms as f32 * 1e-3,
             self.settings.spring_heat_s,
             self.settings.spring_cool_s,
         );
+        if let Some(f) = self
+            .safety
+            .credit_springs(ran.springs, elapsed_ms, &self.settings)
+        {
+            self.latch(now, f);
+        }
 
-        // 1. The measurement: only a valid, newer one is used.
+        // 1. The measurement: only a valid, newer one is used. A newer, finite frame above the
+        //    plausible range is still judged for over-temperature (a real 550 K is a fire, not
+        //    a sensor fault).
+        if let Some(m) = measurement.filter(|m| self.newer(m) && self.hot_or_plausible(m))
+            && let Some(f) = Safety::over_temperature(m, &self.settings)
+        {
+            self.latch(now, f);
+        }
         let fresh = measurement.filter(|m| self.valid(m)).copied();
         let mut dt_s = 0.0;
         if let Some(m) = fresh {
             dt_s = self.last.map_or(0.0, |l| m.at.seconds_since(l.at));
+            self.track_resolution(now, &m);
             self.tc_k = controlled_temperature(&m, &self.sensing_hint()).k();
             self.last = Some(m);
         }
@@ -522,7 +635,11 @@ impl Supervisor {
         let reply = command.map(|c| self.command(now, c));
 
         // 3. Faults that depend on the sensor.
-        let age_s = now.seconds_since(self.last.map_or(self.started, |m| m.at));
+        let since = self
+            .last
+            .map_or(self.started, |m| m.at)
+            .max(self.sensor_grace);
+        let age_s = now.seconds_since(since);
         if age_s > self.settings.sensor_timeout_s {
             self.latch(
                 now,
@@ -533,15 +650,22 @@ impl Supervisor {
             );
         }
         if let Some(m) = fresh {
-            if let Some(f) = Safety::over_temperature(&m, &self.settings) {
+            let heater = ran.heater.fraction();
+            let film_k = m.hotter().k();
+            // A film held at its ceiling (the heater cap, or the cascade's film limit below it)
+            // is visibly heated: the steady state of a long soak on a cold day.
+            let s = &self.settings;
+            let at_ceiling = film_k >= s.heater_cap_k - s.heater_cap_band_k - CEILING_MARGIN_K;
+            let demand = if at_ceiling { 0.0 } else { heater };
+            if let Some(f) = self.safety.no_response(now, film_k, demand, &self.settings) {
                 self.latch(now, f);
             }
             let l = LoopState {
-                target_k: self.target_k,
+                target_k: self.target_k(),
                 tc_k: self.tc_k,
-                film_k: m.hotter().k(),
-                heater_duty: self.outputs.heater.fraction(),
-                active: self.loop_active() && !matches!(self.mode, Mode::Autotune(_)),
+                film_k,
+                heater_duty: heater,
+                active: self.loop_active(),
             };
             if let Some(f) = self.safety.runaway(now, dt_s, l, &self.settings) {
                 self.latch(now, f);
@@ -551,16 +675,17 @@ impl Supervisor {
         // 4. The mode.
         let mut outputs = self.run_mode(now, elapsed_ms, fresh.as_ref(), dt_s);
 
-        // 5. Spring limits on what would be applied (a spring past its limit never stays on).
-        if let Some(f) = self
-            .safety
-            .track_springs(outputs.springs, elapsed_ms, &self.settings)
-        {
+        // 5. Spring limits on what would be applied: a spring past its limit is never on.
+        if let Some(f) = self.safety.spring_fault(outputs.springs, &self.settings) {
             self.latch(now, f);
-            outputs = self.safe_outputs();
         }
         if self.fault.is_some() {
             outputs = self.safe_outputs();
+        }
+        // A flash operation follows this decision: heater and springs off through it.
+        if self.store.is_some() {
+            outputs.heater = Duty::OFF;
+            outputs.springs = SpringMask::NONE;
         }
         self.outputs = outputs;
 
@@ -583,13 +708,49 @@ impl Supervisor {
             // A stale measurement always latches sensor loss in this same step unless another
             // fault already holds the outputs safe: either way the loop is alive.
             alive: age_s <= self.settings.sensor_timeout_s || self.fault.is_some(),
+            warning: self.warning,
         }
     }
 
+    /// Follow how long the frames have not separated T1 and T2; past `unresolved_s` while the
+    /// loop heats on the colder region, fall back to the film region with a warning.
+    fn track_resolution(&mut self, now: Millis, m: &Measurement) {
+        if m.quality == Quality::Resolved {
+            self.unresolved_since = None;
+            if self.film_fallback {
+                self.film_fallback = false;
+                self.events.push(now, EventKind::Warning(WARN_RESOLVED));
+                self.warning = Some(WARN_RESOLVED);
+            }
+            return;
+        }
+        let since = *self.unresolved_since.get_or_insert(m.at);
+        let on_colder = self.loop_active() && self.sensing_hint().weights.w1 < 1.0;
+        if on_colder
+            && !self.film_fallback
+            && m.at.seconds_since(since) >= self.settings.unresolved_s
+        {
+            self.film_fallback = true;
+            self.events.push(now, EventKind::Warning(WARN_UNRESOLVED));
+            self.warning = Some(WARN_UNRESOLVED);
+        }
+    }
+
+    fn newer(&self, m: &Measurement) -> bool {
+        self.last.is_none_or(|l| m.at > l.at)
+    }
+
+    /// Finite and not implausibly cold (a frame above the plausible range is judged for
+    /// over-temperature, not dropped).
+    fn hot_or_plausible(&self, m: &Measurement) -> bool {
+        [m.t1(), m.t2()]
+            .iter()
+            .all(|t| t.k().is_finite() && t.k() >= VALID_K.0)
+    }
+
     fn valid(&self, m: &Measurement) -> bool {
-        let newer = self.last.is_none_or(|l| m.at > l.at);
         let ok = |t: Kelvin| t.k().is_finite() && (VALID_K.0..=VALID_K.1).contains(&t.k());
-        newer && ok(m.t1()) && ok(m.t2())
+        self.newer(m) && ok(m.t1()) && ok(m.t2())
     }
 
     fn loop_active(&self) -> bool {
@@ -598,7 +759,7 @@ impl Supervisor {
 
     fn safe_outputs(&self) -> Outputs {
         let fan = match self.fault {
-            Some(f) if f.fan_helps() => Duty::from_fraction(self.settings.form_fan),
+            Some(f) if f.fan_helps() && !self.quiet => Duty::from_fraction(self.settings.form_fan),
             _ => Duty::OFF,
         };
         Outputs {
@@ -608,9 +769,14 @@ impl Supervisor {
         }
     }
 
+    /// Latch `f`. The first fault stays latched, except that an e-stop overrides any other
+    /// (a press while another fault is latched is never lost: `reset` then needs the button
+    /// released).
     fn latch(&mut self, now: Millis, f: Fault) {
-        if self.fault.is_some() {
-            return;
+        match self.fault {
+            Some(cur) if cur.kind == FaultKind::EStop => return,
+            Some(_) if f.kind != FaultKind::EStop => return,
+            _ => {}
         }
         self.fault = Some(f);
         self.events.push(now, EventKind::Fault(f));
@@ -644,6 +810,21 @@ impl Supervisor {
         let o = self.outer.output();
         self.outer = Pid::new(outer_config(&self.settings, self.target_k), self.target_k);
         self.outer.reset_to(o);
+    }
+
+    /// Put checked settings in use and rebuild everything derived from them — the split range,
+    /// the PID and the cascade's outer loop — each continuing from its last output (bumpless).
+    /// The one place settings take effect: `set`, `load`, `defaults` and autotune's gains.
+    fn configure(&mut self, s: Settings) {
+        if s.check().is_err() {
+            return;
+        }
+        self.settings = s;
+        self.split = SplitRange::new(s.fan_deadband);
+        let u = self.pid.output();
+        self.pid = Pid::new(pid_config(&s), self.target_k);
+        self.pid.reset_to(u);
+        self.rebuild_outer();
     }
 
     /// Run the mode; return the outputs it wants.
@@ -697,8 +878,15 @@ impl Supervisor {
                 let run_ms = if st.paused { 0 } else { elapsed_ms };
                 match &mut st.phase {
                     StepPhase::Soak { ready_since } => {
-                        let (since, go) = ready(*ready_since);
+                        let (since, mut go) = ready(*ready_since);
                         *ready_since = since;
+                        // A spring whose on-time a gap has not yet cleared (a mode changed
+                        // straight from its phase) waits: it would trip the on-time limit.
+                        let cleared = (0..crate::outputs::SPRINGS)
+                            .all(|i| !st.springs.contains(i) || self.safety.spring_on_s(i) == 0.0);
+                        if matches!(go, Soak::Go) && !cleared {
+                            go = Soak::Wait;
+                        }
                         match go {
                             Soak::Go if !self.spring_heat.rested(s.spring_rest) => {
                                 self.events.push(now, EventKind::SpringsResting);
@@ -759,6 +947,14 @@ impl Supervisor {
                     }
                     StepPhase::Hold => {}
                 }
+                // Hold and pause hold hot_k with nothing to run: an idle timeout ends them in
+                // standby. (Rest ends by the springs' model, within cool_s·ln(h/spring_rest).)
+                let idle = st.paused || matches!(st.phase, StepPhase::Hold);
+                if !idle {
+                    st.idle_since = None;
+                } else if now.seconds_since(*st.idle_since.get_or_insert(now)) > s.hold_timeout_s {
+                    gave_up = Some("hold");
+                }
                 let on = matches!(
                     st.phase,
                     StepPhase::Spring { .. } | StepPhase::Prewarm { on: true, .. }
@@ -777,6 +973,15 @@ impl Supervisor {
                 s.standby_k
             }
             Mode::Recovery(rec) => {
+                let may_run = |safety: &Safety, left_ms: u32| -> SpringMask {
+                    let bits = (0..crate::outputs::SPRINGS)
+                        .filter(|&i| {
+                            safety.spring_duty(i) < 0.9 * s.spring_duty_max
+                                && safety.spring_may_run(i, left_ms as f32 * 1e-3, &s)
+                        })
+                        .fold(0u8, |b, i| b | 1 << i);
+                    SpringMask::from_bits(bits)
+                };
                 rec.window_left_ms = rec.window_left_ms.saturating_sub(elapsed_ms);
                 if rec.window_left_ms == 0 {
                     rec.window_on = !rec.window_on;
@@ -792,13 +997,21 @@ impl Supervisor {
                     RecoverPhase::Heat { ready_since } => {
                         let (since, go) = ready(*ready_since);
                         *ready_since = since;
+                        // The pulse runs inside an on window (it fits in what is left of
+                        // it), so a spring's continuous on-time stays within the window's.
+                        let pulse_fits = rec.window_on
+                            && rec.window_left_ms >= ms(s.recover_pulse_s)
+                            && may_run(&self.safety, rec.window_left_ms) == SpringMask::ALL;
                         match go {
-                            Soak::Go if balanced => {
+                            Soak::Go if balanced && pulse_fits => {
                                 rec.phase = RecoverPhase::Pulse {
                                     left_ms: ms(s.recover_pulse_s),
                                 }
                             }
                             Soak::GiveUp => gave_up = Some("reheat"),
+                            // Ready but the springs not yet balanced: the heat phase still
+                            // ends by soak_timeout_s.
+                            Soak::Go | Soak::Wait if timed_out => gave_up = Some("reheat"),
                             Soak::Go | Soak::Wait => {}
                         }
                     }
@@ -823,36 +1036,40 @@ impl Supervisor {
                         Soak::Wait => {}
                     },
                 }
+                let allowed = may_run(&self.safety, rec.window_left_ms);
                 if matches!(rec.phase, RecoverPhase::Pulse { .. }) {
-                    springs = SpringMask::ALL;
+                    springs = SpringMask::from_bits(SpringMask::ALL.bits() & allowed.bits());
                 } else if rec.window_on {
-                    springs = self
-                        .spring_heat
-                        .balance(s.spring_recover_heat, BALANCE_BAND);
-                    // A spring near its duty limit sits the window out.
-                    for i in 0..crate::outputs::SPRINGS {
-                        if self.safety.spring_duty(i) >= 0.9 * s.spring_duty_max {
-                            springs = SpringMask::from_bits(springs.bits() & !(1 << i));
-                        }
-                    }
+                    // A spring near its duty limit, or whose on-time the rest of the window
+                    // would take past the limit, sits the window out.
+                    springs = SpringMask::from_bits(
+                        self.spring_heat
+                            .balance(s.spring_recover_heat, BALANCE_BAND)
+                            .bits()
+                            & allowed.bits(),
+                    );
                 }
                 s.hot_k
             }
             Mode::Autotune(tuner) => {
+                // The relay obeys the heater cap like the loop does.
+                let cap = hotter.map_or(1.0, |h| (s.heater_cap_k - h) / s.heater_cap_band_k);
+                let capped = |d: Duty| Duty::from_fraction(d.fraction().min(cap.clamp(0.0, 1.0)));
                 if let Some(m) = fresh {
-                    match tuner.step(m.at.ms() as f32 * 1e-3, self.tc_k) {
+                    // Seconds since the run started: f32 keeps its resolution however long
+                    // the board has been up.
+                    match tuner.step(m.at.seconds_since(self.mode_since), self.tc_k) {
                         AutotuneStep::Running { heater_duty } => {
                             return Outputs {
-                                heater: heater_duty,
+                                heater: capped(heater_duty),
                                 fan: Duty::OFF,
                                 springs: SpringMask::NONE,
                             };
                         }
                         AutotuneStep::Done(r) => {
-                            let mut gains = s;
-                            gains.gains = r.gains;
-                            if gains.check().is_ok() && self.pid.set_gains(r.gains).is_ok() {
-                                self.settings.gains = r.gains;
+                            // The tuned gains must pass the ranges `set` would check.
+                            if let Ok(tuned) = s.with_gains(r.gains) {
+                                self.configure(tuned);
                                 self.events.push(
                                     now,
                                     EventKind::Tuned {
@@ -872,10 +1089,11 @@ impl Supervisor {
                         }
                     }
                 } else {
-                    // Between frames the relay's output holds.
+                    // Between frames the relay's output holds (capped by the last frame).
                     return Outputs {
+                        heater: capped(self.outputs.heater),
+                        fan: Duty::OFF,
                         springs: SpringMask::NONE,
-                        ..self.outputs
                     };
                 }
                 s.tune_k
@@ -935,14 +1153,10 @@ impl Supervisor {
                 let Some(p) = PARAMS.get(i as usize) else {
                     return Reply::err("unknown-name", "no such parameter");
                 };
-                match self.settings.set(p.name, v) {
+                let mut next = self.settings;
+                match next.set(p.name, v) {
                     Ok(()) => {
-                        self.split = SplitRange::new(self.settings.fan_deadband);
-                        // A new loop with the new settings, continuing from the last output.
-                        let u = self.pid.output();
-                        self.pid = Pid::new(pid_config(&self.settings), self.target_k);
-                        self.pid.reset_to(u);
-                        self.rebuild_outer();
+                        self.configure(next);
                         Reply::get(&self.settings, i as usize)
                     }
                     Err(SetError::OutOfRange { min, max }) => Reply::out_of_range(p, min, max),
@@ -997,6 +1211,11 @@ impl Supervisor {
             Command::Save => self.save(),
             Command::Load => self.load(),
             Command::Defaults => self.defaults(),
+            // Accepted in every state: with a fault latched it turns the fan off too.
+            Command::Stop if self.fault.is_some() => {
+                self.quiet = true;
+                Reply::ok("every output off; the fault stays latched (`reset` clears it)")
+            }
             _ if self.fault.is_some() => Reply::fault_latched(self.fault),
             Command::Stop => {
                 self.enter(now, Mode::Stopped);
@@ -1005,6 +1224,20 @@ impl Supervisor {
             Command::Pause | Command::Resume => {
                 let pause = c == Command::Pause;
                 match &mut self.mode {
+                    // Pause holds a spring phase's timer; soak, rest and hold have none.
+                    Mode::Stepping(st)
+                        if pause
+                            && !st.paused
+                            && matches!(
+                                st.phase,
+                                StepPhase::Soak { .. } | StepPhase::Rest | StepPhase::Hold
+                            ) =>
+                    {
+                        Reply::err(
+                            "bad-state",
+                            "pause only in a spring phase (prewarm, spring, pulse)",
+                        )
+                    }
                     Mode::Stepping(st) if st.paused != pause => {
                         st.paused = pause;
                         Reply::ok(if pause { "paused" } else { "resumed" })
@@ -1025,10 +1258,15 @@ impl Supervisor {
                 // Ziegler–Nichols' classic rule: on the simulated block it gives 0.6 K of
                 // overshoot and a ±0.2 K hold (README, control section); the no-overshoot rule
                 // holds the standby target ±0.3 K but takes 30 s to preheat.
+                // The reading must follow the relay: rise while heating up to the band as the
+                // runaway check asks, and switch within two expected periods once cycling.
                 let tuner = RelayAutotune::new(AutotuneConfig {
                     rule: TuneRule::ZieglerNichols,
                     timeout_s: s.tune_timeout_s,
                     max_overshoot_k: (s.t_max_k - s.tune_k - 1.0).min(8.0),
+                    follow_s: 2.0 * s.tune_expected_period_s(),
+                    rise_k: s.runaway_gain_k,
+                    rise_window_s: s.runaway_window_s,
                     ..AutotuneConfig::around(
                         s.tune_k,
                         Duty::from_fraction(s.tune_base),
@@ -1055,6 +1293,7 @@ impl Supervisor {
                             springs: self.springs,
                             phase: StepPhase::Soak { ready_since: None },
                             paused: false,
+                            idle_since: None,
                         })
                     }
                     ModeRequest::Form => Mode::Forming { since: now },
@@ -1070,10 +1309,18 @@ impl Supervisor {
         }
     }
 
+    /// `reset`: clear the latched fault once its cause is gone (never while the e-stop button
+    /// reads pressed) and go to `stopped` — every output off until a `mode` command.
     fn reset(&mut self, now: Millis) -> Reply {
         let Some(f) = self.fault else {
             return Reply::ok("no fault latched");
         };
+        if self.button_pressed {
+            return Reply::cause_present(Fault {
+                kind: FaultKind::EStop,
+                value: 1.0,
+            });
+        }
         let s = &self.settings;
         let fresh = self
             .last
@@ -1093,17 +1340,18 @@ impl Supervisor {
             }
             FaultKind::SpringOnTime(_) | FaultKind::SpringDuty(_) => (0..crate::outputs::SPRINGS)
                 .all(|i| self.safety.spring_duty(i) < 0.5 * s.spring_duty_max),
-            FaultKind::RunawayHeating | FaultKind::RunawayHolding => fresh,
+            FaultKind::RunawayHeating | FaultKind::RunawayHolding | FaultKind::NoResponse => fresh,
             FaultKind::EStop => !self.button_pressed,
         };
         if !gone {
             return Reply::cause_present(f);
         }
         self.fault = None;
+        self.quiet = false;
         self.events.push(now, EventKind::Cleared(f));
         self.outputs = Outputs::OFF;
-        self.enter(now, Mode::Standby);
-        Reply::ok("fault cleared, standby")
+        self.enter(now, Mode::Stopped);
+        Reply::ok("fault cleared, stopped: every output off until a `mode` command")
     }
 
     /// Write the telemetry line (with its `#` and CR LF).

@@ -258,6 +258,7 @@ fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
         EventKind::SteppingDone => r.write_str("stepping done"),
         EventKind::RecoveryCooling => r.write_str("recovery: straight, cooling to lock it"),
         EventKind::SpringsResting => r.write_str("springs warm: stepping waits for them to rest"),
+        EventKind::Warning(w) => write!(r, "warning: {w}"),
         EventKind::TimedOut { what, tc_k } => {
             write!(r, "{what} timed out at tc={tc_k:.2} K, standby")
         }

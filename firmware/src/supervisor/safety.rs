@@ -15,10 +15,15 @@
 
 use core::fmt;
 
-use crate::measurement::Measurement;
+use crate::control::OnTimer;
+use crate::measurement::{Measurement, Quality};
 use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
 use crate::settings::Settings;
 use crate::units::Millis;
+
+/// How far a spring's on-time may pass `spring_on_max_s` before it trips, ms: one tick of the
+/// board's control loop (a phase ends on the first step after its time is up).
+pub const ON_TIME_SLACK_MS: u32 = 50;
 
 /// Why the supervisor latched a fault.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,6 +40,9 @@ pub enum FaultKind {
     RunawayHeating,
     /// The held temperature drifted from its target for too long.
     RunawayHolding,
+    /// The heater ran at high duty for `no_response_s` and the film did not rise, whatever the
+    /// mode and target (a camera that reads plausible but wrong values, a heater off its film).
+    NoResponse,
     /// The emergency stop (button or console).
     EStop,
 }
@@ -58,6 +66,7 @@ impl Fault {
             FaultKind::SensorLoss => "sensor-loss",
             FaultKind::RunawayHeating => "runaway-heating",
             FaultKind::RunawayHolding => "runaway-holding",
+            FaultKind::NoResponse => "no-response",
             FaultKind::EStop => "estop",
         }
     }
@@ -103,6 +112,10 @@ impl fmt::Display for Reason {
                 )
             }
             FaultKind::RunawayHolding => write!(f, "Tc away from target for {v:.0} K*s"),
+            FaultKind::NoResponse => write!(
+                f,
+                "heater at high duty but the film rose only {v:.2} K in no_response_s"
+            ),
             FaultKind::EStop => f.write_str("emergency stop"),
         }
     }
@@ -111,8 +124,8 @@ impl fmt::Display for Reason {
 /// The state of the checks that need memory.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Safety {
-    /// Continuous on-time of each spring, ms.
-    spring_on_ms: [u32; SPRINGS],
+    /// Continuous on-time of each spring ([`OnTimer`]: short gaps pause it, a rest clears it).
+    spring_on: [OnTimer; SPRINGS],
     /// Each spring's duty, averaged over the window (exponential), fraction.
     spring_duty: [f32; SPRINGS],
     /// Heating check: when the window started and Tc then.
@@ -123,6 +136,9 @@ pub struct Safety {
     hold_met: bool,
     /// Holding check: error accumulated beyond the band, K·s.
     hold_error_ks: f32,
+    /// No-response check: since when the heater has run at high duty, and the film then. Kept
+    /// across mode changes and targets: only a lower duty or a rise restarts it.
+    response_window: Option<(Millis, f32)>,
 }
 
 /// What the runaway check is told about the loop.
@@ -145,24 +161,52 @@ impl Safety {
     /// Make the checks' state.
     pub const fn new() -> Self {
         Safety {
-            spring_on_ms: [0; SPRINGS],
+            spring_on: [OnTimer::CLEAR; SPRINGS],
             spring_duty: [0.0; SPRINGS],
             heat_window: None,
             hold_target_k: 0.0,
             hold_met: false,
             hold_error_ks: 0.0,
+            response_window: None,
         }
+    }
+
+    /// Make the checks' state with the springs' memory (duty history and on-time counts) kept
+    /// across a reset, or assumed at power-up.
+    pub fn with_springs(duty: [f32; SPRINGS], on_time: [OnTimer; SPRINGS]) -> Self {
+        Safety {
+            spring_on: on_time,
+            spring_duty: duty.map(|d| {
+                if d.is_finite() {
+                    d.clamp(0.0, 1.0)
+                } else {
+                    1.0
+                }
+            }),
+            ..Safety::new()
+        }
+    }
+
+    /// Return the springs' duty history and on-time counts (for [`super::SpringMemory`]).
+    pub fn springs(&self) -> ([f32; SPRINGS], [OnTimer; SPRINGS]) {
+        (self.spring_duty, self.spring_on)
     }
 
     /// Return the over-temperature fault of a measurement, if any. By rank, so a swapped
     /// T1/T2 changes nothing: the colder of T1/T2 (the SMP) and regions 3–5 against
     /// `t_max_k`; the hotter of T1/T2 and the hottest cylinder pixel (the PI heater film seen
-    /// through the lattice) against `t_heater_max_k`.
+    /// through the lattice) against `t_heater_max_k`. A frame that could not separate T1 and T2
+    /// (merged or fallback) is judged by the worst it may hide: the SMP may be as hot as the
+    /// mean plus the bound ([`Measurement::hotter`]), never the mean less it.
     pub fn over_temperature(m: &Measurement, s: &Settings) -> Option<Fault> {
+        let smp_k = match m.quality {
+            Quality::Resolved => m.colder().k(),
+            Quality::Merged | Quality::Fallback => m.hotter().k(),
+        };
         let smp = m.regions[2..]
             .iter()
             .map(|t| t.k())
-            .chain([m.colder().k()])
+            .chain([smp_k])
             .filter(|t| t.is_finite())
             .fold(f32::MIN, f32::max);
         let film = [m.hotter().k()]
@@ -185,42 +229,57 @@ impl Safety {
         }
     }
 
-    /// Account `elapsed_ms` of `springs` being on; return a fault if one is past its limits.
-    pub fn track_springs(
+    /// Credit `elapsed_ms` to the springs that were on during it (`springs`: the outputs applied
+    /// over that interval, not the ones about to be); return a fault if a spring is past its
+    /// on-time or duty limit. The on-time may pass `spring_on_max_s` by less than
+    /// [`ON_TIME_SLACK_MS`] (a phase ends on the first step after its time is up) before it
+    /// trips.
+    pub fn credit_springs(
         &mut self,
         springs: SpringMask,
         elapsed_ms: u32,
         s: &Settings,
     ) -> Option<Fault> {
         let a = (elapsed_ms as f32 * 1e-3 / s.spring_window_s).min(1.0);
-        let mut fault = None;
         for i in 0..SPRINGS {
             let on = springs.contains(i);
-            self.spring_on_ms[i] = if on {
-                self.spring_on_ms[i].saturating_add(elapsed_ms)
-            } else {
-                0
-            };
+            self.spring_on[i].credit(on, elapsed_ms);
             self.spring_duty[i] += ((on as u8 as f32) - self.spring_duty[i]) * a;
-            let on_s = self.spring_on_ms[i] as f32 * 1e-3;
-            if on_s > s.spring_on_max_s {
-                fault.get_or_insert(Fault {
-                    kind: FaultKind::SpringOnTime(i as u8),
-                    value: on_s,
-                });
-            } else if self.spring_duty[i] > s.spring_duty_max {
-                fault.get_or_insert(Fault {
-                    kind: FaultKind::SpringDuty(i as u8),
-                    value: self.spring_duty[i],
-                });
-            }
         }
-        fault
+        self.spring_fault(SpringMask::ALL, s)
     }
 
-    /// Return how long spring `i` has been on continuously, s.
+    /// Return a fault if one of `springs` is past its on-time or duty limit now (checked again
+    /// on the outputs about to be applied: a spring past its limit is never switched on).
+    pub fn spring_fault(&self, springs: SpringMask, s: &Settings) -> Option<Fault> {
+        let on_max_ms = s.spring_on_max_s * 1000.0 + ON_TIME_SLACK_MS as f32;
+        (0..SPRINGS).filter(|&i| springs.contains(i)).find_map(|i| {
+            let on_ms = self.spring_on[i].on_ms();
+            if on_ms as f32 > on_max_ms {
+                Some(Fault {
+                    kind: FaultKind::SpringOnTime(i as u8),
+                    value: on_ms as f32 * 1e-3,
+                })
+            } else if self.spring_duty[i] > s.spring_duty_max {
+                Some(Fault {
+                    kind: FaultKind::SpringDuty(i as u8),
+                    value: self.spring_duty[i],
+                })
+            } else {
+                None
+            }
+        })
+    }
+
+    /// Return spring `i`'s counted on-time, s.
     pub fn spring_on_s(&self, i: usize) -> f32 {
-        self.spring_on_ms.get(i).map_or(0.0, |&ms| ms as f32 * 1e-3)
+        self.spring_on.get(i).map_or(0.0, |t| t.on_s())
+    }
+
+    /// Return whether spring `i` may be switched on without running its on-time count past
+    /// `spring_on_max_s` within `for_s`.
+    pub fn spring_may_run(&self, i: usize, for_s: f32, s: &Settings) -> bool {
+        self.spring_on_s(i) + for_s <= s.spring_on_max_s
     }
 
     /// Return spring `i`'s duty over the window, fraction.
@@ -231,6 +290,7 @@ impl Safety {
     /// Run the runaway checks on a new measurement taken `dt_s` after the previous one.
     pub fn runaway(&mut self, now: Millis, dt_s: f32, l: LoopState, s: &Settings) -> Option<Fault> {
         if !l.active || !l.tc_k.is_finite() || !l.film_k.is_finite() {
+            self.heat_window = None;
             self.rearm(l.target_k);
             self.hold_target_k = f32::NAN;
             return None;
@@ -277,9 +337,48 @@ impl Safety {
         None
     }
 
-    /// Start the runaway checks afresh for a new target.
+    /// The no-response check, on every new measurement: while the heater has run at
+    /// `runaway_duty` or more since the last one, the film (the hotter of T1/T2) must rise by
+    /// `runaway_gain_k` within every `no_response_s`. Unlike the runaway checks it knows no
+    /// target, band or mode, and nothing re-arms it but a lower duty or the rise itself: a
+    /// camera that reads a steady, plausible temperature while the heater runs flat out trips
+    /// it, however often the mode is changed. The supervisor passes a duty of 0 while the film
+    /// reads at its ceiling (within [`super::CEILING_MARGIN_K`] of `heater_cap_k −
+    /// heater_cap_band_k`, where the cascade holds it at most): visibly heated — the steady
+    /// state of a long soak on a cold day. (A camera stuck at exactly that reading is not
+    /// caught here.)
+    pub fn no_response(
+        &mut self,
+        now: Millis,
+        film_k: f32,
+        heater_duty: f32,
+        s: &Settings,
+    ) -> Option<Fault> {
+        if heater_duty < s.runaway_duty || !film_k.is_finite() {
+            self.response_window = None;
+            return None;
+        }
+        match self.response_window {
+            None => self.response_window = Some((now, film_k)),
+            Some((t0, film0)) => {
+                let rise = film_k - film0;
+                if rise >= s.runaway_gain_k {
+                    self.response_window = Some((now, film_k));
+                } else if now.seconds_since(t0) >= s.no_response_s {
+                    return Some(Fault {
+                        kind: FaultKind::NoResponse,
+                        value: rise,
+                    });
+                }
+            }
+        }
+        None
+    }
+
+    /// Start the holding check afresh for a new target. The heating check's window runs on: it
+    /// watches the film's rise under a hard-driven heater, which a new target does not change
+    /// (toggling modes must not re-arm it); a lower duty or a film in the band ends it.
     fn rearm(&mut self, target_k: f32) {
-        self.heat_window = None;
         self.hold_target_k = target_k;
         self.hold_met = false;
         self.hold_error_ks = 0.0;
@@ -367,9 +466,9 @@ mod tests {
         let mut safety = Safety::new();
         let a = SpringMask::from_bits(1);
         for _ in 0..32 {
-            assert_eq!(safety.track_springs(a, 250, &s), None);
+            assert_eq!(safety.credit_springs(a, 250, &s), None);
         }
-        let f = safety.track_springs(a, 250, &s).unwrap();
+        let f = safety.credit_springs(a, 250, &s).unwrap();
         assert_eq!(f.kind, FaultKind::SpringOnTime(0));
         // Duty: 6 s on, 1 s off, repeated, is 86 % — above the 60 % limit eventually.
         let mut safety = Safety::new();
@@ -377,7 +476,7 @@ mod tests {
         for k in 0..400 {
             let on = k % 28 < 24;
             let m = if on { a } else { SpringMask::NONE };
-            if let Some(f) = safety.track_springs(m, 250, &s) {
+            if let Some(f) = safety.credit_springs(m, 250, &s) {
                 tripped = Some(f);
                 break;
             }

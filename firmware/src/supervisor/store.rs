@@ -8,16 +8,20 @@
 //! record once and starts the supervisor with [`settings_at_boot`]: a bad or old record falls
 //! back to the defaults with a `# warning` line.
 //!
-//! `save` is refused while a mode drives the block (stepping, forming, recovery, autotune): on
-//! the F446 a flash erase stalls the CPU for up to a second or two, longer than the sensor-loss
-//! window, so it is done only in standby, stopped or with a fault latched.
+//! `save` and `load` are refused while a mode drives the block (stepping, forming, recovery,
+//! autotune): on the F446 a flash erase stalls the CPU for up to a second or two, longer than the
+//! sensor-loss window, so they run only in standby, stopped or with a fault latched. The step
+//! that asks for one decides the heater and the springs off (the fan as the mode wants); the
+//! caller applies that decision before the flash operation and holds it through it, and
+//! [`Supervisor::finish_store`] takes the time the operation ended, from which the sensor-loss
+//! window counts again (the sensor stalls with the core: no nuisance sensor loss).
 
 use core::fmt::Write;
 
 use super::report::Reply;
-use super::{Mode, Supervisor, pid_config};
-use crate::control::{Pid, SplitRange};
+use super::{Mode, Supervisor};
 use crate::settings::{PARAMS, RECORD_LEN, RECORD_VERSION, Record, Settings};
+use crate::units::Millis;
 
 /// What the caller must do for a `save` or `load`.
 // No allocator to box the record in; a request is made and moved once per `save`.
@@ -61,23 +65,28 @@ pub fn settings_at_boot(stored: Option<&[u8]>, console: &mut impl Write) -> Sett
 impl Supervisor {
     /// `save`: ask for the record to be written (refused while a mode drives the block).
     pub(super) fn save(&mut self) -> Reply {
-        match self.mode {
-            Mode::Standby | Mode::Stopped | Mode::Faulted => {
-                self.store = Some(StoreRequest::Save(self.settings.encode()));
-                // Replaced by `finish_store`'s reply.
-                Reply::ok("saving")
-            }
-            _ => Reply::err(
-                "bad-state",
-                "save only in standby, stopped or fault (a flash write stalls the board)",
-            ),
-        }
+        self.store_request(StoreRequest::Save(self.settings.encode()))
     }
 
-    /// `load`: ask for the stored record.
+    /// `load`: ask for the stored record (where `save` is allowed).
     pub(super) fn load(&mut self) -> Reply {
-        self.store = Some(StoreRequest::Load);
-        Reply::ok("loading")
+        self.store_request(StoreRequest::Load)
+    }
+
+    fn store_request(&mut self, req: StoreRequest) -> Reply {
+        match self.mode {
+            Mode::Standby | Mode::Stopped | Mode::Faulted => {
+                self.store = Some(req);
+                // Replaced by `finish_store`'s reply.
+                Reply::ok("storing")
+            }
+            Mode::Stepping(_) | Mode::Forming { .. } | Mode::Recovery(_) | Mode::Autotune(_) => {
+                Reply::err(
+                    "bad-state",
+                    "save and load only in standby, stopped or fault (the flash stalls the board)",
+                )
+            }
+        }
     }
 
     /// `defaults`: every parameter back to its default, in RAM.
@@ -86,10 +95,12 @@ impl Supervisor {
         Reply::ok("defaults in use (`save` keeps them)")
     }
 
-    /// Finish a `save` or `load` the last step asked for ([`Decision::store`](super::Decision));
-    /// return the command's reply. A loaded record that is bad or old puts the defaults in use,
-    /// as at power-up; a failed read changes nothing.
-    pub fn finish_store(&mut self, outcome: StoreOutcome<'_>) -> Reply {
+    /// Finish a `save` or `load` the last step asked for ([`Decision::store`](super::Decision))
+    /// at `now`, when the flash operation ended; return the command's reply. A loaded record
+    /// that is bad or old puts the defaults in use, as at power-up; a failed read changes
+    /// nothing. The sensor-loss window restarts at `now`.
+    pub fn finish_store(&mut self, now: Millis, outcome: StoreOutcome<'_>) -> Reply {
+        self.sensor_grace = self.sensor_grace.max(now);
         match outcome {
             StoreOutcome::Saved => {
                 let mut r = Reply::ok("");
@@ -122,16 +133,10 @@ impl Supervisor {
         }
     }
 
-    /// Put checked settings in use, continuing the loop from its last output (bumpless).
+    /// Put checked settings in use ([`Supervisor::configure`]: everything derived from them is
+    /// rebuilt, bumpless).
     pub(super) fn apply_settings(&mut self, s: Settings) {
-        if s.check().is_err() {
-            return;
-        }
-        self.settings = s;
-        self.split = SplitRange::new(s.fan_deadband);
-        let u = self.pid.output();
-        self.pid = Pid::new(pid_config(&s), self.target_k);
-        self.pid.reset_to(u);
+        self.configure(s);
     }
 }
 
@@ -158,7 +163,7 @@ mod tests {
         let Some(StoreRequest::Save(record)) = d.store else {
             panic!("no save request: {d:?}");
         };
-        let r = s.finish_store(StoreOutcome::Saved);
+        let r = s.finish_store(Millis(10), StoreOutcome::Saved);
         let n = PARAMS.len();
         assert_eq!(
             r.as_str(),
@@ -172,7 +177,7 @@ mod tests {
 
         let d = run(&mut s, "load");
         assert_eq!((d.reply, d.store), (None, Some(StoreRequest::Load)));
-        let r = s.finish_store(StoreOutcome::Loaded(Some(&record)));
+        let r = s.finish_store(Millis(10), StoreOutcome::Loaded(Some(&record)));
         assert_eq!(r.as_str(), format!("ok loaded {n} parameters"));
         assert_eq!(s.settings().hot_k, 360.0);
         assert_eq!(s.settings().gains.kp_per_k, 0.2);
@@ -185,17 +190,17 @@ mod tests {
         let mut bad = s.settings().encode();
         bad[20] ^= 4;
         run(&mut s, "load");
-        let r = s.finish_store(StoreOutcome::Loaded(Some(&bad)));
+        let r = s.finish_store(Millis(10), StoreOutcome::Loaded(Some(&bad)));
         assert_eq!(r.as_str(), "err bad-record: CRC mismatch; defaults in use");
         assert_eq!(*s.settings(), Settings::DEFAULT);
 
         run(&mut s, "set hot_k 360");
-        let r = s.finish_store(StoreOutcome::Loaded(None));
+        let r = s.finish_store(Millis(10), StoreOutcome::Loaded(None));
         assert_eq!(r.as_str(), "ok nothing stored, defaults in use");
         assert_eq!(*s.settings(), Settings::DEFAULT);
 
         run(&mut s, "set hot_k 360");
-        let r = s.finish_store(StoreOutcome::Failed("flash read error"));
+        let r = s.finish_store(Millis(10), StoreOutcome::Failed("flash read error"));
         assert_eq!(r.as_str(), "err store-failed: flash read error");
         assert_eq!(s.settings().hot_k, 360.0, "a failed read changes nothing");
     }

@@ -70,7 +70,8 @@ struct Rig {
 impl Rig {
     fn new() -> Self {
         Rig {
-            sup: Supervisor::new(Millis(0), Settings::DEFAULT),
+            // The crude block's springs start at ambient (power-up is tested on its own).
+            sup: Supervisor::with_memory(Millis(0), Settings::DEFAULT, SpringMemory::RESTED),
             block: Block::new(),
             now_ms: 0,
             seq: 0,
@@ -208,8 +209,11 @@ fn sensor_loss_latches_within_a_second_and_resets_once_frames_return() {
     assert!(r.line("reset").starts_with("err cause-present"));
     r.sensor = true;
     r.run(0.5);
-    assert_eq!(r.line("reset"), "ok fault cleared, standby");
-    assert_eq!(r.sup.mode().name(), "standby");
+    assert_eq!(
+        r.line("reset"),
+        "ok fault cleared, stopped: every output off until a `mode` command"
+    );
+    assert_eq!(r.sup.mode().name(), "stopped");
 }
 
 #[test]
@@ -233,19 +237,15 @@ fn dead_heater_trips_runaway_and_estop_needs_the_button_released() {
     assert_eq!(f.code(), "runaway-heating");
     let mut r = Rig::new();
     r.run(5.0);
-    let d = r.sup.step(
-        Millis(r.now_ms),
-        None,
-        Some(Command::Button { pressed: true }),
-    );
+    r.sup.button(Millis(r.now_ms), true);
+    let d = r.sup.step(Millis(r.now_ms), None, None);
     assert_eq!(d.outputs, Outputs::OFF, "e-stop: everything off, fan too");
     assert!(r.line("reset").starts_with("err cause-present"));
-    r.sup.step(
-        Millis(r.now_ms),
-        None,
-        Some(Command::Button { pressed: false }),
+    r.sup.button(Millis(r.now_ms), false);
+    assert_eq!(
+        r.line("reset"),
+        "ok fault cleared, stopped: every output off until a `mode` command"
     );
-    assert_eq!(r.line("reset"), "ok fault cleared, standby");
 }
 
 #[test]
@@ -419,4 +419,530 @@ fn recovery_balances_the_springs_then_cools_and_a_new_stepping_waits_for_them_to
             .iter()
             .any(|e| e.kind == EventKind::SpringsResting)
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Issue 17: no setting, sequence or sensor state may defeat a limit. One test per finding.
+
+impl Rig {
+    /// One step with this frame (at the next 0.25 s), applying its outputs to the block.
+    fn frame(&mut self, m: Measurement) -> Decision {
+        self.now_ms += 250;
+        let m = Measurement {
+            at: Millis(self.now_ms),
+            ..m
+        };
+        let d = self.sup.step(Millis(self.now_ms), Some(&m), None);
+        self.block.step(&d.outputs, 0.25);
+        self.log.push((self.now_ms, d.outputs));
+        d
+    }
+
+    fn fault_code(&self) -> Option<&'static str> {
+        self.sup.fault().map(|f| f.code())
+    }
+}
+
+/// A frame reading `t1`/`t2` (resolved, unless `quality` says otherwise).
+fn frame_of(t1: f32, t2: f32, quality: Quality, bound: f32) -> Measurement {
+    Measurement {
+        at: Millis(0),
+        seq: 0,
+        regions: [
+            Kelvin(t1),
+            Kelvin(t2),
+            Kelvin(t2),
+            Kelvin(300.0),
+            Kelvin(298.0),
+        ],
+        tc: Kelvin(t2),
+        cylinder_max: Some(Kelvin(t1.max(t2))),
+        filled_pixels: 0,
+        quality,
+        bound: Kelvin(bound),
+    }
+}
+
+#[test]
+fn autotune_settings_past_a_safe_relay_are_refused() {
+    let mut r = Rig::new();
+    // base + amplitude may not pass 90 % (90 + 50 clamped to 100 % before).
+    assert!(r.line("set tune_base_pct 90").starts_with("err conflict"));
+    assert!(
+        r.line("set tune_base_pct 60")
+            .starts_with("ok tune_base_pct=60")
+    );
+    assert!(
+        r.line("set tune_amplitude_pct 31")
+            .starts_with("err conflict")
+    );
+    // A relay test needs minutes, not an hour.
+    assert!(
+        r.line("set tune_timeout_s 3600")
+            .starts_with("err out-of-range")
+    );
+    assert_eq!(r.line("set tune_timeout_s 900"), "ok tune_timeout_s=900 s");
+}
+
+#[test]
+fn autotune_obeys_the_heater_cap_and_both_over_temperature_limits() {
+    let mut r = Rig::new();
+    // Tc on the SMP, so the film can be near its cap while the relay runs.
+    r.line("set w1_standby 0");
+    r.run(2.0);
+    r.line("autotune");
+    // The film at 391 K: the cap allows (393 − 391)/4 = 50 % whatever the relay asks (70 %).
+    let d = r.frame(frame_of(391.0, 300.0, Quality::Resolved, 0.3));
+    assert_eq!(r.sup.mode().name(), "autotune");
+    assert!(d.outputs.heater.fraction() <= 0.5 + 1e-6, "{d:?}");
+    // The SMP past t_max_k latches over-temperature in autotune too.
+    let d = r.frame(frame_of(380.0, 374.0, Quality::Resolved, 0.3));
+    assert_eq!(r.fault_code(), Some("over-temperature"));
+    assert_eq!(d.outputs.heater, Duty::OFF);
+}
+
+#[test]
+fn autotune_keeps_the_heating_runaway_check() {
+    let mut r = Rig::new();
+    r.line("set tune_base_pct 60");
+    r.line("set tune_amplitude_pct 30");
+    r.line("set runaway_window_s 10");
+    r.block.heater_ok = false;
+    r.line("autotune");
+    r.run(40.0);
+    // The relay drives 90 % with no rise: a fault (runaway) or the tuner's own abort; either
+    // way the heater is off within one window and a frame.
+    let heating: Vec<_> = r
+        .log
+        .iter()
+        .filter(|(_, o)| o.heater > Duty::OFF)
+        .map(|(t, _)| *t)
+        .collect();
+    assert!(
+        heating.last().is_some_and(|&t| t <= 10_500),
+        "heater on until {:?} ms",
+        heating.last()
+    );
+    assert_eq!(r.fault_code(), Some("runaway-heating"));
+}
+
+#[test]
+fn autotune_aborts_when_the_reading_does_not_follow_the_relay() {
+    // A camera that reads a steady 300 K however the relay drives: no rise in the heat-up.
+    let mut r = Rig::new();
+    r.line("autotune");
+    for _ in 0..4 * 30 {
+        r.frame(frame_of(300.0, 299.0, Quality::Resolved, 0.3));
+    }
+    assert_eq!(r.sup.mode().name(), "standby");
+    assert!(
+        r.sup
+            .events()
+            .iter()
+            .any(|e| e.kind == EventKind::TuneAborted("not-following")),
+        "{:?}",
+        r.sup.events().iter().collect::<Vec<_>>()
+    );
+    // Once cycling: the reading crosses the band once, then freezes above it.
+    let mut r = Rig::new();
+    r.line("autotune");
+    let limit_s = 2.0 * Settings::DEFAULT.tune_expected_period_s();
+    let mut t = 0.0;
+    let mut y = 330.0;
+    while r.sup.mode().name() == "autotune" && t < 100.0 {
+        y = (y + 1.0f32).min(342.0);
+        r.frame(frame_of(y + 5.0, y, Quality::Resolved, 0.3));
+        t += 0.25;
+    }
+    // The first switch comes at 341.5 K (2.75 s in); the abort two expected periods later.
+    assert!(t < 2.75 + limit_s + 0.6, "aborted after {t} s");
+    assert!(
+        r.sup
+            .events()
+            .iter()
+            .any(|e| e.kind == EventKind::TuneAborted("not-following"))
+    );
+}
+
+#[test]
+fn autotune_gains_out_of_range_are_refused() {
+    let s = Settings::DEFAULT;
+    let g = |kp, ki, kd| crate::control::PidGains {
+        kp_per_k: kp,
+        ki_per_k_s: ki,
+        kd_s_per_k: kd,
+    };
+    assert!(s.with_gains(g(0.2, 0.1, 0.05)).is_ok());
+    assert!(s.with_gains(g(20.0, 0.1, 0.05)).is_err(), "kp past 10 /K");
+    assert!(s.with_gains(g(0.2, 5.0, 0.05)).is_err(), "ki past 1");
+    assert!(s.with_gains(g(0.2, 0.1, f32::NAN)).is_err());
+}
+
+#[test]
+fn autotune_at_a_hundred_days_of_uptime_measures_what_it_does_at_boot() {
+    let tune = |start_ms: u64| {
+        let mut r = Rig::new();
+        r.now_ms = start_ms;
+        r.sup = Supervisor::with_memory(Millis(start_ms), Settings::DEFAULT, SpringMemory::RESTED);
+        r.run(2.0);
+        r.line("autotune");
+        while r.sup.mode().name() == "autotune" {
+            r.run(0.25);
+        }
+        let tuned = r.sup.events().iter().find_map(|e| match e.kind {
+            EventKind::Tuned { ku_per_k, tu_s } => Some((ku_per_k, tu_s)),
+            _ => None,
+        });
+        tuned.expect("tuned")
+    };
+    let (ku0, tu0) = tune(0);
+    let (ku1, tu1) = tune(100 * 86_400_000);
+    assert!((tu1 - tu0).abs() < 0.01 * tu0, "Tu {tu0} vs {tu1}");
+    assert!((ku1 - ku0).abs() < 0.01 * ku0, "Ku {ku0} vs {ku1}");
+}
+
+#[test]
+fn a_short_gap_does_not_end_a_springs_on_time() {
+    let mut r = Rig::new();
+    // The safety review's sequence is refused as a setting…
+    assert!(r.line("set pulse_s 0.5").starts_with("err conflict"));
+    assert!(r.line("set prewarm_gap_s 0").starts_with("err conflict"));
+    assert!(r.line("set recover_off_s 0.5").starts_with("err conflict"));
+    // …and the duty check cannot be switched off.
+    assert!(
+        r.line("set spring_duty_max_pct 100")
+            .starts_with("err out-of-range")
+    );
+    // With no pre-warm, a short gap is fine where the phases it joins fit the limit.
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
+    assert_eq!(r.line("set step_s 3"), "ok step_s=3 s");
+    assert_eq!(r.line("set large_steps 2"), "ok large_steps=2");
+    assert!(r.line("set pulse_s 0.5").starts_with("ok pulse_s=0.5"));
+    assert!(r.line("set large_steps 3").starts_with("err conflict"));
+    // At run time the count is the limit's: springs on 6 s, off 0.5 s, on again → past 8 s.
+    let s = Settings::DEFAULT;
+    let mut safety = Safety::new();
+    let a = SpringMask::from_bits(1);
+    for _ in 0..24 {
+        assert_eq!(safety.credit_springs(a, 250, &s), None);
+    }
+    for _ in 0..2 {
+        assert_eq!(safety.credit_springs(SpringMask::NONE, 250, &s), None);
+    }
+    let mut tripped = None;
+    for k in 0..12 {
+        if let Some(f) = safety.credit_springs(a, 250, &s) {
+            tripped = Some((k, f));
+            break;
+        }
+    }
+    let (k, f) = tripped.expect("trips");
+    assert_eq!(f.kind, FaultKind::SpringOnTime(0));
+    assert_eq!(k, 8, "6 s + 2.25 s of on-time");
+}
+
+#[test]
+fn each_interval_is_credited_to_the_springs_that_were_on_during_it() {
+    let mut r = Rig::new();
+    r.run(60.0);
+    r.line("mode step-small A");
+    let mut on_at = None;
+    while r.sup.mode().name() == "step-small" && r.now_ms < 200_000 {
+        r.run(0.25);
+        let on = r.sup.outputs().springs.contains(0);
+        if on && on_at.is_none() {
+            on_at = Some(r.now_ms);
+            // Just switched on: nothing of the interval before (springs off) counts.
+            assert_eq!(r.sup.safety().spring_on_s(0), 0.0);
+        }
+        // Through the first on-run (the pre-warm) the count is exactly the time on.
+        if let Some(t0) = on_at {
+            if !on {
+                break;
+            }
+            let want = (r.now_ms - t0) as f32 * 1e-3;
+            assert!((r.sup.safety().spring_on_s(0) - want).abs() < 1e-3);
+        }
+    }
+    assert!(on_at.is_some());
+    assert!(r.sup.fault().is_none(), "{:?}", r.sup.fault());
+}
+
+#[test]
+fn the_estop_overrides_a_latched_fault_and_reset_waits_for_the_button() {
+    let mut r = Rig::new();
+    r.run(10.0);
+    r.sensor = false;
+    r.run(1.5);
+    assert_eq!(r.fault_code(), Some("sensor-loss"));
+    // The console's estop over another fault is recorded, not lost.
+    assert_eq!(r.line("estop"), "ok emergency stop latched");
+    assert_eq!(r.fault_code(), Some("estop"));
+    r.sensor = true;
+    r.run(1.0);
+    // The button read pressed (its level, every period): reset is refused while it is.
+    r.sup.button(Millis(r.now_ms), true);
+    r.run(0.25);
+    assert!(r.line("reset").starts_with("err cause-present"));
+    r.sup.button(Millis(r.now_ms), false);
+    let reply = r.line("reset");
+    assert!(reply.starts_with("ok fault cleared, stopped"), "{reply}");
+    // After an e-stop the heater does not come back by itself.
+    r.run(30.0);
+    assert!(
+        r.log
+            .iter()
+            .rev()
+            .take(100)
+            .all(|(_, o)| *o == Outputs::OFF)
+    );
+    assert_eq!(r.sup.mode().name(), "stopped");
+    assert!(r.line("mode standby").starts_with("ok"));
+    r.run(1.0);
+    assert!(r.sup.outputs().heater > Duty::OFF);
+}
+
+#[test]
+fn the_button_pressed_during_another_fault_still_latches_the_estop() {
+    let mut r = Rig::new();
+    r.block.heater_ok = false;
+    r.run(30.0);
+    assert_eq!(r.fault_code(), Some("runaway-heating"));
+    r.sup.button(Millis(r.now_ms), true);
+    assert_eq!(r.fault_code(), Some("estop"));
+    r.run(1.0);
+    assert_eq!(r.sup.outputs(), Outputs::OFF, "e-stop: the fan off too");
+    assert!(r.line("reset").starts_with("err cause-present"));
+}
+
+#[test]
+fn stop_is_accepted_with_a_fault_latched_and_turns_the_fan_off() {
+    let mut r = Rig::new();
+    r.run(5.0);
+    r.sensor = false;
+    r.run(1.5);
+    assert_eq!(r.fault_code(), Some("sensor-loss"));
+    assert!(
+        r.sup.outputs().fan > Duty::OFF,
+        "the fan cools under a fault"
+    );
+    let reply = r.line("stop");
+    assert!(reply.starts_with("ok every output off"), "{reply}");
+    r.run(1.0);
+    assert_eq!(r.sup.outputs(), Outputs::OFF);
+    assert_eq!(r.fault_code(), Some("sensor-loss"), "still latched");
+}
+
+#[test]
+fn unresolved_frames_are_judged_by_the_worst_they_may_hide() {
+    // Merged: mean 370 K, bound 4 K. The SMP may be at 374 K > t_max_k (373 K).
+    let mut r = Rig::new();
+    r.run(1.0);
+    r.frame(frame_of(370.0, 370.0, Quality::Merged, 4.0));
+    assert_eq!(r.fault_code(), Some("over-temperature"));
+    // The same frame resolved is two regions at 370 K: fine.
+    let mut r = Rig::new();
+    r.run(1.0);
+    r.frame(frame_of(370.0, 370.0, Quality::Resolved, 4.0));
+    assert_eq!(r.fault_code(), None);
+}
+
+#[test]
+fn a_frame_above_the_plausible_range_is_an_over_temperature_at_once() {
+    let mut r = Rig::new();
+    r.run(1.0);
+    let d = r.frame(frame_of(560.0, 380.0, Quality::Resolved, 0.3));
+    assert_eq!(r.fault_code(), Some("over-temperature"));
+    assert_eq!(d.outputs.heater, Duty::OFF);
+    // Implausibly cold (or NaN) is still no measurement: sensor loss after the window.
+    let mut r = Rig::new();
+    r.run(1.0);
+    for _ in 0..5 {
+        r.frame(frame_of(150.0, 150.0, Quality::Resolved, 0.3));
+    }
+    assert_eq!(r.fault_code(), Some("sensor-loss"));
+}
+
+#[test]
+fn a_plausible_but_wrong_camera_trips_no_response_however_the_modes_change() {
+    // The camera reads 320 K whatever the heater does: inside standby's hold band, below
+    // its target, so the loop drives the heater flat out.
+    let mut r = Rig::new();
+    let mut tripped = None;
+    for k in 0..4 * 120 {
+        // Toggling the mode every 10 s re-armed every check before.
+        if k % 40 == 0 {
+            r.line(if k % 80 == 0 {
+                "mode standby"
+            } else {
+                "mode step-large AB"
+            });
+        }
+        r.frame(frame_of(320.0, 319.0, Quality::Resolved, 0.3));
+        if r.sup.fault().is_some() {
+            tripped = Some(k as f32 * 0.25);
+            break;
+        }
+    }
+    assert_eq!(r.fault_code(), Some("no-response"));
+    let t = tripped.unwrap();
+    assert!((59.0..65.0).contains(&t), "after {t} s");
+}
+
+#[test]
+fn a_long_run_of_unresolved_frames_while_heating_falls_back_to_the_film() {
+    let mut r = Rig::new();
+    r.run(40.0);
+    r.line("mode step-large AB");
+    let mut warned = None;
+    for k in 0..4 * 40 {
+        let t1 = r.block.t1;
+        let d = r.frame(frame_of(t1, t1, Quality::Merged, 2.0));
+        if let Some(w) = d.warning {
+            warned = Some((k, w));
+            break;
+        }
+    }
+    let (k, w) = warned.expect("a warning");
+    assert_eq!(w, WARN_UNRESOLVED);
+    assert!((4 * 30 - 1..=4 * 30 + 1).contains(&k), "after {k} frames");
+    assert!(r.sup.film_fallback());
+    assert_eq!(r.sup.sensing_hint().weights.w1, 1.0);
+    // Resolved frames give the mode its region back.
+    let d = r.frame(r.block.measure(0, 0));
+    assert_eq!(d.warning, Some(WARN_RESOLVED));
+    assert!(!r.sup.film_fallback());
+}
+
+#[test]
+fn flash_operations_run_with_heater_and_springs_off_and_no_nuisance_sensor_loss() {
+    let mut r = Rig::new();
+    r.run(5.0);
+    assert!(r.sup.outputs().heater > Duty::OFF, "standby heating");
+    let d = r
+        .sup
+        .step(Millis(r.now_ms), None, Some(parse("save").unwrap()));
+    assert!(d.store.is_some());
+    assert_eq!(d.outputs.heater, Duty::OFF);
+    assert!(d.outputs.springs.is_empty());
+    // A 2.5 s erase: the sensor stalls with the core; the window restarts at its end.
+    r.now_ms += 2500;
+    r.sup
+        .finish_store(Millis(r.now_ms), store::StoreOutcome::Saved);
+    r.run(5.0);
+    assert_eq!(r.fault_code(), None);
+    // `load` is refused where `save` is (while a mode drives the block).
+    r.line("mode step-large AB");
+    assert!(r.line("load").starts_with("err bad-state"));
+    assert!(r.line("save").starts_with("err bad-state"));
+}
+
+#[test]
+fn a_stepping_hold_and_a_pause_end_by_their_idle_timeout() {
+    let mut r = Rig::new();
+    r.line("set hold_timeout_s 30");
+    r.run(60.0);
+    r.line("mode step-small A");
+    while r.sup.mode().phase_name() != "hold" && r.now_ms < 400_000 {
+        r.run(0.25);
+    }
+    assert_eq!(
+        r.sup.mode().phase_name(),
+        "hold",
+        "{:?}",
+        r.sup.events().iter().collect::<Vec<_>>()
+    );
+    r.run(29.0);
+    assert_eq!(r.sup.mode().phase_name(), "hold");
+    r.run(1.5);
+    assert_eq!(r.sup.mode().name(), "standby");
+    assert!(
+        r.sup
+            .events()
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::TimedOut { what: "hold", .. }))
+    );
+    // Pause means something only in a spring phase; paused, the idle timeout runs.
+    let mut r = Rig::new();
+    r.line("set hold_timeout_s 30");
+    r.run(60.0);
+    r.line("mode step-small A");
+    assert!(r.line("pause").starts_with("err bad-state"), "soak");
+    while r.sup.mode().phase_name() != "prewarm" {
+        r.run(0.25);
+    }
+    assert_eq!(r.line("pause"), "ok paused");
+    r.run(31.0);
+    assert_eq!(r.sup.mode().name(), "standby");
+}
+
+#[test]
+fn recovery_heat_ends_by_its_timeout_even_when_ready() {
+    let mut r = Rig::new();
+    r.line("set soak_timeout_s 60");
+    // The springs cannot reach 250 % in the time: ready but never balanced.
+    r.line("set spring_recover_pct 250");
+    r.run(60.0);
+    r.line("mode recover");
+    r.run(61.0);
+    assert_eq!(r.sup.mode().name(), "standby");
+    assert!(
+        r.sup
+            .events()
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::TimedOut { what: "reheat", .. }))
+    );
+}
+
+#[test]
+fn load_and_defaults_rebuild_the_cascade_outer_loop() {
+    let mut r = Rig::new();
+    r.line("set heater_cap_k 380");
+    let max = |r: &Rig| r.sup.loop_configs().1.output_max;
+    assert_eq!(max(&r), 380.0 - 4.0 - 323.0);
+    r.line("defaults");
+    assert_eq!(max(&r), 393.0 - 4.0 - 323.0);
+    r.line("set heater_cap_k 380");
+    let mut saved = Settings::DEFAULT;
+    saved.heater_cap_k = 385.0;
+    r.sup.step(Millis(r.now_ms), None, Some(Command::Load));
+    r.sup.finish_store(
+        Millis(r.now_ms),
+        store::StoreOutcome::Loaded(Some(&saved.encode())),
+    );
+    assert_eq!(max(&r), 385.0 - 4.0 - 323.0);
+}
+
+#[test]
+fn after_a_power_up_the_springs_are_assumed_hot_and_a_reset_keeps_them() {
+    // Power-up: a stepping rests the springs first.
+    let mut r = Rig::new();
+    r.sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+    r.run(60.0);
+    r.line("mode step-small A");
+    let mut phases = Vec::new();
+    while r.sup.mode().phase_name() != "spring" && r.now_ms < 1_000_000 {
+        let p = r.sup.mode().phase_name();
+        if phases.last() != Some(&p) {
+            phases.push(p);
+        }
+        r.run(0.25);
+    }
+    assert_eq!(phases, ["soak", "rest", "prewarm"]);
+    // The memory of a hot spring survives a reset of the chip (and the console's reset).
+    let mut hot = Rig::new();
+    hot.run(60.0);
+    hot.line("mode step-large AB");
+    while hot.sup.mode().phase_name() != "hold" {
+        hot.run(0.25);
+    }
+    let memory = hot.sup.spring_memory();
+    let back = SpringMemory::from_words(&memory.to_words()).unwrap();
+    let again = Supervisor::with_memory(Millis(0), Settings::DEFAULT, back);
+    assert_eq!(again.spring_heat(), hot.sup.spring_heat());
+    assert_eq!(
+        again.safety().spring_duty(0),
+        hot.sup.safety().spring_duty(0)
+    );
+    assert!(again.spring_heat().heat(0) > 0.5);
 }

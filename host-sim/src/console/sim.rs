@@ -31,9 +31,9 @@ use thermorph::command::parse_read;
 use thermorph::console::{LineReader, MAX_LINE};
 use thermorph::measurement::Measurement;
 use thermorph::settings::Settings;
-use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot};
+use thermorph::supervisor::{SpringMemory, Supervisor};
 use thermorph::units::Millis;
 
 use crate::plant::Plant;
@@ -92,21 +92,23 @@ impl SettingsFile {
             .map_err(|e| format!("{}: {e}", self.path.display()))
     }
 
-    /// Carry out the supervisor's request; return its reply.
-    pub fn carry_out(&self, req: &StoreRequest, supervisor: &mut Supervisor) -> Reply {
+    /// Carry out the supervisor's request at `now`; return its reply.
+    pub fn carry_out(&self, req: &StoreRequest, supervisor: &mut Supervisor, now: Millis) -> Reply {
         match req {
             StoreRequest::Save(record) => match self.write(record) {
-                Ok(()) => supervisor.finish_store(StoreOutcome::Saved),
+                Ok(()) => supervisor.finish_store(now, StoreOutcome::Saved),
                 Err(e) => {
                     eprintln!("host-sim console: save: {e}");
-                    supervisor.finish_store(StoreOutcome::Failed("cannot write the settings file"))
+                    supervisor
+                        .finish_store(now, StoreOutcome::Failed("cannot write the settings file"))
                 }
             },
             StoreRequest::Load => match self.read() {
-                Ok(b) => supervisor.finish_store(StoreOutcome::Loaded(b.as_deref())),
+                Ok(b) => supervisor.finish_store(now, StoreOutcome::Loaded(b.as_deref())),
                 Err(e) => {
                     eprintln!("host-sim console: load: {e}");
-                    supervisor.finish_store(StoreOutcome::Failed("cannot read the settings file"))
+                    supervisor
+                        .finish_store(now, StoreOutcome::Failed("cannot read the settings file"))
                 }
             },
         }
@@ -130,7 +132,7 @@ impl Block {
     pub fn new(scenario: Scenario, settings: Settings) -> Result<Self, String> {
         let (plant, camera) = block_of(&scenario)?;
         let mut control = Control::new(Millis(0));
-        control.supervisor = Supervisor::new(Millis(0), settings);
+        control.supervisor = Supervisor::with_memory(Millis(0), settings, SpringMemory::RESTED);
         let ticks_per_period = (scenario.period_s / TICK_S).ceil().max(1.0) as u64;
         Ok(Block {
             tick_s: scenario.period_s / ticks_per_period as f64,
@@ -249,7 +251,7 @@ impl Session {
                     let d = sup.step(now, None, Some(c));
                     let reply = match (&d.reply, &d.store) {
                         (Some(r), _) => r.clone(),
-                        (None, Some(req)) => self.store.carry_out(req, sup),
+                        (None, Some(req)) => self.store.carry_out(req, sup, now),
                         (None, None) => Reply::err("internal", "no reply"),
                     };
                     (reply, d.telemetry)

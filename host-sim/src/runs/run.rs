@@ -33,7 +33,7 @@ use thermorph::settings::Settings;
 use thermorph::supervisor::events::EventKind;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest};
-use thermorph::supervisor::{Decision, Supervisor};
+use thermorph::supervisor::{Decision, SpringMemory, Supervisor};
 use thermorph::units::{Kelvin, Millis};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
@@ -234,10 +234,13 @@ pub struct Control {
 }
 
 impl Control {
-    /// Start the supervisor at `now` with the default settings.
+    /// Start the supervisor at `now` with the default settings. The simulated springs start at
+    /// ambient, and the simulated board knows it: its supervisor starts with
+    /// [`SpringMemory::RESTED`], as a board would whose RAM kept the springs' memory across a
+    /// reset long after they were last driven (a real power-up assumes them hot).
     pub fn new(now: Millis) -> Self {
         Control {
-            supervisor: Supervisor::new(now, Settings::DEFAULT),
+            supervisor: Supervisor::with_memory(now, Settings::DEFAULT, SpringMemory::RESTED),
             faults: Vec::new(),
             seen_events: 0,
             stored: None,
@@ -269,12 +272,12 @@ impl Control {
                 let reply = match req {
                     StoreRequest::Save(record) => {
                         self.stored = Some(record.to_vec());
-                        self.supervisor.finish_store(StoreOutcome::Saved)
+                        self.supervisor.finish_store(now, StoreOutcome::Saved)
                     }
                     StoreRequest::Load => {
                         let stored = self.stored.clone();
                         self.supervisor
-                            .finish_store(StoreOutcome::Loaded(stored.as_deref()))
+                            .finish_store(now, StoreOutcome::Loaded(stored.as_deref()))
                     }
                 };
                 d.reply = Some(reply);

@@ -1,11 +1,15 @@
 //! The board's tasks, the data they share, and the fault handlers (see the crate docs).
 
+#[path = "fault.rs"]
+mod fault;
 #[path = "pins.rs"]
 pub mod pins;
+#[path = "retained.rs"]
+pub mod retained;
 #[path = "serial.rs"]
 pub mod serial;
 
-use core::cell::RefCell;
+use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use defmt::{error, info, unwrap, warn};
@@ -22,15 +26,13 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Delay, Duration, Instant, Ticker, Timer};
 use embedded_io_async::{Read as _, Write as _};
 use static_cell::ConstStaticCell;
-use thermorph::command::{self, Command, ParseError};
+use thermorph::command::{self, ParseError};
 use thermorph::console::{ConsoleError, LineReader, MAX_LINE};
 use thermorph::measurement::{Measurement, SensingHint};
 use thermorph::mlx90640::{Calibration, Image, SubpageFrame};
 use thermorph::mtts;
 use thermorph::outputs::Outputs;
-use thermorph::sensing::{
-    Clock, Outcome, Parts, Pipeline, PipelineConfig, SensingError, Sensor, Storage,
-};
+use thermorph::sensing::{Clock, Outcome, Parts, Pipeline, PipelineConfig, Sensor, Storage};
 use thermorph::storage::FlashStore;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::{Decision, Supervisor};
@@ -38,39 +40,19 @@ use thermorph::units::Millis;
 
 use defmt_rtt as _;
 
-/// What the sensor task hands the control task: the newest measurement and error not yet
-/// taken.
-#[derive(Clone, Copy, Default)]
-pub struct SensorReport {
-    /// The newest measurement since the last take.
-    pub measurement: Option<Measurement>,
-    /// The newest sensing error since the last take.
-    pub error: Option<SensingError>,
-    /// Errors since the last take.
-    pub errors: u32,
-    /// When the sensor task last finished a step (every step is bounded in time by the
-    /// driver's timeouts, so a task that stops stepping has stalled).
-    pub last_step: Option<Millis>,
-}
-
-/// The sensor task's reports; the control task takes them each tick.
-static SENSOR: Mutex<CriticalSectionRawMutex, RefCell<SensorReport>> =
-    Mutex::new(RefCell::new(SensorReport {
-        measurement: None,
-        error: None,
-        errors: 0,
-        last_step: None,
-    }));
-/// Wakes the control task when a measurement arrives.
-static MEASURED: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+/// The sensor task's newest measurement, until the control task takes it. (Sensing errors
+/// only go to the log: the supervisor sees a missing sensor as measurements that stop coming.)
+static MEASUREMENT: Mutex<CriticalSectionRawMutex, Cell<Option<Measurement>>> =
+    Mutex::new(Cell::new(None));
+/// Wakes the control task early: a measurement arrived or the e-stop button was pressed.
+static WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 /// The supervisor's sensing hint for the frames to come (the control task signals it).
 static HINT: Signal<CriticalSectionRawMutex, SensingHint> = Signal::new();
-/// The emergency-stop button was pressed (held at start or pressed since): set by the e-stop
-/// task, taken by the control task, which hands it to the supervisor (the latch is the
-/// supervisor's).
-static ESTOP_PRESSED: AtomicBool = AtomicBool::new(false);
-/// The button was released since (so `reset` may clear the e-stop).
-static ESTOP_RELEASED: AtomicBool = AtomicBool::new(false);
+/// The e-stop button went down since the control task last looked: set by the e-stop task on
+/// every falling edge, taken by the control task, which reports the button pressed for that
+/// period even if its level already reads released (a tap shorter than a period). Never a
+/// release: that is only ever the level read ([`pins::estop_pressed`]).
+static ESTOP_TAPPED: AtomicBool = AtomicBool::new(false);
 
 /// A console line waiting for its reply.
 enum Item {
@@ -94,14 +76,14 @@ enum Out {
     Reply(Reply),
     /// `n` lines refused because the queue was full: `n` times `err busy`.
     Busy(u16),
-    /// A telemetry line (with its `#` and CR LF).
-    Telemetry(heapless::String<TELEMETRY_CAP>),
+    /// A `#` line: telemetry, a warning (with its `#` and CR LF).
+    Text(heapless::String<TELEMETRY_CAP>),
 }
 
-/// Longest telemetry line, bytes.
+/// Longest `#` line (telemetry, a warning), bytes.
 const TELEMETRY_CAP: usize = 192;
-/// Replies and telemetry waiting to be written. The control loop takes a line only when a
-/// reply slot is free, so a reply always fits; telemetry is dropped when the port is behind.
+/// Replies and `#` lines waiting to be written. The control loop takes a line only when a
+/// reply slot is free, so a reply always fits; `#` lines are dropped when the port is behind.
 static OUT: Channel<CriticalSectionRawMutex, Out, { OUTSTANDING + 2 }> = Channel::new();
 
 // The pipeline's working memory, one static per part: the zero ones stay in .bss.
@@ -214,25 +196,12 @@ async fn sensor_task(bus: pins::SensorBus) {
         if let Some(h) = HINT.try_take() {
             sensor.set_hint(h);
         }
-        let outcome = sensor.step().await;
-        let at = now();
-        SENSOR.lock(|r| r.borrow_mut().last_step = Some(at));
-        match outcome {
+        match sensor.step().await {
             Outcome::Frame(m) => {
-                SENSOR.lock(|r| {
-                    let mut r = r.borrow_mut();
-                    r.measurement = Some(m);
-                });
-                MEASURED.signal(());
+                MEASUREMENT.lock(|c| c.set(Some(m)));
+                WAKE.signal(());
             }
-            Outcome::Error(e) => {
-                warn!("sensor: {}", e);
-                SENSOR.lock(|r| {
-                    let mut r = r.borrow_mut();
-                    r.error = Some(e);
-                    r.errors = r.errors.saturating_add(1);
-                });
-            }
+            Outcome::Error(e) => warn!("sensor: {}", e),
             Outcome::Ready => info!("MLX90640 calibrated and configured"),
             Outcome::Recovered => info!("I2C bus recovered"),
             Outcome::Paused | Outcome::Half | Outcome::Discarded(_) => {}
@@ -281,8 +250,9 @@ async fn console_rx_task(mut rx: BufferedUartRx<'static>) {
         let n = match read {
             Ok(n) => n,
             Err(e) => {
-                // The buffered reader reports no receive errors today; should one come, the
-                // bytes may be gone: the line they belonged to is refused.
+                // embassy-stm32 0.6's buffered reader never returns an error (`serial` watches
+                // the hardware's); should one come, the bytes may be gone: the line they
+                // belonged to is refused.
                 warn!("console: {}", e);
                 reader.mark_lost();
                 continue;
@@ -320,7 +290,7 @@ async fn console_tx_task(mut tx: BufferedUartTx<'static>) {
                     write_line(&mut tx, r.as_str().as_bytes()).await;
                 }
             }
-            Out::Telemetry(t) => {
+            Out::Text(t) => {
                 if tx.write_all(t.as_bytes()).await.is_err() {
                     warn!("console: write failed");
                 }
@@ -335,74 +305,34 @@ async fn write_line(tx: &mut BufferedUartTx<'static>, line: &[u8]) {
     }
 }
 
-/// The emergency stop: publishes every press, including a button already held at start
-/// (`wait_for_low` returns at once if the level is low).
+/// The emergency stop's edges: every press wakes the control loop at once and is remembered
+/// until it looks ([`ESTOP_TAPPED`]). The loop reads the button's level itself every period;
+/// this task only makes a press quicker to act on and a short tap impossible to miss.
 #[embassy_executor::task]
 async fn estop_task(mut button: ExtiInput<'static, Async>) {
     loop {
-        button.wait_for_low().await;
-        warn!("emergency stop pressed");
-        ESTOP_PRESSED.store(true, Ordering::Release);
-        button.wait_for_high().await;
-        ESTOP_RELEASED.store(true, Ordering::Release);
+        button.wait_for_falling_edge().await;
+        ESTOP_TAPPED.store(true, Ordering::Release);
+        WAKE.signal(());
     }
 }
 
-/// Set by the first panic or fault: a second one (say, a panic inside the logger while it
-/// prints the first) skips the printing.
-static FAILING: AtomicBool = AtomicBool::new(false);
-
-/// Turn the outputs off first, then report (once), then halt for the debugger or reset the
-/// chip.
-fn fail_safe(what: &str) -> ! {
-    // SAFETY: called only from the panic and fault handlers, after which no task runs.
-    unsafe { pins::force_outputs_off() };
-    if !FAILING.swap(true, Ordering::AcqRel) {
-        error!("{}: outputs off", what);
+/// Queue a console line `# warning: {text}` (best effort, as telemetry: a port behind by a
+/// whole queue loses it; it is also in the supervisor's `log`).
+fn write_warning(text: &str) {
+    use core::fmt::Write as _;
+    warn!("{}", text);
+    let mut line = heapless::String::<TELEMETRY_CAP>::new();
+    if write!(line, "# warning: {text}\r\n").is_err() || OUT.try_send(Out::Text(line)).is_err() {
+        warn!("console: warning line dropped");
     }
-    halt_or_reset()
-}
-
-fn halt_or_reset() -> ! {
-    if cortex_m::peripheral::DCB::is_debugger_attached() {
-        // probe-rs stops here and prints the backtrace.
-        cortex_m::asm::bkpt();
-    }
-    // No debugger (or it resumed): reset at once rather than wait for a watchdog that may
-    // not be running yet. The gate pull-downs hold the loads off through the reset.
-    cortex_m::peripheral::SCB::sys_reset()
-}
-
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo) -> ! {
-    // SAFETY: as in `fail_safe`; the outputs go off before the message is formatted.
-    unsafe { pins::force_outputs_off() };
-    if !FAILING.swap(true, Ordering::AcqRel) {
-        error!("panic, outputs off: {}", defmt::Display2Format(info));
-    }
-    halt_or_reset()
-}
-
-/// A fault (including a stack overflow: flip-link puts the stack below the statics, so an
-/// overflow runs off the start of RAM into a fault instead of over the data).
-#[cortex_m_rt::exception]
-unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
-    fail_safe("hard fault")
-}
-
-/// An interrupt or exception without a handler.
-#[cortex_m_rt::exception]
-unsafe fn DefaultHandler(irqn: i16) -> ! {
-    // SAFETY: as in `fail_safe`.
-    unsafe { pins::force_outputs_off() };
-    if !FAILING.swap(true, Ordering::AcqRel) {
-        error!("unexpected interrupt or exception {}, outputs off", irqn);
-    }
-    halt_or_reset()
 }
 
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
+    // Why the chip started, and the springs' memory if a reset kept it: read before anything
+    // else, then the reset flags are cleared.
+    let boot = retained::take();
     let p = embassy_stm32::init(pins::clocks());
     let pins::Board {
         i2c,
@@ -428,39 +358,49 @@ async fn main(spawner: Spawner) {
     let mut boot_line = heapless::String::<TELEMETRY_CAP>::new();
     let settings = with_long_watchdog(&mut watchdog, store.boot_settings(&mut boot_line)).await;
     if !boot_line.is_empty() {
-        let _ = OUT.try_send(Out::Telemetry(boot_line));
+        let _ = OUT.try_send(Out::Text(boot_line));
     }
-    let mut supervisor = Supervisor::new(now(), settings);
+    let mut supervisor = match boot {
+        retained::Boot::Kept(memory) => {
+            info!("springs: memory kept across the reset");
+            Supervisor::with_memory(now(), settings, memory)
+        }
+        retained::Boot::PowerUp => {
+            info!("power-up: springs assumed hot");
+            Supervisor::new(now(), settings)
+        }
+        retained::Boot::Unchecked => {
+            warn!("reset without a valid spring memory: springs assumed hot");
+            Supervisor::new(now(), settings)
+        }
+    };
+    retained::keep(&supervisor.spring_memory());
     let mut ticker = Ticker::every(TICK);
-    let mut tick: u32 = 0;
     loop {
-        // Wake on a measurement, a console line (only while a reply slot is free, so the
-        // reply cannot block this loop) or the tick.
+        // Wake on a measurement or an e-stop press, a console line (only while a reply slot
+        // is free, so the reply cannot block this loop) or the tick.
         let line = if OUT.free_capacity() > 1 {
-            match select3(MEASURED.wait(), LINES.receive(), ticker.next()).await {
+            match select3(WAKE.wait(), LINES.receive(), ticker.next()).await {
                 Either3::Second(item) => Some(item),
                 _ => None,
             }
         } else {
-            match select(MEASURED.wait(), ticker.next()).await {
+            match select(WAKE.wait(), ticker.next()).await {
                 Either::First(()) | Either::Second(()) => None,
             }
         };
-        let report = SENSOR.lock(|r| core::mem::take(&mut *r.borrow_mut()));
+        let measurement = MEASUREMENT.lock(Cell::take);
         let t = now();
 
-        // The control step: the e-stop level, the measurement, then the line, each a step of
-        // the supervisor; only the last decision's outputs are applied (they are the newest).
-        // The button's events are the supervisor's to latch (their replies go nowhere).
-        if ESTOP_PRESSED.swap(false, Ordering::AcqRel) {
-            supervisor.step(t, None, Some(Command::Button { pressed: true }));
-        }
-        if ESTOP_RELEASED.swap(false, Ordering::AcqRel) {
-            supervisor.step(t, None, Some(Command::Button { pressed: false }));
-        }
-        let mut decision = supervisor.step(t, report.measurement.as_ref(), None);
+        // The control step: the e-stop button's level (or a press since the last look), the
+        // measurement, then the line, each a step of the supervisor; only the last decision's
+        // outputs are applied (they are the newest).
+        let tapped = ESTOP_TAPPED.swap(false, Ordering::AcqRel);
+        supervisor.button(t, pins::estop_pressed() || tapped);
+        let mut decision = supervisor.step(t, measurement.as_ref(), None);
         let alive = decision.alive;
         let mut telemetry = decision.telemetry;
+        let mut warnings = [decision.warning.take(), None];
         match line {
             Some(Item::Busy(n)) => {
                 let _ = OUT.try_send(Out::Busy(n));
@@ -476,14 +416,20 @@ async fn main(spawner: Spawner) {
                         ..supervisor.step(t, None, None)
                     },
                 };
-                // `save` and `load`: the flash gives the reply.
+                // `save` and `load`: the outputs (heater and springs off) go to the pins
+                // first and hold through the flash operation, which stalls the core; then
+                // the flash gives the reply.
                 if let Some(req) = d.store.take() {
-                    let reply =
-                        with_long_watchdog(&mut watchdog, store.carry_out(&req, &mut supervisor))
-                            .await;
+                    outputs.apply(&d.outputs);
+                    let reply = with_long_watchdog(
+                        &mut watchdog,
+                        store.carry_out(&req, &mut supervisor, now),
+                    )
+                    .await;
                     d.reply = Some(reply);
                 }
                 telemetry |= d.telemetry;
+                warnings[1] = d.warning.take();
                 if let Some(r) = d.reply.clone() {
                     let _ = OUT.try_send(Out::Reply(r));
                 }
@@ -492,32 +438,39 @@ async fn main(spawner: Spawner) {
             None => {}
         }
         outputs.apply(&decision.outputs);
+        retained::keep(&supervisor.spring_memory());
         HINT.signal(decision.sensing);
+        // After the reply, whose slot is kept free: a warning, then telemetry.
+        for w in warnings.into_iter().flatten() {
+            write_warning(w);
+        }
         if telemetry {
             let mut line = heapless::String::<TELEMETRY_CAP>::new();
             if supervisor.write_telemetry(t, &mut line).is_ok() {
                 // Best effort: a port that is behind loses telemetry, never a reply.
-                let _ = OUT.try_send(Out::Telemetry(line));
+                let _ = OUT.try_send(Out::Text(line));
             }
         }
 
-        // The watchdog is fed only after a step that used a measurement at most
-        // `sensor_timeout_s` old or has latched sensor loss: a stalled sensor task or control
-        // loop resets the chip; a missing sensor gives a latched fault and a usable console.
+        // The watchdog is fed after every completed control step that was alive: it used a
+        // fresh measurement, or a fault holds the outputs safe (a stale measurement latches
+        // sensor loss in that same step, and the console stays usable). So what it catches is
+        // a stalled executor or control loop.
         if alive {
             watchdog.pet();
         }
-        // LD2: a 50 ms flash every second, or 10 Hz while a fault is latched.
+        // LD2: a 50 ms flash every second, or 10 Hz while a fault is latched (by the clock:
+        // the loop also wakes between ticks).
+        let slot = t.0 / TICK.as_millis();
         let on = if supervisor.fault().is_some() {
-            tick.is_multiple_of(2)
+            slot.is_multiple_of(2)
         } else {
-            tick.is_multiple_of(20)
+            slot.is_multiple_of(20)
         };
         if on {
             led.set_high();
         } else {
             led.set_low();
         }
-        tick = tick.wrapping_add(1);
     }
 }

@@ -5,23 +5,38 @@
 //!
 //! The board: clocks, tasks and shared state.
 //!
-//! - `main` (the control loop): every 100 ms takes the sensor task's newest measurement and
-//!   error and the e-stop event, and applies one `Outputs` through `pins::Outputs::apply` (the
-//!   only path that drives a load; until the supervisor is connected it applies
-//!   `Outputs::OFF`). It feeds the independent watchdog (500 ms, started before any task) only
-//!   while the sensor task has finished a step (each is bounded by the driver's timeouts)
-//!   within the last second, and blinks LD2: 1 Hz heartbeat, 5 Hz while the sensor reports an error or the e-stop was
-//!   pressed.
+//! - `main` (the control loop): wakes on every new measurement, every console line (while a
+//!   reply slot is free), every e-stop press and at least every 50 ms (`TICK`), and each time
+//!   runs one control step: it hands the supervisor the e-stop button's level
+//!   (`Supervisor::button`; a press seen since the last step counts as pressed), steps it with
+//!   the newest measurement, then with the line, and applies the last decision's `Outputs`
+//!   through `pins::Outputs::apply` (the only path that drives a load). A `save` or `load`
+//!   applies that decision's outputs (heater and springs off) *before* the flash operation and
+//!   holds them through it. It writes the springs' memory to RAM kept across a reset
+//!   (`board/retained.rs`), queues the reply, a `# warning: …` line for a decision's warning
+//!   and any telemetry line, signals the sensing hint, and blinks LD2 (a 50 ms flash a second,
+//!   10 Hz while a fault is latched).
+//! - The watchdog (independent, 500 ms, started before any task) is fed after every completed
+//!   control step whose decision is `alive`: a measurement at most `sensor_timeout_s` old was
+//!   used, or a fault holds the outputs safe. A sensor that stops delivering latches sensor
+//!   loss (and keeps the console usable) rather than a reset, so what the watchdog catches is
+//!   a stalled executor or control loop. A flash write or erase stretches its period to about
+//!   32 s for the operation.
 //! - `sensor_task`: the library's sensing pipeline (`thermorph::sensing::Sensor`) on I2C1 —
 //!   setup, bus recovery after I2C errors (nine SCL clocks, STOP, I2C1 rebuilt), subpage
-//!   pairing, MTTS — publishing each `Measurement` or `SensingError` for the control task and
-//!   applying the sensing hint the control task signals.
+//!   pairing, MTTS — publishing each `Measurement` for the control loop (errors go to the log)
+//!   and applying the sensing hint the loop signals.
 //! - `console_rx_task`: USART2 bytes → `LineReader` → a queue of at most four commands; it
 //!   only ever waits for input, refuses lines beyond the queue (`err busy`) and lines that
-//!   lost bytes (`err lost-bytes`, see `board/serial.rs`).
-//! - `console_tx_task`: one reply per queued line, in order; a long reply never holds up input.
-//! - `estop_task`: publishes every press of the user button (PC13), including one held at
-//!   start; the supervisor owns the latch.
+//!   lost bytes or received damaged ones (`err lost-bytes`, see `board/serial.rs`).
+//! - `console_tx_task`: one reply per queued line, in order, and the `#` lines; a long reply
+//!   never holds up input.
+//! - `estop_task`: wakes the control loop on every press of the user button (PC13) and
+//!   remembers it until the loop looks; the loop reads the level itself, and the supervisor
+//!   owns the latch.
+//!
+//! At boot the reset flags decide whether the springs' memory kept in RAM is used (a reset) or
+//! the springs are assumed hot (a power-up): see `board/retained.rs`.
 //!
 //! Every panic, hard fault (a stack overflow is one: flip-link is the linker) and unexpected
 //! interrupt first drives the heater, fan and spring gates low, then prints over RTT, then

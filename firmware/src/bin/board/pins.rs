@@ -7,7 +7,7 @@
 //! | fan gate | PB6 (D10) | TIM4 CH1 PWM, 25 kHz |
 //! | SMA spring A / B / C | PA8 / PB5 / PB10 (D7 / D4 / D6) | GPIO, active high |
 //! | console | PA2 / PA3 | USART2, 115200 8N1 (ST-LINK virtual COM port) |
-//! | emergency stop | PC13 | user button B1, EXTI13, active low |
+//! | emergency stop | PC13 | user button B1, EXTI13, active low (level: [`estop_pressed`]) |
 //! | status LED | PA5 | LD2 |
 //!
 //! Every MOSFET gate needs a pull-down of at most 10 kΩ to ground: from reset until
@@ -15,14 +15,14 @@
 //! the loads off. Spring A is not on PB4: that is JTAG NJTRST, pulled *up* inside the chip
 //! during and after reset, which would switch the spring on before the firmware runs.
 //!
-//! The gate pins are listed once, in [`gate_pins!`]; [`Board::new`] and [`force_outputs_off`]
-//! both expand it.
+//! The gate pins are listed once, in [`gate_pins!`]; [`Board::new`] and [`OUTPUTS_OFF`] (the
+//! fault handlers' outputs-off program) both expand it.
 //!
 //! Clocks: HSE 8 MHz bypass (the ST-LINK's MCO), PLL M 4 · N 180 · P 2 → SYSCLK 180 MHz,
 //! AHB 180 MHz, APB1 45 MHz, APB2 90 MHz.
 
 use embassy_stm32::exti::{self, ExtiInput};
-use embassy_stm32::gpio::{Level, Output, OutputOpenDrain, OutputType, Pin, Pull, Speed};
+use embassy_stm32::gpio::{Level, Output, OutputOpenDrain, OutputType, Pull, Speed};
 use embassy_stm32::i2c::{self, I2c, Master};
 use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals;
@@ -38,6 +38,7 @@ use static_cell::ConstStaticCell;
 use thermorph::outputs::{Duty, Outputs as OutputState, SPRINGS};
 use thermorph::sensing::{BusStuck, RecoverBus};
 
+use super::fault::OffProgram;
 use super::serial;
 
 /// The gate pins, the one table: `(heater, fan, [spring A, spring B, spring C])`. Expands to
@@ -143,31 +144,38 @@ impl Outputs {
     }
 }
 
-/// Drive the heater, fan and spring gates low, whoever holds them.
-///
-/// For the panic, hard-fault and default handlers: the pins are taken back from their drivers
-/// and made plain low outputs, so every fault turns the outputs off before anything else.
-///
-/// # Safety
-///
-/// Steals the pins from their owners: call it only where no other code runs afterwards.
-pub unsafe fn force_outputs_off() {
-    fn low(pin: Peri<'static, impl Pin>) {
-        // Dropping the driver would disconnect (float) the pin: keep it driven low.
-        core::mem::forget(Output::new(pin, Level::Low, Speed::Low));
-    }
-    macro_rules! all_low {
-        ($h:ident, $f:ident, [$($s:ident),*]) => {
-            // SAFETY: the caller guarantees that nothing uses these pins any more.
-            unsafe {
-                $(low(peripherals::$s::steal());)*
-                low(peripherals::$h::steal());
-                low(peripherals::$f::steal());
-            }
-        };
-    }
-    gate_pins!(all_low);
+/// [`OUTPUTS_OFF`] from the gate pins.
+macro_rules! outputs_off {
+    ($h:ident, $f:ident, [$($s:ident),*]) => {
+        OffProgram::stm32f4(
+            &[$(stringify!($s),)* stringify!($h), stringify!($f)],
+            &[pwm_channel!(TIM3, Ch1, $h), pwm_channel!(TIM4, Ch1, $f)],
+        )
+    };
 }
+
+/// `(timer, channel)` names of a PWM output; fails to compile unless `$pin` is that channel's
+/// pin.
+macro_rules! pwm_channel {
+    ($tim:ident, $ch:ident, $pin:ident) => {{
+        const _: () = pwm_pin::<peripherals::$tim, embassy_stm32::timer::$ch, peripherals::$pin>();
+        (stringify!($tim), stringify!($ch))
+    }};
+}
+
+const fn pwm_pin<T, C, P>()
+where
+    T: embassy_stm32::timer::GeneralInstance4Channel,
+    C: embassy_stm32::timer::TimerChannel,
+    P: embassy_stm32::timer::TimerPin<T, C>,
+{
+}
+
+/// The register program every fault handler runs before anything else (`fault.rs`): the gate
+/// pins of [`gate_pins!`] driven low as GPIO outputs, whoever holds them, and the heater's and
+/// fan's PWM channels — as [`Board::new`] sets them up — forced inactive with a compare value
+/// of 0. The hard fault handler runs it without a stack.
+pub static OUTPUTS_OFF: OffProgram = gate_pins!(outputs_off);
 
 /// I2C1 on PB8 / PB9 with its DMA streams, at [`I2C_HZ`].
 fn sensor_i2c(
@@ -287,7 +295,7 @@ pub struct Board {
     pub console: BufferedUart<'static>,
     /// Heater, fan and springs.
     pub outputs: Outputs,
-    /// The user button.
+    /// The user button, for its edges (its level: [`estop_pressed`]).
     pub estop: ExtiInput<'static, Async>,
     /// LD2.
     pub led: Output<'static>,
@@ -372,4 +380,13 @@ impl Board {
                 .bank1_region3,
         }
     }
+}
+
+/// Whether the emergency-stop button reads pressed now (PC13 low). It reads the port's input
+/// register only, so the control loop may call it while the e-stop task waits on the pin's
+/// edges through [`Board::estop`].
+pub fn estop_pressed() -> bool {
+    use embassy_stm32::pac::GPIOC;
+    use embassy_stm32::pac::gpio::vals::Idr;
+    GPIOC.idr().read().idr(13) == Idr::LOW
 }

@@ -1,17 +1,35 @@
-//! Console input that never loses a byte silently.
+//! Console input that never loses or garbles a byte silently.
 //!
-//! embassy's buffered UART drops a byte when its receive ring is full and only logs a hardware
-//! overrun. [`RxLossWatch`] runs in the USART2 interrupt just before embassy's handler and
-//! records where in the byte stream bytes went missing: it counts the bytes let into the ring,
-//! and the console reader ([`LossTracker`]) counts the bytes it took out. A byte arriving with
-//! [`RX_BUF`] bytes already waiting is dropped by embassy: a loss before the next byte; an
-//! overrun (ORE: a byte came while the previous one was still in the data register) loses the
-//! bytes after the one being taken. The reader marks the line those positions fall in as lost
+//! embassy's buffered UART (embassy-stm32 0.6, `usart/buffered.rs`) reads the data register on
+//! every receive interrupt and only *logs* what went wrong: a byte that meets a full receive
+//! ring is dropped, a hardware overrun (ORE) has lost a byte, and a byte with a framing error
+//! (FE, also a break), noise (NF) or a parity error (PE) is put in the ring as if it were good;
+//! its `read` never returns an error. [`RxLossWatch`] runs in the USART2 interrupt just before
+//! embassy's handler, reads the status register (SR; reading it clears nothing, embassy's read
+//! of the data register does) and records, in a [`loss::Watch`], where in the byte stream each
+//! of these happened; the console reader counts the bytes it takes out ([`took`]) and its
+//! [`LossTracker`] marks the line those positions fall in as lost
 //! ([`thermorph::console::LineReader::mark_lost`]), so it is answered `err lost-bytes` instead
-//! of running with bytes missing (`set target 358` never becomes `set target 38`).
+//! of running with bytes missing or wrong (`set target 358` never becomes `set target 38`).
+//!
+//! Caught, each marking the line the position falls in:
+//! - a byte meeting a full ring (the next byte's line);
+//! - an overrun, with a byte waiting in the data register (the line of the byte after it) or
+//!   without one (the previous byte was taken just before: the next byte's line);
+//! - FE, NF or PE on the byte in the data register (that byte's line: a line end received
+//!   damaged refuses that line; a line end garbled into another byte merges two lines into one
+//!   refused line). Parity is off (8N1), so PE does not occur.
+//!
+//! Not caught:
+//! - a byte changed on the wire that still has a good stop bit and no noisy sample (8N1 has
+//!   no parity to check);
+//! - a flag raised in the few cycles between this watch's read of SR and embassy's: a byte
+//!   completing there reaches the ring uncounted (and unchecked for FE/NF), and an overrun
+//!   there (which needs the interrupt already a whole byte late) goes unrecorded. An
+//!   uncounted byte is put right when the reader next takes it ([`loss::Watch::took`]); a loss
+//!   recorded before then is marked one byte early, which can be on the previous line.
 
 use core::cell::Cell;
-use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_stm32::interrupt;
 use embassy_sync::blocking_mutex::Mutex;
@@ -24,46 +42,40 @@ pub use loss::LossTracker;
 /// Size of the console's receive ring, bytes.
 pub const RX_BUF: usize = 1024;
 
-/// Bytes the interrupt let into the ring since boot (wrapping).
-static ACCEPTED: AtomicU32 = AtomicU32::new(0);
-/// Bytes the reader took out of the ring since boot (wrapping).
-static TAKEN: AtomicU32 = AtomicU32::new(0);
-/// Stream positions of losses not yet seen by the reader: the first and the last.
-static LOST: Mutex<CriticalSectionRawMutex, Cell<Option<(u32, u32)>>> = Mutex::new(Cell::new(None));
+/// The interrupt's and the reader's byte counts and the losses not yet handed to the reader.
+static WATCH: Mutex<CriticalSectionRawMutex, Cell<loss::Watch>> =
+    Mutex::new(Cell::new(loss::Watch::new()));
 
-fn record_loss(at: u32) {
-    LOST.lock(|l| l.set(loss::merge(l.get(), at)));
-}
-
-/// The USART2 interrupt's first handler: detects a full ring and hardware overruns.
+/// The USART2 interrupt's first handler: detects a full ring, overruns and damaged bytes.
 pub struct RxLossWatch;
 
 impl interrupt::typelevel::Handler<interrupt::typelevel::USART2> for RxLossWatch {
     unsafe fn on_interrupt() {
-        // Reading SR clears nothing: embassy's handler reads it again and then the data.
         let sr = embassy_stm32::pac::USART2.sr().read();
-        if !sr.rxne() {
+        let status = loss::RxStatus {
+            received: sr.rxne(),
+            overrun: sr.ore(),
+            damaged: sr.fe() || sr.ne() || sr.pe(),
+        };
+        if status == loss::RxStatus::default() {
+            // A transmit or idle-line interrupt.
             return;
         }
-        let (accepted, lost) = loss::on_receive(
-            ACCEPTED.load(Ordering::Relaxed),
-            TAKEN.load(Ordering::Relaxed),
-            sr.ore(),
-            RX_BUF,
-        );
-        ACCEPTED.store(accepted, Ordering::Relaxed);
-        if let Some(at) = lost {
-            record_loss(at);
-        }
+        WATCH.lock(|w| {
+            let mut watch = w.get();
+            watch.on_interrupt(status, RX_BUF);
+            w.set(watch);
+        });
     }
 }
 
 /// Record that a read took `n` bytes out of the ring, and return the losses recorded since
 /// the last call (for [`LossTracker::add`]).
 pub fn took(n: usize) -> Option<(u32, u32)> {
-    TAKEN.store(
-        TAKEN.load(Ordering::Relaxed).wrapping_add(n as u32),
-        Ordering::Relaxed,
-    );
-    LOST.lock(|l| l.take())
+    WATCH.lock(|w| {
+        let mut watch = w.get();
+        let lost = watch.took(n);
+        w.set(watch);
+        lost
+    })
 }
