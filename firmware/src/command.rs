@@ -137,11 +137,6 @@ pub enum Command {
     Load,
     /// Every parameter back to its default (in RAM; `save` keeps them).
     Defaults,
-    /// The emergency-stop button's level, sent by the board at start and on every change.
-    Button {
-        /// The button is pressed.
-        pressed: bool,
-    },
 }
 
 /// One line of the command table.
@@ -179,7 +174,7 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "pause",
         args: "",
-        help: "pause stepping (springs off, timers held)",
+        help: "pause a spring phase of stepping (springs off, timer held)",
     },
     CommandSpec {
         name: "resume",
@@ -189,12 +184,12 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "stop",
         args: "",
-        help: "every output off until the next mode",
+        help: "every output off until the next mode (any state)",
     },
     CommandSpec {
         name: "reset",
         args: "",
-        help: "clear a latched fault whose cause is gone",
+        help: "clear a fault whose cause is gone; then stopped",
     },
     CommandSpec {
         name: "get",

@@ -1115,4 +1115,61 @@ mod tests {
         assert!(matches!(with("step_s", 9.0), Err(RecordError::Conflict(_))));
         assert_eq!(with("hot_k", 360.0).map(|s| s.hot_k), Ok(360.0));
     }
+
+    #[test]
+    fn records_that_would_defeat_a_limit_are_not_loaded() {
+        let with = |pairs: &[(&str, f32)]| {
+            let mut r = Settings::DEFAULT.encode();
+            for &(name, v) in pairs {
+                let i = PARAMS.iter().position(|p| p.name == name).unwrap();
+                r[12 + 4 * i..16 + 4 * i].copy_from_slice(&v.to_le_bytes());
+            }
+            let crc = crc32(0, &r[..RECORD_LEN - 4]);
+            r[RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+            Settings::decode(&r)
+        };
+        // Past a range: the duty check off, an hour-long relay test.
+        assert_eq!(
+            with(&[("spring_duty_max_pct", 100.0)]),
+            Err(RecordError::BadValue("spring_duty_max_pct"))
+        );
+        assert_eq!(
+            with(&[("tune_timeout_s", 3600.0)]),
+            Err(RecordError::BadValue("tune_timeout_s"))
+        );
+        // Combinations: a relay past 90 %, short gaps joining spring phases past the limit.
+        for bad in [
+            &[("tune_base_pct", 90.0), ("tune_amplitude_pct", 50.0)][..],
+            &[("pulse_s", 0.5)],
+            &[("prewarm_gap_s", 0.0)],
+            &[("recover_off_s", 0.5)],
+            &[("recover_pulse_s", 3.0), ("recover_on_s", 2.0)],
+        ] {
+            assert!(
+                matches!(with(bad), Err(RecordError::Conflict(_))),
+                "{bad:?}: {:?}",
+                with(bad)
+            );
+        }
+        // The same limits hold for `set`.
+        let mut s = Settings::DEFAULT;
+        assert!(matches!(s.set("pulse_s", 0.5), Err(SetError::Conflict(_))));
+        assert_eq!(s, Settings::DEFAULT);
+    }
+
+    #[test]
+    fn the_spring_plan_counts_gaps_as_the_limit_does() {
+        let d = Settings::DEFAULT;
+        // Pre-warm 7 s, then a 1 s gap clears it; each 6 s phase after a 2 s pulse.
+        assert!((d.spring_plan_peak_s() - 7.0).abs() < 1e-4);
+        let mut s = d;
+        s.recover_on_s = 2.0;
+        s.prewarm_s = 0.0;
+        s.step_s = 3.0;
+        s.pulse_s = 0.5;
+        s.large_steps = 2.0;
+        assert!((s.spring_plan_peak_s() - 6.0).abs() < 1e-4);
+        s.large_steps = 3.0;
+        assert!((s.spring_plan_peak_s() - 9.0).abs() < 1e-4);
+    }
 }

@@ -11,39 +11,51 @@
 //!                        |
 //!                        v          mode standby / end of any mode
 //!   +------------> [ Standby ] <-----------------------------------+
-//!   |             hold standby_k                                   |
+//!   |             hold standby_k (the idle state: no timeout)       |
 //!   |    mode step-small|step-large [SPRINGS]                       |
 //!   |                    v                                          |
 //!   |            [ Stepping: Soak ]  heat until the colder target   |
 //!   |                    |           reaches hot_k and holds it     |
-//!   |                    v           ready_dwell_s                  |
+//!   |                    |           ready_dwell_s (and every spring |
+//!   |                    |           it drives has a cleared        |
+//!   |                    |           on-time); soak_timeout_s ----->+
+//!   |                    v                                          |
 //!   |            [ Stepping: Rest ]  (only if a spring is still warm|
 //!   |                    |           by its heat estimate) hold     |
-//!   |                    v           hot_k until spring_rest        |
+//!   |                    |           hot_k until spring_rest: ends  |
+//!   |                    |           within cool_s·ln(h/spring_rest)|
+//!   |                    v                                          |
 //!   |            [ Stepping: Prewarm ] springs on prewarm_s, then   |
 //!   |                    |             off prewarm_gap_s            |
 //!   |                    v                                          |
 //!   |   +--> [ Stepping: Spring i ] springs on for step_s           |
-//!   |   |                |  (pause: springs off, timers held;       |
-//!   |   |                v   resume: carry on)                      |
+//!   |   |                |  (pause: springs off, timer held, until  |
+//!   |   |                v   resume or hold_timeout_s ------------->+
 //!   |   +--- [ Stepping: Pulse i ]  springs off for pulse_s         |
 //!   |                    | after the last spring phase              |
 //!   |                    v                                          |
-//!   |            [ Stepping: Hold ]  hold hot_k; `mode step-*` again|
+//!   |            [ Stepping: Hold ]  hold hot_k; hold_timeout_s --->+
 //!   |                                                               |
 //!   |  mode form --> [ Forming ] heater off, fan form_fan, until the |
-//!   |                hotter target ≤ form_end_k ------------------->+
+//!   |                hotter target ≤ form_end_k; form_timeout_s --->+
 //!   |  mode recover -> [ Recovery: Heat ] to hot_k (as Soak), springs |
-//!   |                   balanced to spring_recover_pct (throughout)  |
-//!   |                   -> [ Pulse ] all springs, recover_pulse_s    |
+//!   |                   balanced to spring_recover_pct (throughout); |
+//!   |                   soak_timeout_s, ready or not --------------->+
+//!   |                   -> [ Pulse ] all springs, recover_pulse_s,  |
+//!   |                        inside an on window                    |
 //!   |                   -> [ Hold ] recover_hold_s at hot_k          |
-//!   |                   -> [ Cool ] as forming, until form_end_k --->+
-//!   |  autotune -> [ Autotune ] relay around tune_k; done or aborted >+
-//!   |  stop -> [ Stopped ] everything off, until a `mode` command
-//!   |
-//!   +-- reset (cause gone) -- [ Faulted ] <-- any fault, from any mode:
-//!                               heater and springs off, fan on where
-//!                               cooling helps; latched
+//!   |                   -> [ Cool ] as forming, until form_end_k;   |
+//!   |                        form_timeout_s ----------------------->+
+//!   |  autotune -> [ Autotune ] relay around tune_k; done, aborted  |
+//!   |               (overshoot, not-following, tune_timeout_s) ---->+
+//!   |                                                               |
+//!   +-- mode ------- [ Stopped ] <-- stop: everything off until a `mode` command
+//!                         ^
+//!                         | reset (cause gone; never with the e-stop button pressed)
+//!                    [ Faulted ] <-- any fault, from any mode: heater and springs
+//!                                    off, fan on where cooling helps (off after
+//!                                    `stop`); latched; an e-stop overrides any
+//!                                    other fault
 //! ```
 //!
 //! The loop: one PID on Tc with a split-range output, heater for u > 0 and fan for u < 0 with a
@@ -1189,23 +1201,6 @@ impl Supervisor {
                     },
                 );
                 Reply::ok("emergency stop latched")
-            }
-            Command::Button { pressed } => {
-                self.button_pressed = pressed;
-                if pressed {
-                    self.latch(
-                        now,
-                        Fault {
-                            kind: FaultKind::EStop,
-                            value: 1.0,
-                        },
-                    );
-                }
-                Reply::ok(if pressed {
-                    "button pressed"
-                } else {
-                    "button released"
-                })
             }
             Command::Reset => self.reset(now),
             Command::Save => self.save(),

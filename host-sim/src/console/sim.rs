@@ -174,6 +174,9 @@ impl Block {
         let m = self.measurement.take();
         let sup = self.supervisor();
         let d = sup.step(now, m.as_ref(), None);
+        if let Some(w) = d.warning {
+            write!(out, "# warning: {w}\r\n")?;
+        }
         if d.telemetry {
             write_telemetry(sup, now, out)?;
         }

@@ -37,7 +37,7 @@
 pub const MAX_WRITES: usize = 12;
 
 /// One register update of an [`OffProgram`]: `*addr = (*addr & !clear) | set`.
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy)]
 #[repr(C)]
 pub struct RegWrite {
     /// The register's address.

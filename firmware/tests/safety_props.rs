@@ -1,0 +1,413 @@
+//! Safety as invariants: random sequences of console lines (`set`, `mode`, `pause`, `resume`,
+//! `autotune`, `estop`, `reset`, `stop`, `save`, `load`, `defaults`), e-stop button levels and
+//! measurements (resolved, merged, fallback, stale, implausibly hot or cold, NaN) through
+//! [`Supervisor::step`], against a two-node block warmed by the decided heater. After every
+//! step:
+//! - no spring is on past `spring_on_max_s` of continuous on-time (a run of on-intervals joined
+//!   by gaps shorter than a clearing rest, counted here independently of the library), nor
+//!   past its duty limit (the same exponential average, recomputed here);
+//! - the heater is off whenever a fault is latched;
+//! - the heater duty is never above the heater cap's for the last valid frame's film;
+//! - a step that asks for a flash operation has heater and springs off;
+//! - the e-stop always wins: once pressed (console or button) the fault is `estop` until a
+//!   `reset` with the button released, and every output (the fan too) is off while it is.
+//!
+//! `THERMORPH_PROPTEST_CASES` sets the number of sequences (default 256, of 600 steps each).
+
+use proptest::prelude::*;
+use thermorph::command::parse;
+use thermorph::measurement::{Measurement, Quality};
+use thermorph::outputs::{Outputs, SPRINGS};
+use thermorph::settings::{PARAMS, Settings};
+use thermorph::supervisor::safety::ON_TIME_SLACK_MS;
+use thermorph::supervisor::store::{StoreOutcome, StoreRequest};
+use thermorph::supervisor::{Decision, SpringMemory, Supervisor, VALID_K};
+use thermorph::units::{Kelvin, Millis};
+
+/// One thing that happens between two steps.
+#[derive(Clone, Debug)]
+enum Event {
+    /// A console line.
+    Line(String),
+    /// The e-stop button's level.
+    Button(bool),
+    /// A frame of this kind.
+    Frame(FrameKind),
+    /// No frame this period (the sensor is silent).
+    Silent,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum FrameKind {
+    Resolved,
+    Merged(f32),
+    Fallback(f32),
+    Hot(f32),
+    Cold,
+    NaN,
+    /// A plausible reading unrelated to the block (a camera looking elsewhere).
+    Wrong(f32),
+    /// The film near its cap, the SMP as the block has it.
+    HotFilm(f32),
+}
+
+/// The parameters a user would play with around the limits, and some others.
+const HOT_PARAMS: &[&str] = &[
+    "step_s",
+    "pulse_s",
+    "prewarm_s",
+    "prewarm_gap_s",
+    "large_steps",
+    "recover_on_s",
+    "recover_off_s",
+    "recover_pulse_s",
+    "spring_on_max_s",
+    "spring_duty_max_pct",
+    "spring_window_s",
+    "tune_base_pct",
+    "tune_amplitude_pct",
+    "tune_timeout_s",
+    "heater_cap_k",
+    "t_max_k",
+    "t_heater_max_k",
+    "hot_k",
+    "ready_dwell_s",
+    "spring_rest_pct",
+    "hold_timeout_s",
+    "no_response_s",
+    "w1_standby",
+    "w1_standby",
+    "w1_step",
+];
+
+fn line() -> impl Strategy<Value = String> {
+    let set = (
+        prop_oneof![
+            prop::sample::select(HOT_PARAMS).prop_map(String::from),
+            prop::sample::select(PARAMS.iter().map(|p| p.name).collect::<Vec<_>>())
+                .prop_map(String::from),
+        ],
+        prop_oneof![0.0f32..1.2, -0.1f32..1.1],
+    )
+        .prop_map(|(name, f)| {
+            let p = PARAMS.iter().find(|p| p.name == name).unwrap();
+            // Across the range and a little past both ends.
+            let v = p.min + (p.max - p.min) * f;
+            let v = if p.integer { v.round() } else { v };
+            format!("set {name} {v}")
+        });
+    let mode = prop_oneof![
+        Just("mode standby".to_string()),
+        Just("mode form".to_string()),
+        Just("mode recover".to_string()),
+        (
+            prop::sample::select(vec!["step-small", "step-large"]),
+            prop::sample::select(vec!["", " A", " B", " C", " AB", " ABC"])
+        )
+            .prop_map(|(m, s)| format!("mode {m}{s}")),
+    ];
+    prop_oneof![
+        3 => set,
+        4 => mode,
+        1 => Just("pause".to_string()),
+        1 => Just("resume".to_string()),
+        1 => Just("autotune".to_string()),
+        1 => Just("estop".to_string()),
+        2 => Just("reset".to_string()),
+        1 => Just("stop".to_string()),
+        1 => Just("save".to_string()),
+        1 => Just("load".to_string()),
+        1 => Just("defaults".to_string()),
+    ]
+}
+
+fn frame_kind() -> impl Strategy<Value = FrameKind> {
+    prop_oneof![
+        20 => Just(FrameKind::Resolved),
+        2 => (0.0f32..8.0).prop_map(FrameKind::Merged),
+        1 => (0.0f32..8.0).prop_map(FrameKind::Fallback),
+        1 => (380.0f32..700.0).prop_map(FrameKind::Hot),
+        1 => Just(FrameKind::Cold),
+        1 => Just(FrameKind::NaN),
+        2 => (300.0f32..360.0).prop_map(FrameKind::Wrong),
+        2 => (380.0f32..402.0).prop_map(FrameKind::HotFilm),
+    ]
+}
+
+fn event() -> impl Strategy<Value = Event> {
+    prop_oneof![
+        30 => frame_kind().prop_map(Event::Frame),
+        3 => Just(Event::Silent),
+        4 => line().prop_map(Event::Line),
+        1 => any::<bool>().prop_map(Event::Button),
+    ]
+}
+
+/// Heater film and SMP wall: enough to close the loop (host-sim runs the real plant).
+struct Block {
+    film_k: f32,
+    smp_k: f32,
+}
+
+impl Block {
+    fn step(&mut self, o: &Outputs, dt: f32) {
+        let p = 4.0 * o.heater.fraction();
+        let fan = 0.08 * o.fan.fraction();
+        let d1 = p - 0.05 * (self.film_k - self.smp_k) - (0.01 + fan) * (self.film_k - 298.0);
+        let d2 = 0.02 * (self.film_k - self.smp_k) - 0.004 * (self.smp_k - 298.0);
+        self.film_k += d1 * dt;
+        self.smp_k += d2 * dt;
+    }
+
+    fn frame(&self, kind: FrameKind, at: Millis, seq: u32) -> Measurement {
+        let (t1, t2, quality, bound) = match kind {
+            FrameKind::Resolved => (self.film_k, self.smp_k, Quality::Resolved, 0.3),
+            FrameKind::Merged(b) => {
+                let m = 0.5 * (self.film_k + self.smp_k);
+                (m, m, Quality::Merged, b)
+            }
+            FrameKind::Fallback(b) => (self.smp_k, self.smp_k, Quality::Fallback, b),
+            FrameKind::Hot(t) => (t, self.smp_k, Quality::Resolved, 0.3),
+            FrameKind::Cold => (150.0, 150.0, Quality::Resolved, 0.3),
+            FrameKind::NaN => (f32::NAN, self.smp_k, Quality::Resolved, 0.3),
+            FrameKind::Wrong(t) => (t + 2.0, t, Quality::Resolved, 0.3),
+            FrameKind::HotFilm(t) => (t, self.smp_k, Quality::Resolved, 0.3),
+        };
+        Measurement {
+            at,
+            seq,
+            regions: [
+                Kelvin(t1),
+                Kelvin(t2),
+                Kelvin(t2),
+                Kelvin(300.0),
+                Kelvin(298.0),
+            ],
+            tc: Kelvin(t2),
+            cylinder_max: Some(Kelvin(t1.max(t2))),
+            filled_pixels: 0,
+            quality,
+            bound: Kelvin(bound),
+        }
+    }
+}
+
+/// The invariants' own bookkeeping, independent of the supervisor's.
+struct Watch {
+    /// Per spring: on-time since the last clearing rest (ms) and the current off interval (ms).
+    on: [(u64, u64); SPRINGS],
+    duty: [f32; SPRINGS],
+    estop: bool,
+    button: bool,
+    /// The film of the last frame the supervisor takes as valid.
+    last_valid: Option<(Millis, f32)>,
+}
+
+impl Watch {
+    /// Credit `dt_ms` of `o` (the outputs applied over that interval) with `s` in force.
+    fn credit(&mut self, o: &Outputs, dt_ms: u64, s: &Settings) -> Result<(), String> {
+        let a = (dt_ms as f32 * 1e-3 / s.spring_window_s).min(1.0);
+        for i in 0..SPRINGS {
+            let on = o.springs.contains(i);
+            let (run, off) = &mut self.on[i];
+            if on {
+                *run += dt_ms;
+                *off = 0;
+            } else if *run > 0 {
+                *off += dt_ms;
+                // A rest clears the run only if it is ≥ 1 s and ≥ 1/8 of the run.
+                if *off as f32 >= 1000f32.max(0.125 * *run as f32) {
+                    *run = 0;
+                    *off = 0;
+                }
+            }
+            self.duty[i] += ((on as u8 as f32) - self.duty[i]) * a;
+        }
+        Ok(())
+    }
+
+    fn check_springs(&self, o: &Outputs, s: &Settings) -> Result<(), String> {
+        for i in 0..SPRINGS {
+            let limit = (s.spring_on_max_s * 1000.0) as u64 + ON_TIME_SLACK_MS as u64;
+            if self.on[i].0 > limit {
+                return Err(format!("spring {i} on {} ms > {limit} ms", self.on[i].0));
+            }
+            // Allow the one interval that took it past the limit (it trips at the next step).
+            if o.springs.contains(i) && self.duty[i] > s.spring_duty_max + 0.02 {
+                return Err(format!("spring {i} on at duty {}", self.duty[i]));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn check(
+    sup: &Supervisor,
+    d: &Decision,
+    w: &Watch,
+    s_before: &Settings,
+    step: usize,
+) -> Result<(), String> {
+    let s = sup.settings();
+    let o = d.outputs;
+    let fault = sup.fault();
+    let ctx = || format!("step {step}: {:?} {:?} {:?}", sup.mode(), fault, o);
+    if fault.is_some() && o.heater.fraction() > 0.0 {
+        return Err(format!("heater on with a fault latched: {}", ctx()));
+    }
+    if fault.is_some() && !o.springs.is_empty() {
+        return Err(format!("springs on with a fault latched: {}", ctx()));
+    }
+    if d.store.is_some() && (o.heater.fraction() > 0.0 || !o.springs.is_empty()) {
+        return Err(format!("outputs live through a flash operation: {}", ctx()));
+    }
+    if w.estop {
+        if fault.map(|f| f.code()) != Some("estop") {
+            return Err(format!("e-stop lost: {}", ctx()));
+        }
+        if o != Outputs::OFF {
+            return Err(format!("an output on under the e-stop: {}", ctx()));
+        }
+    }
+    if let Some((_, film)) = w.last_valid {
+        // The cap of the settings in force before or after this step's `set`.
+        let cap = |s: &Settings| ((s.heater_cap_k - film) / s.heater_cap_band_k).clamp(0.0, 1.0);
+        let allowed = cap(s).max(cap(s_before)) + 1e-5;
+        if o.heater.fraction() > allowed {
+            return Err(format!(
+                "heater {} above the cap's {allowed} (film {film}): {}",
+                o.heater.fraction(),
+                ctx()
+            ));
+        }
+    }
+    w.check_springs(&o, s).map_err(|e| format!("{e}: {}", ctx()))
+}
+
+fn run(events: &[(Event, u16)]) -> Result<(), TestCaseError> {
+    let mut sup = Supervisor::with_memory(Millis(0), Settings::DEFAULT, SpringMemory::RESTED);
+    let mut block = Block {
+        film_k: 298.0,
+        smp_k: 298.0,
+    };
+    let mut w = Watch {
+        on: [(0, 0); SPRINGS],
+        duty: [0.0; SPRINGS],
+        estop: false,
+        button: false,
+        last_valid: None,
+    };
+    let mut flash: Option<Vec<u8>> = None;
+    let (mut now_ms, mut seq) = (0u64, 0u32);
+    let mut applied = Outputs::OFF;
+    for (k, (e, dt_ms)) in events.iter().enumerate() {
+        let dt_ms = *dt_ms as u64;
+        now_ms += dt_ms;
+        let now = Millis(now_ms);
+        // The interval just ended ran with the outputs applied at its start.
+        block.step(&applied, dt_ms as f32 * 1e-3);
+        let s_before = *sup.settings();
+        w.credit(&applied, dt_ms, &s_before)
+            .map_err(TestCaseError::fail)?;
+        let (m, c) = match e {
+            Event::Frame(kind) => {
+                seq += 1;
+                (Some(block.frame(*kind, now, seq)), None)
+            }
+            Event::Silent => (None, None),
+            Event::Line(l) => (None, parse(l).ok()),
+            Event::Button(p) => {
+                sup.button(now, *p);
+                w.button = *p;
+                if *p {
+                    w.estop = true;
+                }
+                (None, None)
+            }
+        };
+        let is_estop = matches!(e, Event::Line(l) if l == "estop");
+        let is_reset = matches!(e, Event::Line(l) if l == "reset");
+        let mut d = sup.step(now, m.as_ref(), c);
+        if is_estop {
+            w.estop = true;
+        }
+        let cleared = d
+            .reply
+            .as_ref()
+            .is_some_and(|r| r.as_str().starts_with("ok fault cleared"));
+        if is_reset && cleared {
+            prop_assert!(!w.button, "reset cleared the e-stop with the button pressed");
+            w.estop = false;
+        }
+        if let Some(m) = m {
+            let ok = |t: f32| t.is_finite() && (VALID_K.0..=VALID_K.1).contains(&t);
+            if ok(m.t1().k()) && ok(m.t2().k()) {
+                w.last_valid = Some((m.at, m.hotter().k()));
+            }
+        }
+        check(&sup, &d, &w, &s_before, k).map_err(TestCaseError::fail)?;
+        if let Some(req) = d.store.take() {
+            let r = match req {
+                StoreRequest::Save(rec) => {
+                    flash = Some(rec.to_vec());
+                    sup.finish_store(now, StoreOutcome::Saved)
+                }
+                StoreRequest::Load => sup.finish_store(now, StoreOutcome::Loaded(flash.as_deref())),
+            };
+            d.reply = Some(r);
+        }
+        if w.estop {
+            prop_assert_eq!(sup.fault().map(|f| f.code()), Some("estop"));
+        }
+        applied = sup.outputs();
+        prop_assert_eq!(applied, d.outputs);
+    }
+    Ok(())
+}
+
+fn cases() -> u32 {
+    std::env::var("THERMORPH_PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(256)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(), ..ProptestConfig::default() })]
+
+    #[test]
+    fn no_sequence_defeats_a_limit(
+        events in prop::collection::vec((event(), prop_oneof![8 => Just(250u16), 1 => 1u16..1500]), 600)
+    ) {
+        run(&events)?;
+    }
+}
+
+/// The invariants' bookkeeping catches what it should: a spring driven 0.5 s off between 8 s
+/// phases (the safety review's sequence, applied blind) fails the on-time check.
+#[test]
+fn the_watch_itself_catches_short_gaps() {
+    let s = Settings::DEFAULT;
+    let mut w = Watch {
+        on: [(0, 0); SPRINGS],
+        duty: [0.0; SPRINGS],
+        estop: false,
+        button: false,
+        last_valid: None,
+    };
+    let on = Outputs {
+        springs: thermorph::outputs::SpringMask::from_bits(1),
+        ..Outputs::OFF
+    };
+    let mut failed = false;
+    for _ in 0..3 {
+        for _ in 0..32 {
+            w.credit(&on, 250, &s).unwrap();
+            failed |= w.check_springs(&on, &s).is_err();
+        }
+        for _ in 0..2 {
+            w.credit(&Outputs::OFF, 250, &s).unwrap();
+        }
+    }
+    assert!(failed);
+}
