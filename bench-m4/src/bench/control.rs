@@ -10,7 +10,7 @@ use thermorph::command::{Command, ModeRequest};
 use thermorph::measurement::{Measurement, Quality};
 use thermorph::outputs::SpringMask;
 use thermorph::settings::Settings;
-use thermorph::supervisor::Supervisor;
+use thermorph::supervisor::{SpringMemory, Supervisor};
 use thermorph::units::{Kelvin, Millis};
 
 /// A frame with the colder region at `t2` and the film 25 K above it.
@@ -36,7 +36,8 @@ fn frame(at_ms: u64, seq: u32, t2: f32) -> Measurement {
 
 /// Measure and print the worst and the mean control step.
 pub fn bench(overhead: u64) {
-    let mut sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+    // Rested springs: the stepping runs its spring phases at once.
+    let mut sup = Supervisor::with_memory(Millis(0), Settings::DEFAULT, SpringMemory::RESTED);
     sup.step(
         Millis(0),
         None,

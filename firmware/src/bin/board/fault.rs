@@ -6,14 +6,15 @@
 //!
 //! flip-link puts the stack at the bottom of RAM, below the statics, so a stack overflow runs
 //! off the start of RAM (`_stack_end`, 0x2000_0000) into a bus fault. The exception entry's own
-//! push of the eight-word frame then fails too (CFSR.STKERR), and the hard fault handler starts
+//! push of its frame then fails too (CFSR.STKERR), and the hard fault handler starts
 //! with MSP below RAM: its first `push` — the prologue of any Rust function — faults again, at
 //! hard fault priority, and the core locks up with the gates as they were (a PWM keeps
 //! switching the heater) until the independent watchdog resets it, or for ever before the
 //! watchdog is started.
 //!
 //! So the `HardFault` vector is the assembly of [`stack_free_hardfault!`], which touches no
-//! memory but the registers it writes and its own code and data in flash:
+//! memory but the registers it updates (the program's and FPCCR) and its own code and data in
+//! flash:
 //!
 //! 1. it runs the board's [`OffProgram`] (`pins::OUTPUTS_OFF`: the gate pins' GPIO registers and
 //!    the PWM timers' compare registers) through `thermorph_outputs_off`, a leaf routine that
