@@ -1,6 +1,7 @@
 //! The firmware's supervisor in the loop with the simulated block: scene commands, the thesis's
-//! cycle at three ambients, and the fault scenes of the controller issue, each with its
-//! detection time printed (`cargo test -p host-sim --test closed_loop -- --nocapture`).
+//! cycle at three ambients, the fault scenes of the controller issue, and one scene per burn
+//! path of issue 17 (driven through console lines), each with its detection time printed
+//! (`cargo test -p host-sim --test closed_loop -- --nocapture`).
 
 use host_sim::runs::paper;
 use host_sim::runs::run::{Row, run};
@@ -393,5 +394,354 @@ fn autotune_on_the_simulated_block_sets_gains_and_aborts_cleanly() {
     let r = run(&sc, &mut |_| {}).unwrap();
     let log = &r.summary.replies[2].reply;
     assert!(log.contains("autotune aborted (timeout)"), "{log}");
+    assert!(r.summary.faults.is_empty(), "{:?}", r.summary.faults);
+}
+
+// The burn paths of issue 17, each driven through console lines as a user would. Each test
+// prints what a user would quote: when the fault was detected and the outputs were safe.
+
+/// The reply to the first console line `line` of a run.
+fn reply<'a>(r: &'a host_sim::runs::run::RunResult, line: &str) -> &'a str {
+    &r.summary
+        .replies
+        .iter()
+        .find(|x| x.line == line)
+        .unwrap_or_else(|| panic!("no reply to `{line}`"))
+        .reply
+}
+
+/// Start of the period of the first row from which every row is safe (heater and springs off),
+/// s: when the outputs were decided safe for good.
+fn safe_from(rows: &[Row]) -> Option<f64> {
+    let i = rows.iter().rposition(|r| !safe(r)).map_or(0, |i| i + 1);
+    rows.get(i).map(|r| r.obs.time_s - 0.25)
+}
+
+#[test]
+fn autotune_is_guarded_the_console_refuses_a_hot_relay_and_an_open_heater_trips_runaway() {
+    // Burn path 1: autotune ran with no cap, no runaway check and any relay. Now the console
+    // refuses a relay above 90 % and a timeout past 900 s; a 60 % ± 30 % relay (90 %, the most
+    // allowed) with the heater open from 2 s: the reading does not follow the relay, autotune
+    // aborts, and runaway-heating latches within its 20 s window.
+    let sc = scene(
+        "tune-open",
+        40.0,
+        true,
+        "[[command]]\nat = \"0 s\"\nline = \"set tune_base_pct 90\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"set tune_timeout_s 3600\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"set tune_base_pct 60\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"set tune_amplitude_pct 30\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"autotune\"\n\
+         [[command]]\nat = \"39 s\"\nline = \"log\"\n\
+         [[fault]]\nat = \"2 s\"\nkind = \"heater-open\"\n",
+    );
+    let r = run(&sc, &mut |_| {}).unwrap();
+    assert!(
+        reply(&r, "set tune_base_pct 90").starts_with("err conflict"),
+        "{}",
+        reply(&r, "set tune_base_pct 90")
+    );
+    assert!(reply(&r, "set tune_timeout_s 3600").starts_with("err out-of-range"));
+    assert!(reply(&r, "set tune_base_pct 60").starts_with("ok"));
+    assert!(reply(&r, "set tune_amplitude_pct 30").starts_with("ok"));
+    assert!(reply(&r, "autotune").starts_with("ok autotune started"));
+    let rows = &r.rows;
+    assert!(
+        rows.iter()
+            .filter(|r| mode(r) == "autotune")
+            .all(|r| r.inputs.heater_duty <= 0.9 + 1e-6 && r.inputs.fan_duty == 0.0),
+        "the relay stays within 90 %, fan off"
+    );
+    let log = reply(&r, "log");
+    assert!(log.contains("autotune aborted (not-following)"), "{log}");
+    let codes: Vec<&str> = r.summary.faults.iter().map(|f| f.code.as_str()).collect();
+    assert_eq!(codes, ["runaway-heating"], "{:?}", r.summary.faults);
+    let latched = r.summary.faults[0].at_s;
+    let t = safe_from(rows).expect("outputs safe");
+    println!(
+        "autotune 60 ± 30 %, heater open at 2 s: runaway-heating latched at {latched:.2} s, \
+         heater and springs off from {t:.2} s ({:.2} s after)",
+        t - 2.0
+    );
+    assert!(t - 2.0 <= 20.25, "the runaway window plus a frame: {t}");
+    assert_eq!(mode(rows.last().unwrap()), "fault");
+}
+
+/// Longest time spring `i` was commanded on with every gap shorter than 1 s bridged (a gap that
+/// short does not let an SMA wire cool: the on-time runs on), s.
+fn longest_on_s(rows: &[Row], i: usize) -> f64 {
+    let (mut on, mut gap, mut longest) = (0.0f64, 0.0f64, 0.0f64);
+    for r in rows {
+        if r.springs_cmd[i] {
+            on += 0.25 + gap;
+            gap = 0.0;
+            longest = longest.max(on);
+        } else if on > 0.0 {
+            gap += 0.25;
+            if gap >= 1.0 {
+                (on, gap) = (0.0, 0.0);
+            }
+        }
+    }
+    longest
+}
+
+/// The safety review's console attack on the springs' on-time (burn path 2).
+fn spring_attack() -> host_sim::runs::run::RunResult {
+    let sc = scene(
+        "spring-attack",
+        300.0,
+        false,
+        "[[command]]\nat = \"0 s\"\nline = \"set pulse_s 0.5\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"set step_s 8\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"set large_steps 10\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"set spring_duty_max_pct 100\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"mode step-large AB\"\n",
+    );
+    run(&sc, &mut |_| {}).unwrap()
+}
+
+#[test]
+fn the_review_spring_attack_is_refused_and_no_spring_runs_past_its_on_time() {
+    // Burn path 2: `set pulse_s 0.5` made 8 s phases with 0.5 s gaps one continuous on-time the
+    // limit never saw. Now the console refuses the short pulse (and a 100 % duty limit), and
+    // no spring is on for more than spring_on_max_s (8 s), gaps under 1 s counted as on.
+    let r = spring_attack();
+    assert!(
+        reply(&r, "set pulse_s 0.5").starts_with("err conflict"),
+        "{}",
+        reply(&r, "set pulse_s 0.5")
+    );
+    assert!(reply(&r, "set spring_duty_max_pct 100").starts_with("err out-of-range"));
+    assert!(reply(&r, "mode step-large AB").starts_with("ok"));
+    let rows = &r.rows;
+    assert!(
+        rows.iter().any(|r| phase(r) == "spring"),
+        "the stepping ran"
+    );
+    let longest = [0, 1].map(|i| longest_on_s(rows, i));
+    let peak = rows
+        .iter()
+        .map(|r| r.obs.springs_k[0])
+        .fold(f64::MIN, f64::max);
+    let faults: Vec<String> = r
+        .summary
+        .faults
+        .iter()
+        .map(|f| format!("{} at {:.2} s ({})", f.code, f.at_s, f.reason))
+        .collect();
+    println!(
+        "spring attack: longest on-time A {:.2} s, B {:.2} s; spring A peaked at {peak:.1} K; \
+         faults {faults:?}",
+        longest[0], longest[1]
+    );
+    assert!(longest.iter().all(|&s| s <= 8.0), "{longest:?}");
+}
+
+#[test]
+#[ignore = "fails with the library at 1e3241c: `set step_s 8` and `set large_steps 10` are \
+            accepted, ten 8 s phases at 80 % duty take spring A to ≈453 K before spring-duty \
+            trips"]
+fn the_review_spring_attack_keeps_spring_a_below_391_k() {
+    let r = spring_attack();
+    let peak = r
+        .rows
+        .iter()
+        .map(|r| r.obs.springs_k[0])
+        .fold(f64::MIN, f64::max);
+    println!("spring attack: spring A peaked at {peak:.1} K");
+    assert!(peak < 391.0, "{peak}");
+}
+
+#[test]
+fn estop_over_a_latched_fault_latches_and_reset_leaves_everything_off() {
+    // Burn path 3: `estop` while another fault was latched was lost, and `reset` then went to
+    // standby with the heater on. Now: sensor loss latches (fan on to cool), `stop` turns the
+    // fan off too, `estop` latches over the sensor loss, and `reset` (once frames come again)
+    // leaves every output off until a `mode` line.
+    let sc = scene(
+        "estop",
+        60.0,
+        false,
+        "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+         [[fault]]\nat = \"20 s\"\nuntil = \"30 s\"\nkind = \"sensor\"\nsensor = \"nack\"\n\
+         [[command]]\nat = \"23 s\"\nline = \"stop\"\n\
+         [[command]]\nat = \"25 s\"\nline = \"estop\"\n\
+         [[command]]\nat = \"35 s\"\nline = \"reset\"\n\
+         [[command]]\nat = \"45 s\"\nline = \"mode standby\"\n",
+    );
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
+    // The row of the period that starts at `t`.
+    let at = |t: f64| {
+        rows.iter()
+            .find(|r| (r.obs.time_s - 0.25 - t).abs() < 1e-6)
+            .unwrap()
+    };
+    let codes: Vec<(&str, f64)> = r
+        .summary
+        .faults
+        .iter()
+        .map(|f| (f.code.as_str(), f.at_s))
+        .collect();
+    assert_eq!(codes.len(), 2, "{codes:?}");
+    assert_eq!((codes[0].0, codes[1]), ("sensor-loss", ("estop", 25.0)));
+    assert!(at(22.0).inputs.fan_duty > 0.0, "sensor loss cools");
+    assert!(reply(&r, "stop").starts_with("ok"), "{}", reply(&r, "stop"));
+    assert!(at(23.0).inputs.fan_duty == 0.0 && safe(at(23.0)));
+    assert!(reply(&r, "estop").starts_with("ok"));
+    assert_eq!(fault(at(25.0)), Some("estop"));
+    let reset = reply(&r, "reset");
+    assert!(reset.starts_with("ok fault cleared, stopped"), "{reset}");
+    let stopped: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.obs.time_s > 35.0 && r.obs.time_s <= 45.0)
+        .collect();
+    assert!(
+        stopped
+            .iter()
+            .all(|r| mode(r) == "stopped" && safe(r) && r.inputs.fan_duty == 0.0),
+        "every output off after the reset"
+    );
+    assert!(reply(&r, "mode standby").starts_with("ok"));
+    assert!(
+        at(46.0).inputs.heater_duty > 0.0,
+        "a `mode` line heats again"
+    );
+    println!(
+        "sensor loss at {:.2} s (fan on); `stop` at 23 s: fan off in the same step; `estop` at \
+         25 s: latched at {:.2} s over the sensor loss; `reset` at 35 s: every output off for \
+         the {:.0} s until `mode standby`",
+        codes[0].1,
+        codes[1].1,
+        stopped.len() as f64 * 0.25
+    );
+}
+
+#[test]
+fn a_burning_film_above_the_plausible_range_trips_over_temperature_at_once() {
+    // Burn path 4: a frame above the 500 K plausibility cap was dropped as invalid, so a burning
+    // film latched sensor-loss a second later. Now it is an over-temperature at once.
+    let sc = scene(
+        "burning",
+        40.0,
+        true,
+        "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+         [[fault]]\nat = \"30 s\"\nkind = \"camera\"\ncamera = \"burning-film\"\n",
+    );
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
+    assert!(
+        rows.iter()
+            .filter(|r| r.obs.time_s <= 30.0)
+            .all(|r| fault(r).is_none())
+    );
+    let f = &r.summary.faults;
+    assert_eq!(f.len(), 1, "{f:?}");
+    assert_eq!(f[0].code, "over-temperature", "{f:?}");
+    let t = safe_from(rows).expect("outputs safe");
+    println!(
+        "film burning at 550 K from 30 s: over-temperature latched at {:.2} s ({}), heater and \
+         springs off from {t:.2} s ({:.2} s after)",
+        f[0].at_s,
+        f[0].reason,
+        t - 30.0
+    );
+    assert!(t - 30.0 <= 0.5, "one frame and one period: {t}");
+}
+
+#[test]
+fn a_camera_looking_elsewhere_trips_no_response_however_the_modes_are_toggled() {
+    // Burn path 5: a camera that reads a steady, plausible 320 K while the block heats. The user
+    // toggles standby and large stepping every 10 s (each re-armed the runaway check): the
+    // heater runs flat out, the reading never rises, and no-response latches within
+    // no_response_s (60 s).
+    let mut body = String::from(
+        "[[command]]\nat = \"0 s\"\nline = \"mode step-large AB\"\n\
+         [[fault]]\nat = \"30 s\"\nkind = \"camera\"\ncamera = \"elsewhere\"\n",
+    );
+    for k in 1..=8 {
+        let line = if k % 2 == 1 {
+            "mode standby"
+        } else {
+            "mode step-large AB"
+        };
+        body += &format!(
+            "[[command]]\nat = \"{} s\"\nline = \"{line}\"\n",
+            30 + 10 * k
+        );
+    }
+    let r = run(&scene("elsewhere", 120.0, true, &body), &mut |_| {}).unwrap();
+    let rows = &r.rows;
+    let f = &r.summary.faults;
+    assert_eq!(f.len(), 1, "{f:?}");
+    assert_eq!(f[0].code, "no-response", "{f:?}");
+    let toggled = r
+        .summary
+        .replies
+        .iter()
+        .filter(|x| x.at_s < f[0].at_s && x.reply.starts_with("ok mode"))
+        .count();
+    assert!(
+        toggled >= 6,
+        "the modes were toggled before the trip: {toggled}"
+    );
+    let t = safe_from(rows).expect("outputs safe");
+    let hottest = rows.iter().map(|r| r.obs.heater_k).fold(f64::MIN, f64::max);
+    println!(
+        "camera looking elsewhere (320 K) from 30 s, modes toggled every 10 s: no-response \
+         latched at {:.2} s, heater off from {t:.2} s ({:.2} s after); the real film peaked at \
+         {hottest:.1} K",
+        f[0].at_s,
+        t - 30.0
+    );
+    assert!(t - 30.0 <= 60.5, "{t}");
+    assert!(
+        rows.iter()
+            .filter(|r| r.obs.time_s > t)
+            .all(|r| fault(r) == Some("no-response"))
+    );
+}
+
+#[test]
+fn save_turns_heater_and_springs_off_for_its_period_and_load_is_refused_while_stepping() {
+    // Burn path 6: a flash erase stalls the board with the outputs as they were. Now the step
+    // that asks for `save` decides the heater and springs off (host-sim's store is instant: the
+    // period of that decision shows it), and `load` is refused while a mode drives the block.
+    let sc = scene(
+        "flash",
+        30.0,
+        false,
+        "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+         [[command]]\nat = \"5 s\"\nline = \"save\"\n\
+         [[command]]\nat = \"10 s\"\nline = \"mode step-large AB\"\n\
+         [[command]]\nat = \"15 s\"\nline = \"load\"\n",
+    );
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
+    let at = |t: f64| {
+        rows.iter()
+            .find(|r| (r.obs.time_s - 0.25 - t).abs() < 1e-6)
+            .unwrap()
+    };
+    assert!(
+        reply(&r, "save").starts_with("ok saved"),
+        "{}",
+        reply(&r, "save")
+    );
+    let load = reply(&r, "load");
+    assert!(load.starts_with("err bad-state"), "{load}");
+    let (before, during, after) = (at(4.75), at(5.0), at(5.25));
+    println!(
+        "`save` at 5 s while preheating: heater {:.0} % → {:.0} % (springs {:?}) for that period → \
+         {:.0} %; `load` while stepping: {load}",
+        100.0 * before.inputs.heater_duty,
+        100.0 * during.inputs.heater_duty,
+        during.springs_cmd,
+        100.0 * after.inputs.heater_duty
+    );
+    assert!(before.inputs.heater_duty > 0.0 && after.inputs.heater_duty > 0.0);
+    assert!(safe(during));
+    assert_eq!(mode(at(15.0)), "step-large");
     assert!(r.summary.faults.is_empty(), "{:?}", r.summary.faults);
 }

@@ -37,8 +37,8 @@ use thermorph::supervisor::{SpringMemory, Supervisor};
 use thermorph::units::Millis;
 
 use crate::plant::Plant;
-use crate::runs::run::{Camera, Control, block_of, inputs_of, measure};
-use crate::runs::scenario::{FaultKind, Scenario};
+use crate::runs::run::{Camera, Control, apply_faults, block_of, inputs_of, measure};
+use crate::runs::scenario::Scenario;
 
 /// Longest tick of the simulated block, s: the supervisor steps at least this often (telemetry
 /// runs at up to 20 Hz).
@@ -184,14 +184,7 @@ impl Block {
         // include its effect.
         let t0_s = self.time_s();
         let mut inputs = inputs_of(&d.outputs);
-        let mut sensor_fault = None;
-        for f in self.scenario.faults.iter().filter(|f| f.active(t0_s)) {
-            match f.kind {
-                FaultKind::HeaterOpen => inputs.heater_open = true,
-                FaultKind::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
-                FaultKind::Sensor(s) => sensor_fault = Some(s),
-            }
-        }
+        let (_, camera_faults) = apply_faults(&self.scenario.faults, t0_s, &mut inputs);
         self.plant.step(&inputs, self.tick_s);
         self.ticks += 1;
         if !self.ticks.is_multiple_of(self.ticks_per_period) {
@@ -206,7 +199,15 @@ impl Block {
             .map_or_else(crate::runs::run::open_loop_hint, |c| {
                 c.supervisor.sensing_hint()
             });
-        self.measurement = measure(self.camera.as_mut(), &obs, sensor_fault, t1_s, period, hint).1;
+        self.measurement = measure(
+            self.camera.as_mut(),
+            &obs,
+            camera_faults,
+            t1_s,
+            period,
+            hint,
+        )
+        .1;
         Ok(())
     }
 }

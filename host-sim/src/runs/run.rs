@@ -24,7 +24,7 @@ use std::time::Instant;
 use embassy_futures::block_on;
 use serde::Serialize;
 use thermorph::mlx90640::Config as SensorConfig;
-use thermorph::mtts::REGIONS;
+use thermorph::mtts::{IMG_PIXELS, REGIONS};
 use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 
 use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
@@ -37,7 +37,9 @@ use thermorph::supervisor::{Decision, SpringMemory, Supervisor};
 use thermorph::units::{Kelvin, Millis};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
-use crate::runs::scenario::{FaultKind, Scenario};
+use crate::runs::scenario::{
+    BURNING_FILM_K, CameraFault, ELSEWHERE_K, FaultKind, FaultSpec, Scenario,
+};
 use crate::sensing::scene::{self, Geometry, Temps};
 use crate::sensor::demo::Rig;
 use crate::sensor::sim_time::{SimClock, SimDelay};
@@ -133,18 +135,22 @@ impl Camera {
         })
     }
 
-    /// Show the sensor the block as it is now, run the sensing pipeline until the sensor's
-    /// clock reaches `t_s`, and return the latest region temperatures.
+    /// Show the sensor the block as it is now (or what a camera fault shows instead), run the
+    /// sensing pipeline until the sensor's clock reaches `t_s`, and return the latest region
+    /// temperatures.
     pub(crate) fn update(
         &mut self,
         obs: &Observation,
-        fault: Option<crate::sensor::virtual_mlx::Fault>,
+        faults: CameraFaults,
         t_s: f64,
         hint: SensingHint,
     ) -> Option<Measurement> {
         self.sensor.set_hint(hint);
         let frames = self.frames;
-        let temps = camera_temps(obs);
+        let mut temps = camera_temps(obs);
+        if faults.view == Some(CameraFault::BurningFilm) {
+            temps.heater_k = BURNING_FILM_K;
+        }
         let plane = obs.bend_plane_deg.to_radians();
         let geometry = Geometry {
             tilt_deg: 0.5 * obs.bend_deg * plane.cos(),
@@ -160,8 +166,12 @@ impl Camera {
                 seed: 0,
             },
         );
-        self.rig.set_field(&r.image_k);
-        self.rig.bus.0.borrow_mut().set_fault(fault);
+        let field = match faults.view {
+            Some(CameraFault::Elsewhere) => [ELSEWHERE_K as f32; IMG_PIXELS],
+            Some(CameraFault::BurningFilm) | None => r.image_k,
+        };
+        self.rig.set_field(&field);
+        self.rig.bus.0.borrow_mut().set_fault(faults.sensor);
         let t_end_us = (t_s * 1e6) as u64;
         // Every action advances the simulated clock (bus time, a pause or a timeout).
         while self.rig.clock.now_us() < t_end_us {
@@ -182,6 +192,36 @@ impl Camera {
     }
 }
 
+/// What the scene's active faults do to the camera chain in one period.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct CameraFaults {
+    /// The sensor's own fault (with the camera off: no measurement at all).
+    pub(crate) sensor: Option<crate::sensor::virtual_mlx::Fault>,
+    /// What the camera sees instead of the block.
+    pub(crate) view: Option<CameraFault>,
+}
+
+/// Apply the faults of `faults` active at `t_s` to `inputs`; return their bit mask (bit i =
+/// fault i) and what they do to the camera chain.
+pub(crate) fn apply_faults(
+    faults: &[FaultSpec],
+    t_s: f64,
+    inputs: &mut Inputs,
+) -> (u32, CameraFaults) {
+    let mut mask = 0u32;
+    let mut camera = CameraFaults::default();
+    for (i, f) in faults.iter().enumerate().filter(|(_, f)| f.active(t_s)) {
+        mask |= 1 << i.min(31);
+        match f.kind {
+            FaultKind::HeaterOpen => inputs.heater_open = true,
+            FaultKind::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
+            FaultKind::Sensor(s) => camera.sensor = Some(s),
+            FaultKind::Camera(v) => camera.view = Some(v),
+        }
+    }
+    (mask, camera)
+}
+
 /// What an open-loop scene (no supervisor to give the mode's prior) tells the camera: the
 /// heating modes' prior, the heater area the hotter — a clear spatial verdict still wins over
 /// it (MTTS) — and Tc on the SMP surface.
@@ -199,20 +239,20 @@ pub(crate) fn open_loop_hint() -> SensingHint {
 pub(crate) fn measure(
     camera: Option<&mut Camera>,
     obs: &Observation,
-    sensor_fault: Option<crate::sensor::virtual_mlx::Fault>,
+    faults: CameraFaults,
     t_s: f64,
     period: u64,
     hint: SensingHint,
 ) -> (Option<[f64; REGIONS]>, Option<Measurement>) {
     match camera {
         Some(c) => {
-            let new = c.update(obs, sensor_fault, t_s, hint);
+            let new = c.update(obs, faults, t_s, hint);
             let regions = c
                 .last
                 .map(|m| core::array::from_fn(|i| m.regions[i].k() as f64));
             (regions, new)
         }
-        None if sensor_fault.is_some() => (None, None),
+        None if faults.sensor.is_some() => (None, None),
         None => {
             let truth_k = camera_temps(obs).regions();
             let cyl = Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32));
@@ -542,19 +582,7 @@ pub fn run_with(
             cmd = d;
         }
         let mut inputs = cmd;
-        let mut faults = 0u32;
-        let mut sensor_fault = None;
-        for (i, f) in scenario.faults.iter().enumerate() {
-            if !f.active(t0_s) {
-                continue;
-            }
-            faults |= 1 << i.min(31);
-            match f.kind {
-                FaultKind::HeaterOpen => inputs.heater_open = true,
-                FaultKind::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
-                FaultKind::Sensor(s) => sensor_fault = Some(s),
-            }
-        }
+        let (faults, camera_faults) = apply_faults(&scenario.faults, t0_s, &mut inputs);
         plant.step(&inputs, t1_s - t0_s);
         let obs = plant.observe();
         let truth_k = camera_temps(&obs).regions();
@@ -564,7 +592,7 @@ pub fn run_with(
         let (measured_k, new) = measure(
             camera.as_mut(),
             &obs,
-            sensor_fault,
+            camera_faults,
             t1_s,
             k as u64 + 1,
             hint,

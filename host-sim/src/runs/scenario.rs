@@ -34,11 +34,15 @@
 //! [[fault]]                      # injected faults, active from `at` until `until` (or the end)
 //! at = "60 s"
 //! until = "80 s"                 # optional
-//! kind = "heater-open"           # heater-open | stuck-spring | sensor
+//! kind = "heater-open"           # heater-open | stuck-spring | sensor | camera
 //! spring = "B"                   # stuck-spring: which MOSFET
 //! stuck = "on"                   # stuck-spring: on | off
 //! sensor = "nack"                # sensor: nack | stuck | corrupt | frozen
+//! camera = "elsewhere"           # camera: elsewhere | burning-film
 //! ```
+//!
+//! A `camera` fault changes what the camera sees, not the plant; it needs `fidelity.camera =
+//! true` ([`CameraFault`] says what each shows).
 //!
 //! Quantities carry their unit in the string, so `ambient = 298` or `duration = "90"` is an
 //! error, as is an unknown key, a value out of range, a malformed time or an action after the
@@ -113,7 +117,27 @@ pub enum FaultKind {
     },
     /// The sensor misbehaves (with the camera off: no measurement at all).
     Sensor(SensorFault),
+    /// The camera sees something other than the block as the plant has it (camera on only).
+    Camera(CameraFault),
 }
+
+/// What a `camera` fault shows the sensor instead of the plant's block (the sensor still adds
+/// its own noise, and everything after it — driver, pairing, MTTS — is the firmware's).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraFault {
+    /// The camera looks elsewhere (knocked aside, or a wrong sensor on the bus): a steady,
+    /// plausible, uniform surface at [`ELSEWHERE_K`], whatever the block does.
+    Elsewhere,
+    /// The heater film burns through where the lattice shows it: the block as the plant has it,
+    /// but region 1 at [`BURNING_FILM_K`], above the measurement's 500 K plausibility cap (the
+    /// plant does not model the fire).
+    BurningFilm,
+}
+
+/// The surface a camera that looks elsewhere sees, K.
+pub const ELSEWHERE_K: f64 = 320.0;
+/// The heater film of a [`CameraFault::BurningFilm`], K.
+pub const BURNING_FILM_K: f64 = 550.0;
 
 /// An injected fault and when it is active.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -465,7 +489,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
                 &cx,
                 t,
                 &p,
-                &["at", "until", "kind", "spring", "stuck", "sensor"],
+                &["at", "until", "kind", "spring", "stuck", "sensor", "camera"],
             )?;
             let at_s = match t.get_key_value("at") {
                 Some((k, v)) => time(&cx, k, v, &format!("{p}at"), (0.0, duration_s))?,
@@ -483,14 +507,20 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
                 kk,
                 kv,
                 &format!("{p}kind"),
-                &[("heater-open", 0), ("stuck-spring", 1), ("sensor", 2)],
+                &[
+                    ("heater-open", 0),
+                    ("stuck-spring", 1),
+                    ("sensor", 2),
+                    ("camera", 3),
+                ],
             )?;
             let allowed: &[&str] = match kind_name {
                 0 => &[],
                 1 => &["spring", "stuck"],
-                _ => &["sensor"],
+                2 => &["sensor"],
+                _ => &["camera"],
             };
-            for key in ["spring", "stuck", "sensor"] {
+            for key in ["spring", "stuck", "sensor", "camera"] {
                 if let Some((k, _)) = t.get_key_value(key)
                     && !allowed.contains(&key)
                 {
@@ -532,6 +562,26 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
                         &[("on", true), ("off", false)],
                     )?;
                     FaultKind::StuckSpring { spring, on }
+                }
+                3 => {
+                    if !camera.enabled {
+                        return Err(cx.err(
+                            kv.span(),
+                            &format!("{p}kind"),
+                            "a `camera` fault needs the camera on (`[fidelity]` `camera = true`)",
+                        ));
+                    }
+                    let (k, v) = need("camera")?;
+                    FaultKind::Camera(choice(
+                        &cx,
+                        k,
+                        v,
+                        &format!("{p}camera"),
+                        &[
+                            ("elsewhere", CameraFault::Elsewhere),
+                            ("burning-film", CameraFault::BurningFilm),
+                        ],
+                    )?)
                 }
                 _ => {
                     let (k, v) = need("sensor")?;
@@ -1068,5 +1118,36 @@ mod tests {
         assert!(s.faults[0].active(2.5) && !s.faults[0].active(3.0) && !s.faults[0].active(1.9));
         assert_eq!(s.faults[1].kind, FaultKind::Sensor(SensorFault::Frozen));
         assert!(s.faults[1].active(1e9));
+    }
+
+    #[test]
+    fn camera_faults_parse_and_need_the_camera() {
+        let fault = "[[fault]]\nat = \"1 s\"\nkind = \"camera\"\ncamera = \"elsewhere\"\n";
+        let s = parse(
+            &format!("{MINIMAL}[fidelity]\ncamera = true\n{fault}"),
+            "t.toml",
+            "t",
+        )
+        .unwrap();
+        assert_eq!(s.faults[0].kind, FaultKind::Camera(CameraFault::Elsewhere));
+        let e = err(&format!("{MINIMAL}{fault}"));
+        assert!(
+            e.contains("t.toml:5: `fault[1].kind`: a `camera` fault needs the camera on"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}[fidelity]\ncamera = true\n[[fault]]\nat = \"1 s\"\nkind = \"camera\"\ncamera = \"fog\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:8: `fault[1].camera`: `fog` is not one of elsewhere, burning-film"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}[[fault]]\nat = \"1 s\"\nkind = \"sensor\"\nsensor = \"nack\"\ncamera = \"elsewhere\"\n"
+        ));
+        assert!(
+            e.contains("`fault[1].camera`: not used by a `sensor` fault"),
+            "{e}"
+        );
     }
 }

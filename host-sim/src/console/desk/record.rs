@@ -185,6 +185,9 @@ pub fn record(
     let mut link = Link::open(path, o.baud).map_err(|e| e.to_string())?;
     let mut need_stream = true;
     let mut answered_once = false;
+    // Since when a reopened port has not answered: a port of the same name that comes back
+    // but never answers (another device, a reused pseudo-terminal number) is not the board.
+    let mut unanswered_since: Option<Instant> = None;
     loop {
         if end.is_some_and(|e| Instant::now() >= e) {
             break;
@@ -193,6 +196,7 @@ pub fn record(
             if need_stream {
                 stream_on(&mut link, o, &mut |l| held.push(l.to_string()))?;
                 answered_once = true;
+                unanswered_since = None;
                 need_stream = false;
                 last_row = Instant::now();
             }
@@ -227,6 +231,15 @@ pub fn record(
             Err(LinkError::Timeout(e)) if !answered_once => {
                 return Err(format!("{e}: is this a Thermorph console?"));
             }
+            Err(LinkError::Timeout(e))
+                if unanswered_since.is_some_and(|t| t.elapsed() >= o.reconnect) =>
+            {
+                return Err(format!(
+                    "{path}: port lost and not back within {:.1} s: a port of that name came \
+                     back, but no Thermorph console answers on it ({e})",
+                    o.reconnect.as_secs_f64()
+                ));
+            }
             Err(LinkError::Timeout(e)) => {
                 eprintln!("record: {e}");
                 sink.gap.get_or_insert("silence");
@@ -239,6 +252,7 @@ pub fn record(
                 link = reopen(path, o, &e.to_string())?;
                 link.garbage = garbage;
                 eprintln!("record: {path} is back");
+                unanswered_since = Some(Instant::now());
                 sink.gap = Some("reconnect");
                 need_stream = true;
             }
