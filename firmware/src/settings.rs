@@ -6,8 +6,9 @@
 //! exactly one place. Values are `f32` in the unit the name ends with (`_k` Kelvin, `_s`
 //! seconds, `_pct` percent, gains per Kelvin of error on a duty fraction).
 
-use crate::control::{OnTimer, PidGains};
+use crate::control::{OnTimer, PidGains, SpringHeat};
 use crate::mtts::Weights;
+use crate::outputs::SpringMask;
 
 /// The PID gains the block ships with: what `autotune` (relay around 340 K, Ziegler–Nichols'
 /// classic rule) measured on the simulated block at 298 K ambient — Ku = 0.231 /K, Tu = 3.5 s.
@@ -153,6 +154,12 @@ pub struct Settings {
     /// Idle timeout of the holding phases (stepping's hold and pause): after this the block
     /// returns to standby with a `log` event, s.
     pub hold_timeout_s: f32,
+    /// The springs' heat limit: no planned sequence may take a spring's heat estimate past
+    /// this, and a spring past it at run time is a fault (`spring-heat`), fraction of the heat
+    /// to austenite. It bounds the wire's temperature where on-time and duty do not: ten 6 s
+    /// phases with 2 s pulses pass both (75 % duty for 80 s averages below 60 % over the
+    /// window) and took the simulated spring to 453 K.
+    pub spring_heat_max: f32,
 }
 
 impl Settings {
@@ -212,6 +219,7 @@ impl Settings {
         no_response_s: 60.0,
         unresolved_s: 30.0,
         hold_timeout_s: 600.0,
+        spring_heat_max: 1.6,
     };
 
     /// Return Tc weights with `w1` for T1.
@@ -256,12 +264,44 @@ impl Settings {
                 "recover_pulse_s must not exceed recover_on_s (the pulse runs inside a window)",
             );
         }
+        if self.spring_recover_heat + 0.1 > self.spring_heat_max {
+            return Err("spring_recover_pct must be at least 10 % below spring_heat_max_pct");
+        }
+        if self.spring_plan_heat() > self.spring_heat_max {
+            return Err(
+                "the stepping's phases would heat a spring past spring_heat_max_pct (fewer or shorter phases, longer pulses)",
+            );
+        }
         if self.spring_plan_peak_s() > self.spring_on_max_s {
             return Err(
                 "the springs' phases add up past spring_on_max_s: a gap shorter than 1 s (or 1/8 of the on-time before it) does not end an on-time",
             );
         }
         Ok(())
+    }
+
+    /// The highest heat estimate ([`SpringHeat`]) a spring reaches over a planned stepping
+    /// from rest: the pre-warm, its gap, every stepping phase and the pulses between, fraction
+    /// of the heat to austenite. (Recovery tops the springs up to `spring_recover_heat`.)
+    pub fn spring_plan_heat(&self) -> f32 {
+        let steps = self.large_steps.max(1.0) as usize;
+        let prewarm = (self.prewarm_s > 0.0)
+            .then_some([(true, self.prewarm_s), (false, self.prewarm_gap_s)])
+            .into_iter()
+            .flatten();
+        let stepping = (0..steps).flat_map(|_| [(true, self.step_s), (false, self.pulse_s)]);
+        let mut h = SpringHeat::COLD;
+        let mut peak = 0.0f32;
+        for (on, s) in prewarm.chain(stepping) {
+            let mask = if on {
+                SpringMask::ALL
+            } else {
+                SpringMask::NONE
+            };
+            h.update(mask, s, self.spring_heat_s, self.spring_cool_s);
+            peak = peak.max(h.heat(0));
+        }
+        peak
     }
 
     /// The longest continuous on-time any planned sequence of spring phases reaches, as the
@@ -740,6 +780,13 @@ pub const PARAMS: &[Param] = &[
         7200.0,
         "holding phases return to standby after",
         |s| s.hold_timeout_s
+    ),
+    pct!(
+        "spring_heat_max_pct",
+        100.0,
+        200.0,
+        "spring heat limit (planned and at run time)",
+        |s| s.spring_heat_max
     ),
 ];
 

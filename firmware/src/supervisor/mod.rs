@@ -622,6 +622,7 @@ impl Supervisor {
         if let Some(f) = self
             .safety
             .credit_springs(ran.springs, elapsed_ms, &self.settings)
+            .or_else(|| self.spring_heat_fault(ran.springs))
         {
             self.latch(now, f);
         }
@@ -688,7 +689,11 @@ impl Supervisor {
         let mut outputs = self.run_mode(now, elapsed_ms, fresh.as_ref(), dt_s);
 
         // 5. Spring limits on what would be applied: a spring past its limit is never on.
-        if let Some(f) = self.safety.spring_fault(outputs.springs, &self.settings) {
+        if let Some(f) = self
+            .safety
+            .spring_fault(outputs.springs, &self.settings)
+            .or_else(|| self.spring_heat_fault(outputs.springs))
+        {
             self.latch(now, f);
         }
         if self.fault.is_some() {
@@ -722,6 +727,17 @@ impl Supervisor {
             alive: age_s <= self.settings.sensor_timeout_s || self.fault.is_some(),
             warning: self.warning,
         }
+    }
+
+    /// A spring of `springs` whose heat estimate is past `spring_heat_max`.
+    fn spring_heat_fault(&self, springs: SpringMask) -> Option<Fault> {
+        (0..crate::outputs::SPRINGS)
+            .filter(|&i| springs.contains(i))
+            .find(|&i| self.spring_heat.heat(i) > self.settings.spring_heat_max)
+            .map(|i| Fault {
+                kind: FaultKind::SpringHeat(i as u8),
+                value: self.spring_heat.heat(i),
+            })
     }
 
     /// Follow how long the frames have not separated T1 and T2; past `unresolved_s` while the
@@ -985,11 +1001,13 @@ impl Supervisor {
                 s.standby_k
             }
             Mode::Recovery(rec) => {
+                let heat = self.spring_heat;
                 let may_run = |safety: &Safety, left_ms: u32| -> SpringMask {
                     let bits = (0..crate::outputs::SPRINGS)
                         .filter(|&i| {
                             safety.spring_duty(i) < 0.9 * s.spring_duty_max
                                 && safety.spring_may_run(i, left_ms as f32 * 1e-3, &s)
+                                && heat.heat(i) < s.spring_heat_max - BALANCE_BAND
                         })
                         .fold(0u8, |b, i| b | 1 << i);
                     SpringMask::from_bits(bits)
@@ -1052,8 +1070,8 @@ impl Supervisor {
                 if matches!(rec.phase, RecoverPhase::Pulse { .. }) {
                     springs = SpringMask::from_bits(SpringMask::ALL.bits() & allowed.bits());
                 } else if rec.window_on {
-                    // A spring near its duty limit, or whose on-time the rest of the window
-                    // would take past the limit, sits the window out.
+                    // A spring near its duty or heat limit, or whose on-time the rest of the
+                    // window would take past the limit, sits the window out.
                     springs = SpringMask::from_bits(
                         self.spring_heat
                             .balance(s.spring_recover_heat, BALANCE_BAND)
@@ -1333,8 +1351,12 @@ impl Supervisor {
                         Safety::over_temperature(&cooler, s).is_none()
                     })
             }
-            FaultKind::SpringOnTime(_) | FaultKind::SpringDuty(_) => (0..crate::outputs::SPRINGS)
-                .all(|i| self.safety.spring_duty(i) < 0.5 * s.spring_duty_max),
+            FaultKind::SpringOnTime(_) | FaultKind::SpringDuty(_) | FaultKind::SpringHeat(_) => {
+                (0..crate::outputs::SPRINGS).all(|i| {
+                    self.safety.spring_duty(i) < 0.5 * s.spring_duty_max
+                        && self.spring_heat.heat(i) < 1.0
+                })
+            }
             FaultKind::RunawayHeating | FaultKind::RunawayHolding | FaultKind::NoResponse => fresh,
             FaultKind::EStop => !self.button_pressed,
         };

@@ -34,6 +34,8 @@ pub enum FaultKind {
     SpringOnTime(u8),
     /// A spring's duty over the window exceeded `spring_duty_max_pct` (index 0 = A).
     SpringDuty(u8),
+    /// A spring's heat estimate exceeded `spring_heat_max_pct` (index 0 = A).
+    SpringHeat(u8),
     /// No valid measurement within `sensor_timeout_s`.
     SensorLoss,
     /// The heater ran hard with too little rise.
@@ -63,6 +65,7 @@ impl Fault {
             FaultKind::OverTemperature => "over-temperature",
             FaultKind::SpringOnTime(_) => "spring-on-time",
             FaultKind::SpringDuty(_) => "spring-duty",
+            FaultKind::SpringHeat(_) => "spring-heat",
             FaultKind::SensorLoss => "sensor-loss",
             FaultKind::RunawayHeating => "runaway-heating",
             FaultKind::RunawayHolding => "runaway-holding",
@@ -104,17 +107,23 @@ impl fmt::Display for Reason {
                 SPRING_NAMES[i as usize % SPRINGS],
                 v * 100.0
             ),
+            FaultKind::SpringHeat(i) => write!(
+                f,
+                "spring {} heat estimate {:.0} % of the heat to austenite",
+                SPRING_NAMES[i as usize % SPRINGS],
+                v * 100.0
+            ),
             FaultKind::SensorLoss => write!(f, "no valid measurement for {v:.2} s"),
             FaultKind::RunawayHeating => {
                 write!(
                     f,
-                    "heater at high duty but Tc rose only {v:.2} K in the window"
+                    "heater at high duty but the film rose only {v:.2} K in the window"
                 )
             }
             FaultKind::RunawayHolding => write!(f, "Tc away from target for {v:.0} K*s"),
             FaultKind::NoResponse => write!(
                 f,
-                "heater at high duty but the film rose only {v:.2} K in no_response_s"
+                "heater at high duty for no_response_s but the film changed by {v:+.2} K"
             ),
             FaultKind::EStop => f.write_str("emergency stop"),
         }

@@ -619,6 +619,10 @@ fn a_short_gap_does_not_end_a_springs_on_time() {
     assert_eq!(r.line("set large_steps 2"), "ok large_steps=2");
     assert!(r.line("set pulse_s 0.5").starts_with("ok pulse_s=0.5"));
     assert!(r.line("set large_steps 3").starts_with("err conflict"));
+    // Ten 6 s phases with 2 s pulses keep on-time and duty but heat a spring past its limit.
+    let mut r = Rig::new();
+    assert!(r.line("set large_steps 10").starts_with("err conflict"));
+    assert!(r.line("set large_steps 5").starts_with("ok"));
     // At run time the count is the limit's: springs on 6 s, off 0.5 s, on again → past 8 s.
     let s = Settings::DEFAULT;
     let mut safety = Safety::new();
@@ -880,8 +884,9 @@ fn a_stepping_hold_and_a_pause_end_by_their_idle_timeout() {
 fn recovery_heat_ends_by_its_timeout_even_when_ready() {
     let mut r = Rig::new();
     r.line("set soak_timeout_s 60");
-    // The springs cannot reach 250 % in the time: ready but never balanced.
-    r.line("set spring_recover_pct 250");
+    // The springs cannot reach 190 % in the time: ready but never balanced.
+    assert!(r.line("set spring_heat_max_pct 200").starts_with("ok"));
+    assert!(r.line("set spring_recover_pct 190").starts_with("ok"));
     r.run(60.0);
     r.line("mode recover");
     r.run(61.0);
@@ -945,4 +950,36 @@ fn after_a_power_up_the_springs_are_assumed_hot_and_a_reset_keeps_them() {
         hot.sup.safety().spring_duty(0)
     );
     assert!(again.spring_heat().heat(0) > 0.5);
+}
+
+#[test]
+fn back_to_back_steppings_that_heat_a_spring_past_its_limit_trip_spring_heat() {
+    let mut r = Rig::new();
+    for l in [
+        "set spring_recover_pct 80",
+        "set prewarm_s 0",
+        "set large_steps 1",
+        "set spring_heat_max_pct 100",
+        "set spring_rest_pct 90",
+        "set ready_dwell_s 1",
+    ] {
+        assert!(r.line(l).starts_with("ok"), "{l}: {}", r.line(l));
+    }
+    r.run(60.0);
+    // Each small stepping adds 6 s of heat (≈0.22); rest lets it go again only below 90 %.
+    let mut k = 0;
+    while r.sup.fault().is_none() && k < 200 {
+        if matches!(r.sup.mode().phase_name(), "hold" | "-") {
+            r.line("mode step-small A");
+        }
+        r.run(1.0);
+        k += 1;
+    }
+    assert_eq!(
+        r.fault_code(),
+        Some("spring-heat"),
+        "{:?}",
+        r.sup.spring_heat()
+    );
+    assert!(r.sup.outputs().springs.is_empty());
 }
