@@ -8,6 +8,7 @@
 use crate::console::ConsoleError;
 use crate::outputs::SpringMask;
 use crate::settings::PARAMS;
+use crate::supervisor::mode::ModeId;
 
 /// Why a line was refused before it reached the supervisor; each has a stable code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,13 +92,27 @@ pub enum ModeRequest {
     Recover,
 }
 
-/// The console names of [`ModeRequest`]s, in the order of the thesis's mode numbers.
+impl ModeRequest {
+    /// The mode it asks for (whose [`ModeId::name`] is its console name).
+    pub const fn id(self) -> ModeId {
+        match self {
+            ModeRequest::Standby => ModeId::Standby,
+            ModeRequest::StepSmall => ModeId::StepSmall,
+            ModeRequest::StepLarge => ModeId::StepLarge,
+            ModeRequest::Form => ModeId::Form,
+            ModeRequest::Recover => ModeId::Recover,
+        }
+    }
+}
+
+/// The console names of [`ModeRequest`]s (from [`ModeId`]'s one name table), in the order of
+/// the thesis's mode numbers.
 pub const MODE_NAMES: [(&str, ModeRequest); 5] = [
-    ("standby", ModeRequest::Standby),
-    ("step-small", ModeRequest::StepSmall),
-    ("step-large", ModeRequest::StepLarge),
-    ("form", ModeRequest::Form),
-    ("recover", ModeRequest::Recover),
+    (ModeRequest::Standby.id().name(), ModeRequest::Standby),
+    (ModeRequest::StepSmall.id().name(), ModeRequest::StepSmall),
+    (ModeRequest::StepLarge.id().name(), ModeRequest::StepLarge),
+    (ModeRequest::Form.id().name(), ModeRequest::Form),
+    (ModeRequest::Recover.id().name(), ModeRequest::Recover),
 ];
 
 /// A parsed command.
@@ -285,8 +300,7 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
                 None => None,
                 Some(w) => Some(SpringMask::parse(w).ok_or(bad)?),
             };
-            if springs.is_some() && !matches!(mode, ModeRequest::StepSmall | ModeRequest::StepLarge)
-            {
+            if springs.is_some() && !mode.id().takes_springs() {
                 return Err(bad);
             }
             Ok(Command::Mode(*mode, springs))

@@ -74,17 +74,30 @@
 //! together — three equal pulls hold the softened column straight while it cools and locks,
 //! where a spring still austenite from the stepping would otherwise hold the bend for minutes —
 //! and a new stepping waits (phase `rest`) until every spring is martensite again.
+//!
+//! Files: this one steps the whole (measurement, command, faults, the loop, outputs);
+//! [`mode`] holds the one table of mode names ([`ModeId`]), [`Mode`] and what a mode's step
+//! decides; each mode is one file with its state and its `advance` (`standby`,
+//! [`stepping`], [`forming`], [`recovery`], [`autotune`]); [`safety`] the fault checks,
+//! [`memory`] the springs' memory across resets, [`store`] `save`/`load`, [`report`] the
+//! replies and telemetry, [`events`] the log. Every `match` on modes is exhaustive, so a new
+//! mode is one file, one [`ModeId`] row and one [`Mode`] variant, and the compiler lists the
+//! rest.
 
+pub mod autotune;
 pub mod events;
+pub mod forming;
 pub mod memory;
+pub mod mode;
+pub mod recovery;
 pub mod report;
 pub mod safety;
+mod standby;
+pub mod stepping;
 pub mod store;
 
 use crate::command::{Command, ModeRequest};
-use crate::control::{
-    AutotuneConfig, AutotuneStep, Pid, PidConfig, RelayAutotune, SplitRange, SpringHeat, TuneRule,
-};
+use crate::control::{Pid, PidConfig, SplitRange, SpringHeat};
 use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
 use crate::mtts::Prior;
 use crate::outputs::{Duty, Outputs, SpringMask};
@@ -94,7 +107,14 @@ use events::{EventKind, EventLog};
 use report::Reply;
 use safety::{Fault, FaultKind, LoopState, Safety};
 
+pub use autotune::Tuning;
+pub use forming::Forming;
 pub use memory::SpringMemory;
+pub use mode::{Mode, ModeId};
+pub use recovery::{RecoverPhase, Recovering};
+pub use stepping::{StepKind, StepPhase, Stepping};
+
+use mode::{Ctx, Drive, Next};
 
 /// Plausible region temperatures for a measurement to count as valid, K.
 pub const VALID_K: (f32, f32) = (200.0, 500.0);
@@ -108,199 +128,6 @@ pub const WARN_UNRESOLVED: &str =
     "frames unresolved for unresolved_s while heating: the loop holds the film region";
 /// The warning when frames resolve again after a fallback.
 pub const WARN_RESOLVED: &str = "frames resolved again: the loop holds the mode's region";
-
-/// Which stepping mode.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StepKind {
-    /// One stepping phase.
-    Small,
-    /// `large_steps` stepping phases with pulses between.
-    Large,
-}
-
-/// Where a stepping mode is.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum StepPhase {
-    /// Heating until the colder target is ready; since when it has been ready.
-    Soak {
-        /// The first time the colder target was within the ready band, if it still is.
-        ready_since: Option<Millis>,
-    },
-    /// The soak is done but a spring is still warm from an earlier cycle: holding `hot_k` with
-    /// the springs off until every spring's heat estimate is at most `spring_rest` (a passive
-    /// spring that is still austenite would hold the column against the stepping).
-    Rest,
-    /// The springs' pre-warm: on for `prewarm_s` (from room temperature to just below their
-    /// transformation, so the first stepping phase loads at once), then off for
-    /// `prewarm_gap_s` (which also ends the continuous on-time).
-    Prewarm {
-        /// Springs on (the pulse) or off (the gap).
-        on: bool,
-        /// Time left, ms.
-        left_ms: u32,
-    },
-    /// Springs on: phase `index` (0-based), `left_ms` to go.
-    Spring {
-        /// Which stepping phase.
-        index: u8,
-        /// Time left, ms.
-        left_ms: u32,
-    },
-    /// Springs off between stepping phases.
-    Pulse {
-        /// The stepping phase that follows.
-        index: u8,
-        /// Time left, ms.
-        left_ms: u32,
-    },
-    /// Done: holding `hot_k` with the springs off.
-    Hold,
-}
-
-/// A stepping mode's state.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Stepping {
-    /// Small or large.
-    pub kind: StepKind,
-    /// The springs it drives.
-    pub springs: SpringMask,
-    /// Where it is.
-    pub phase: StepPhase,
-    /// Paused: springs off and timers held.
-    pub paused: bool,
-    /// Since when the stepping has been holding `hot_k` without a spring phase to run (hold or
-    /// paused): past `hold_timeout_s` it returns to standby.
-    pub idle_since: Option<Millis>,
-}
-
-/// Where recovery is.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum RecoverPhase {
-    /// Heating to `hot_k` (as stepping's soak) while the springs are balanced. Ends once Tc is
-    /// ready and every spring's heat estimate has reached `spring_recover_heat`.
-    Heat {
-        /// The first time Tc was within the ready band, if it still is.
-        ready_since: Option<Millis>,
-    },
-    /// All springs on to clear stress-induced martensite (the thesis's pulse); time left, ms.
-    Pulse {
-        /// Time left, ms.
-        left_ms: u32,
-    },
-    /// Holding `hot_k` while the stored strain releases and the springs hold the column
-    /// straight; time left, ms.
-    Hold {
-        /// Time left, ms.
-        left_ms: u32,
-    },
-    /// Cooling as forming does (heater off, fan `form_fan`) with the springs still balanced, so
-    /// the column locks straight; ends when the hotter target is at `form_end_k`.
-    Cool {
-        /// When the cooling started (its `form_timeout_s` counts from here).
-        since: Millis,
-    },
-}
-
-/// Recovery's state: its phase and the springs' drive windows.
-///
-/// Throughout recovery the springs are balanced ([`SpringHeat::balance`]) in windows of
-/// `recover_on_s` on and `recover_off_s` off (within the on-time limit): the coldest springs by
-/// their heat estimate are driven first, until all three have reached `spring_recover_heat`,
-/// and topped up after. Three austenite springs pull the soft column straight together; a spring that stayed
-/// austenite from the stepping would otherwise hold the bend (in still air it takes minutes to
-/// turn martensite again), and the stored strain's release alone cannot undo that.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Recovering {
-    /// Where recovery is.
-    pub phase: RecoverPhase,
-    /// In a window where springs may be on.
-    pub window_on: bool,
-    /// Time left in the window, ms.
-    pub window_left_ms: u32,
-}
-
-/// The supervisor's mode; each variant carries its own state.
-#[derive(Clone, Debug)]
-pub enum Mode {
-    /// Mode 0: hold `standby_k`.
-    Standby,
-    /// Modes 1 and 2.
-    Stepping(Stepping),
-    /// Mode 3: fan on, heater off, until the hotter target is at `form_end_k`.
-    Forming {
-        /// When forming started.
-        since: Millis,
-    },
-    /// Mode 4.
-    Recovery(Recovering),
-    /// A relay autotune.
-    Autotune(RelayAutotune),
-    /// Everything off until a `mode` command.
-    Stopped,
-    /// A fault is latched: heater and springs off.
-    Faulted,
-}
-
-impl Mode {
-    /// Return the mode's name as `status` and telemetry show it.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Mode::Standby => "standby",
-            Mode::Stepping(s) if s.kind == StepKind::Small => "step-small",
-            Mode::Stepping(_) => "step-large",
-            Mode::Forming { .. } => "form",
-            Mode::Recovery(_) => "recover",
-            Mode::Autotune(_) => "autotune",
-            Mode::Stopped => "stopped",
-            Mode::Faulted => "fault",
-        }
-    }
-
-    /// Return the stepping/recovery phase's name (`-` where a mode has none).
-    pub fn phase_name(&self) -> &'static str {
-        match self {
-            Mode::Stepping(s) if s.paused => "paused",
-            Mode::Stepping(s) => match s.phase {
-                StepPhase::Soak { .. } => "soak",
-                StepPhase::Rest => "rest",
-                StepPhase::Prewarm { .. } => "prewarm",
-                StepPhase::Spring { .. } => "spring",
-                StepPhase::Pulse { .. } => "pulse",
-                StepPhase::Hold => "hold",
-            },
-            Mode::Recovery(r) => match r.phase {
-                RecoverPhase::Heat { .. } => "heat",
-                RecoverPhase::Pulse { .. } => "pulse",
-                RecoverPhase::Hold { .. } => "hold",
-                RecoverPhase::Cool { .. } => "cool",
-            },
-            _ => "-",
-        }
-    }
-
-    /// Cooling with the heater off and the fan on (forming, and recovery's last phase): no
-    /// loop runs, and the sensing expects the surface hotter. Since when, if so.
-    pub fn cooling_since(&self) -> Option<Millis> {
-        match *self {
-            Mode::Forming { since }
-            | Mode::Recovery(Recovering {
-                phase: RecoverPhase::Cool { since },
-                ..
-            }) => Some(since),
-            _ => None,
-        }
-    }
-}
-
-/// What a wait for a temperature (the ready one, or forming's end) decided this step.
-enum Soak {
-    /// Keep heating.
-    Wait,
-    /// Ready: go on to the next phase.
-    Go,
-    /// Not there within its timeout: give up, back to standby.
-    GiveUp,
-}
 
 /// Telemetry: on, and when the next line is due.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -391,29 +218,6 @@ fn outer_config(s: &Settings, target_k: f32) -> PidConfig {
         derivative_tau_s: 0.0,
         max_dt_s: 1.0,
         functional_band_k: f32::INFINITY,
-    }
-}
-
-fn ms(seconds: f32) -> u32 {
-    (seconds * 1000.0 + 0.5) as u32
-}
-
-/// Recovery's balancing drives the springs whose heat estimate is within this of the
-/// coldest's ([`SpringHeat::balance`]): one 0.25 s frame at full current adds ≈0.01.
-const BALANCE_BAND: f32 = 0.05;
-
-/// The first springs-on phase of a stepping: the pre-warm, or the first stepping phase.
-fn first_spring_phase(s: &Settings) -> StepPhase {
-    if s.prewarm_s > 0.0 {
-        StepPhase::Prewarm {
-            on: true,
-            left_ms: ms(s.prewarm_s),
-        }
-    } else {
-        StepPhase::Spring {
-            index: 0,
-            left_ms: ms(s.step_s),
-        }
     }
 }
 
@@ -532,7 +336,7 @@ impl Supervisor {
     /// Return the loop's target, K (NaN when no loop runs).
     pub fn target_k(&self) -> f32 {
         if let Mode::Autotune(t) = &self.mode {
-            t.config().target_k
+            t.target_k()
         } else if self.loop_active() {
             self.target_k
         } else {
@@ -562,15 +366,13 @@ impl Supervisor {
 
     /// Return the sensing hint of the mode.
     pub fn sensing_hint(&self) -> SensingHint {
-        match self.mode {
-            Mode::Forming { .. }
-            | Mode::Recovery(Recovering {
-                phase: RecoverPhase::Cool { .. },
-                ..
-            }) => SensingHint {
-                prior: Prior::SurfaceHotter,
-                weights: Settings::weights(self.settings.w1_form),
-            },
+        let form = SensingHint {
+            prior: Prior::SurfaceHotter,
+            weights: Settings::weights(self.settings.w1_form),
+        };
+        match &self.mode {
+            Mode::Forming(_) => form,
+            Mode::Recovery(r) if matches!(r.phase, RecoverPhase::Cool { .. }) => form,
             Mode::Stopped | Mode::Faulted => SensingHint {
                 prior: Prior::Unknown,
                 weights: Settings::weights(self.settings.w1_standby),
@@ -865,287 +667,66 @@ impl Supervisor {
     ) -> Outputs {
         let s = self.settings;
         let hotter = self.last.map(|m| m.hotter().k());
-        let tc = self.tc_k;
-        // Ready: Tc has reached hot_k (with the stepping weights, the colder region: the
-        // whole cross-section) and has not fallen more than ready_band_k below it since, for
-        // ready_dwell_s.
-        // A wait that lasts past soak_timeout_s gives up.
-        let timed_out = now.seconds_since(self.mode_since) > s.soak_timeout_s;
-        let ready = |since: Option<Millis>| -> (Option<Millis>, Soak) {
-            let (since, go) = match since {
-                Some(t0) if tc >= s.hot_k - s.ready_band_k => {
-                    (Some(t0), now.seconds_since(t0) >= s.ready_dwell_s)
-                }
-                None if tc >= s.hot_k => (Some(now), s.ready_dwell_s <= 0.0),
-                _ => (None, false),
-            };
-            let outcome = match (go, timed_out) {
-                (true, _) => Soak::Go,
-                (false, true) => Soak::GiveUp,
-                (false, false) => Soak::Wait,
-            };
-            (since, outcome)
+        let mut c = Ctx {
+            now,
+            elapsed_ms,
+            s,
+            tc_k: self.tc_k,
+            hotter_k: hotter,
+            mode_since: self.mode_since,
+            fresh,
+            last_heater: self.outputs.heater,
+            spring_heat: &self.spring_heat,
+            safety: &self.safety,
+            events: &mut self.events,
         };
-        let mut gave_up: Option<&'static str> = None;
-        // Forming's end, and recovery's cooling's: the hotter target at form_end_k is done
-        // (Go), past form_timeout_s from `since` it gives up.
-        let cooled = |since: Millis| -> Soak {
-            if hotter.is_some_and(|h| h <= s.form_end_k) {
-                Soak::Go
-            } else if now.seconds_since(since) > s.form_timeout_s {
-                Soak::GiveUp
-            } else {
-                Soak::Wait
-            }
-        };
-        let mut springs = SpringMask::NONE;
-        let mut next: Option<Mode> = None;
-        let target = match &mut self.mode {
-            Mode::Standby => s.standby_k,
-            Mode::Stepping(st) => {
-                let run_ms = if st.paused { 0 } else { elapsed_ms };
-                match &mut st.phase {
-                    StepPhase::Soak { ready_since } => {
-                        let (since, mut go) = ready(*ready_since);
-                        *ready_since = since;
-                        // A spring whose on-time a gap has not yet cleared (a mode changed
-                        // straight from its phase) waits: it would trip the on-time limit.
-                        let cleared = (0..crate::outputs::SPRINGS)
-                            .all(|i| !st.springs.contains(i) || self.safety.spring_on_s(i) == 0.0);
-                        if matches!(go, Soak::Go) && !cleared {
-                            go = Soak::Wait;
-                        }
-                        match go {
-                            Soak::Go if !self.spring_heat.rested(s.spring_rest) => {
-                                self.events.push(now, EventKind::SpringsResting);
-                                st.phase = StepPhase::Rest;
-                            }
-                            Soak::Go => st.phase = first_spring_phase(&s),
-                            Soak::GiveUp => gave_up = Some("soak"),
-                            Soak::Wait => {}
-                        }
-                    }
-                    StepPhase::Rest => {
-                        if self.spring_heat.rested(s.spring_rest) {
-                            st.phase = first_spring_phase(&s);
-                        }
-                    }
-                    StepPhase::Prewarm { on, left_ms } => {
-                        *left_ms = left_ms.saturating_sub(run_ms);
-                        if *left_ms == 0 {
-                            st.phase = if *on {
-                                StepPhase::Prewarm {
-                                    on: false,
-                                    left_ms: ms(s.prewarm_gap_s).max(1),
-                                }
-                            } else {
-                                StepPhase::Spring {
-                                    index: 0,
-                                    left_ms: ms(s.step_s),
-                                }
-                            };
-                        }
-                    }
-                    StepPhase::Spring { index, left_ms } => {
-                        *left_ms = left_ms.saturating_sub(run_ms);
-                        if *left_ms == 0 {
-                            let steps = match st.kind {
-                                StepKind::Small => 1,
-                                StepKind::Large => s.large_steps as u8,
-                            };
-                            st.phase = if *index + 1 >= steps {
-                                self.events.push(now, EventKind::SteppingDone);
-                                StepPhase::Hold
-                            } else {
-                                StepPhase::Pulse {
-                                    index: *index + 1,
-                                    left_ms: ms(s.pulse_s),
-                                }
-                            };
-                        }
-                    }
-                    StepPhase::Pulse { index, left_ms } => {
-                        *left_ms = left_ms.saturating_sub(run_ms);
-                        if *left_ms == 0 {
-                            st.phase = StepPhase::Spring {
-                                index: *index,
-                                left_ms: ms(s.step_s),
-                            };
-                        }
-                    }
-                    StepPhase::Hold => {}
-                }
-                // Hold and pause hold hot_k with nothing to run: an idle timeout ends them in
-                // standby. (Rest ends by the springs' model, within cool_s·ln(h/spring_rest).)
-                let idle = st.paused || matches!(st.phase, StepPhase::Hold);
-                if !idle {
-                    st.idle_since = None;
-                } else if now.seconds_since(*st.idle_since.get_or_insert(now)) > s.hold_timeout_s {
-                    gave_up = Some("hold");
-                }
-                let on = matches!(
-                    st.phase,
-                    StepPhase::Spring { .. } | StepPhase::Prewarm { on: true, .. }
-                );
-                if on && !st.paused {
-                    springs = st.springs;
-                }
-                s.hot_k
-            }
-            Mode::Forming { since } => {
-                match cooled(*since) {
-                    Soak::Go => next = Some(Mode::Standby),
-                    Soak::GiveUp => gave_up = Some("form"),
-                    Soak::Wait => {}
-                }
-                s.standby_k
-            }
-            Mode::Recovery(rec) => {
-                let heat = self.spring_heat;
-                let may_run = |safety: &Safety, left_ms: u32| -> SpringMask {
-                    let bits = (0..crate::outputs::SPRINGS)
-                        .filter(|&i| {
-                            safety.spring_duty(i) < 0.9 * s.spring_duty_max
-                                && safety.spring_may_run(i, left_ms as f32 * 1e-3, &s)
-                                && heat.heat(i) < s.spring_heat_max - BALANCE_BAND
-                        })
-                        .fold(0u8, |b, i| b | 1 << i);
-                    SpringMask::from_bits(bits)
-                };
-                rec.window_left_ms = rec.window_left_ms.saturating_sub(elapsed_ms);
-                if rec.window_left_ms == 0 {
-                    rec.window_on = !rec.window_on;
-                    rec.window_left_ms = ms(if rec.window_on {
-                        s.recover_on_s
-                    } else {
-                        s.recover_off_s
-                    })
-                    .max(1);
-                }
-                let balanced = self.spring_heat.all_at(s.spring_recover_heat);
-                match &mut rec.phase {
-                    RecoverPhase::Heat { ready_since } => {
-                        let (since, go) = ready(*ready_since);
-                        *ready_since = since;
-                        // The pulse runs inside an on window (it fits in what is left of
-                        // it), so a spring's continuous on-time stays within the window's.
-                        let pulse_fits = rec.window_on
-                            && rec.window_left_ms >= ms(s.recover_pulse_s)
-                            && may_run(&self.safety, rec.window_left_ms) == SpringMask::ALL;
-                        match go {
-                            Soak::Go if balanced && pulse_fits => {
-                                rec.phase = RecoverPhase::Pulse {
-                                    left_ms: ms(s.recover_pulse_s),
-                                }
-                            }
-                            Soak::GiveUp => gave_up = Some("reheat"),
-                            // Ready but the springs not yet balanced: the heat phase still
-                            // ends by soak_timeout_s.
-                            Soak::Go | Soak::Wait if timed_out => gave_up = Some("reheat"),
-                            Soak::Go | Soak::Wait => {}
-                        }
-                    }
-                    RecoverPhase::Pulse { left_ms } => {
-                        *left_ms = left_ms.saturating_sub(elapsed_ms);
-                        if *left_ms == 0 {
-                            rec.phase = RecoverPhase::Hold {
-                                left_ms: ms(s.recover_hold_s),
-                            };
-                        }
-                    }
-                    RecoverPhase::Hold { left_ms } => {
-                        *left_ms = left_ms.saturating_sub(elapsed_ms);
-                        if *left_ms == 0 {
-                            rec.phase = RecoverPhase::Cool { since: now };
-                            self.events.push(now, EventKind::RecoveryCooling);
-                        }
-                    }
-                    RecoverPhase::Cool { since } => match cooled(*since) {
-                        Soak::Go => next = Some(Mode::Standby),
-                        Soak::GiveUp => gave_up = Some("recover"),
-                        Soak::Wait => {}
-                    },
-                }
-                let allowed = may_run(&self.safety, rec.window_left_ms);
-                if matches!(rec.phase, RecoverPhase::Pulse { .. }) {
-                    springs = SpringMask::from_bits(SpringMask::ALL.bits() & allowed.bits());
-                } else if rec.window_on {
-                    // A spring near its duty or heat limit, or whose on-time the rest of the
-                    // window would take past the limit, sits the window out.
-                    springs = SpringMask::from_bits(
-                        self.spring_heat
-                            .balance(s.spring_recover_heat, BALANCE_BAND)
-                            .bits()
-                            & allowed.bits(),
-                    );
-                }
-                s.hot_k
-            }
-            Mode::Autotune(tuner) => {
-                // The relay obeys the heater cap like the loop does.
-                let cap = hotter.map_or(1.0, |h| (s.heater_cap_k - h) / s.heater_cap_band_k);
-                let capped = |d: Duty| Duty::from_fraction(d.fraction().min(cap.clamp(0.0, 1.0)));
-                if let Some(m) = fresh {
-                    // Seconds since the run started: f32 keeps its resolution however long
-                    // the board has been up.
-                    match tuner.step(m.at.seconds_since(self.mode_since), self.tc_k) {
-                        AutotuneStep::Running { heater_duty } => {
-                            return Outputs {
-                                heater: capped(heater_duty),
-                                fan: Duty::OFF,
-                                springs: SpringMask::NONE,
-                            };
-                        }
-                        AutotuneStep::Done(r) => {
-                            // The tuned gains must pass the ranges `set` would check.
-                            if let Ok(tuned) = s.with_gains(r.gains) {
-                                self.configure(tuned);
-                                self.events.push(
-                                    now,
-                                    EventKind::Tuned {
-                                        ku_per_k: r.ku_per_k,
-                                        tu_s: r.tu_s,
-                                    },
-                                );
-                            } else {
-                                self.events
-                                    .push(now, EventKind::TuneAborted("gains out of range"));
-                            }
-                            next = Some(Mode::Standby);
-                        }
-                        AutotuneStep::Aborted(why) => {
-                            self.events.push(now, EventKind::TuneAborted(why.name()));
-                            next = Some(Mode::Standby);
-                        }
-                    }
-                } else {
-                    // Between frames the relay's output holds (capped by the last frame).
-                    return Outputs {
-                        heater: capped(self.outputs.heater),
-                        fan: Duty::OFF,
-                        springs: SpringMask::NONE,
-                    };
-                }
-                s.tune_k
-            }
+        let step = match &mut self.mode {
+            Mode::Standby => standby::advance(&c),
+            Mode::Stepping(st) => st.advance(&mut c),
+            Mode::Forming(f) => f.advance(&mut c),
+            Mode::Recovery(r) => r.advance(&mut c),
+            Mode::Autotune(t) => t.advance(&mut c),
             Mode::Stopped | Mode::Faulted => return self.safe_outputs(),
         };
-        if let Some(what) = gave_up {
-            self.events
-                .push(now, EventKind::TimedOut { what, tc_k: tc });
-            next = Some(Mode::Standby);
-        }
-        if let Some(m) = next {
-            self.enter(now, m);
+        if let Some(next) = step.next {
+            let mode = match next {
+                Next::Enter(m) => m,
+                Next::GiveUp(what) => {
+                    let tc_k = self.tc_k;
+                    self.events.push(now, EventKind::TimedOut { what, tc_k });
+                    Mode::Standby
+                }
+                Next::Tuned(tuned) => {
+                    self.configure(tuned);
+                    Mode::Standby
+                }
+            };
+            self.enter(now, mode);
             return self.run_mode(now, 0, None, 0.0);
         }
-        if self.mode.cooling_since().is_some() {
-            return Outputs {
-                heater: Duty::OFF,
-                fan: Duty::from_fraction(s.form_fan),
-                springs,
-            };
-        }
+        // The heater cap, an override on the hotter region: whatever the loop or the relay
+        // wants, the film is not driven past heater_cap_k.
+        let cap = hotter
+            .map_or(1.0, |h| (s.heater_cap_k - h) / s.heater_cap_band_k)
+            .clamp(0.0, 1.0);
+        let capped = |d: Duty| Duty::from_fraction(d.fraction().min(cap));
+        let target = match step.drive {
+            Drive::Cool => {
+                return Outputs {
+                    heater: Duty::OFF,
+                    fan: Duty::from_fraction(s.form_fan),
+                    springs: step.springs,
+                };
+            }
+            Drive::Relay(d) => {
+                return Outputs {
+                    heater: capped(d),
+                    fan: Duty::OFF,
+                    springs: step.springs,
+                };
+            }
+            Drive::Hold(target_k) => target_k,
+        };
         self.set_target(target);
         let cascade = self.sensing_hint().weights.w1 < 1.0;
         let u = match (fresh, hotter) {
@@ -1160,13 +741,10 @@ impl Supervisor {
             _ => self.pid.output(),
         };
         let hc = self.split.apply(u);
-        // The heater cap, an override on the hotter region: whatever the loop wants, the film
-        // is not driven past heater_cap_k.
-        let cap = hotter.map_or(1.0, |h| (s.heater_cap_k - h) / s.heater_cap_band_k);
         Outputs {
-            heater: Duty::from_fraction(hc.heater.fraction().min(cap.clamp(0.0, 1.0))),
+            heater: capped(hc.heater),
             fan: hc.fan,
-            springs,
+            springs: step.springs,
         }
     }
 
@@ -1205,7 +783,7 @@ impl Supervisor {
                     return Reply::err("out-of-range", "stream rate must be in (0, 20] Hz");
                 }
                 self.stream = Some(Stream {
-                    period_ms: ms(1.0 / hz).max(1),
+                    period_ms: mode::ms(1.0 / hz).max(1),
                     next_at: now,
                 });
                 Reply::stream_on(hz)
@@ -1237,56 +815,20 @@ impl Supervisor {
             Command::Pause | Command::Resume => {
                 let pause = c == Command::Pause;
                 match &mut self.mode {
-                    // Pause holds a spring phase's timer; soak, rest and hold have none.
-                    Mode::Stepping(st)
-                        if pause
-                            && !st.paused
-                            && matches!(
-                                st.phase,
-                                StepPhase::Soak { .. } | StepPhase::Rest | StepPhase::Hold
-                            ) =>
-                    {
-                        Reply::err(
-                            "bad-state",
-                            "pause only in a spring phase (prewarm, spring, pulse)",
-                        )
-                    }
-                    Mode::Stepping(st) if st.paused != pause => {
-                        st.paused = pause;
-                        Reply::ok(if pause { "paused" } else { "resumed" })
-                    }
-                    Mode::Stepping(_) => Reply::err(
-                        "bad-state",
-                        if pause {
-                            "already paused"
-                        } else {
-                            "not paused"
-                        },
-                    ),
-                    _ => Reply::err("bad-state", "only stepping pauses"),
+                    Mode::Stepping(st) => match st.pause(pause) {
+                        Ok(()) => Reply::ok(if pause { "paused" } else { "resumed" }),
+                        Err(why) => Reply::err("bad-state", why),
+                    },
+                    Mode::Standby
+                    | Mode::Forming(_)
+                    | Mode::Recovery(_)
+                    | Mode::Autotune(_)
+                    | Mode::Stopped
+                    | Mode::Faulted => Reply::err("bad-state", "only stepping pauses"),
                 }
             }
             Command::Autotune => {
-                let s = &self.settings;
-                // Ziegler–Nichols' classic rule: on the simulated block it gives 0.6 K of
-                // overshoot and a ±0.2 K hold (README, control section); the no-overshoot rule
-                // holds the standby target ±0.3 K but takes 30 s to preheat.
-                // The reading must follow the relay: rise while heating up to the band as the
-                // runaway check asks, and switch within two expected periods once cycling.
-                let tuner = RelayAutotune::new(AutotuneConfig {
-                    rule: TuneRule::ZieglerNichols,
-                    timeout_s: s.tune_timeout_s,
-                    max_overshoot_k: (s.t_max_k - s.tune_k - 1.0).min(8.0),
-                    follow_s: 2.0 * s.tune_expected_period_s(),
-                    rise_k: s.runaway_gain_k,
-                    rise_window_s: s.runaway_window_s,
-                    ..AutotuneConfig::around(
-                        s.tune_k,
-                        Duty::from_fraction(s.tune_base),
-                        s.tune_amplitude,
-                    )
-                });
-                self.enter(now, Mode::Autotune(tuner));
+                self.enter(now, Mode::Autotune(Tuning::start(&self.settings)));
                 Reply::ok("autotune started")
             }
             Command::Mode(req, springs) => {
@@ -1296,25 +838,15 @@ impl Supervisor {
                         if let Some(sp) = springs {
                             self.springs = sp;
                         }
-                        // From a hold at hot_k, a new step still waits the dwell (a fresh check).
-                        Mode::Stepping(Stepping {
-                            kind: if req == ModeRequest::StepSmall {
-                                StepKind::Small
-                            } else {
-                                StepKind::Large
-                            },
-                            springs: self.springs,
-                            phase: StepPhase::Soak { ready_since: None },
-                            paused: false,
-                            idle_since: None,
-                        })
+                        let kind = if req == ModeRequest::StepSmall {
+                            StepKind::Small
+                        } else {
+                            StepKind::Large
+                        };
+                        Mode::Stepping(Stepping::new(kind, self.springs))
                     }
-                    ModeRequest::Form => Mode::Forming { since: now },
-                    ModeRequest::Recover => Mode::Recovery(Recovering {
-                        phase: RecoverPhase::Heat { ready_since: None },
-                        window_on: true,
-                        window_left_ms: ms(self.settings.recover_on_s).max(1),
-                    }),
+                    ModeRequest::Form => Mode::Forming(Forming::new(now)),
+                    ModeRequest::Recover => Mode::Recovery(Recovering::new(&self.settings)),
                 };
                 self.enter(now, mode);
                 Reply::mode(&self.mode, self.springs)

@@ -221,9 +221,12 @@ impl Reply {
     }
 
     pub(super) fn mode(m: &Mode, springs: SpringMask) -> Reply {
-        Reply::with(|r| match m {
-            Mode::Stepping(_) => write!(r, "ok mode {} springs={springs}", m.name()),
-            _ => write!(r, "ok mode {}", m.name()),
+        Reply::with(|r| {
+            if m.id().takes_springs() {
+                write!(r, "ok mode {} springs={springs}", m.name())
+            } else {
+                write!(r, "ok mode {}", m.name())
+            }
         })
     }
 }

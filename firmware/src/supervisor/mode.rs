@@ -1,0 +1,320 @@
+//! The modes: one name table ([`ModeId`]), the [`Mode`] each variant of which carries its own
+//! state, and what a mode's step decides (`ModeStep`).
+//!
+//! A mode is one file beside this one (`standby.rs`, `stepping.rs`, `forming.rs`,
+//! `recovery.rs`, `autotune.rs`): its state and its `advance(&mut state, &mut Ctx) -> ModeStep`.
+//! The supervisor owns everything around it — the loop, the faults, the outputs — and turns a
+//! `ModeStep` into outputs. Every `match` on modes is exhaustive, so a new mode is one file,
+//! one [`ModeId`] row and one [`Mode`] variant, and the compiler lists what else it needs.
+
+use super::autotune::Tuning;
+use super::events::{EventKind, EventLog};
+use super::forming::Forming;
+use super::recovery::{RecoverPhase, Recovering};
+use super::safety::Safety;
+use super::stepping::{StepKind, StepPhase, Stepping};
+use crate::control::SpringHeat;
+use crate::measurement::Measurement;
+use crate::outputs::{Duty, SpringMask};
+use crate::settings::Settings;
+use crate::units::Millis;
+
+/// Every mode as a plain, copyable id: the one table of mode names (`status`, telemetry, the
+/// `mode` command, `log`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModeId {
+    /// Mode 0: hold `standby_k`.
+    Standby,
+    /// Mode 1: one stepping phase.
+    StepSmall,
+    /// Mode 2: `large_steps` stepping phases with pulses between.
+    StepLarge,
+    /// Mode 3: cool with the fan until the hotter target is at `form_end_k`.
+    Form,
+    /// Mode 4: reheat, straighten with the springs, cool straight.
+    Recover,
+    /// A relay autotune.
+    Autotune,
+    /// Everything off until a `mode` command.
+    Stopped,
+    /// A fault is latched.
+    Faulted,
+}
+
+impl ModeId {
+    /// Every mode, the ones a `mode` command asks for first, in the thesis's order.
+    pub const ALL: [ModeId; 8] = [
+        ModeId::Standby,
+        ModeId::StepSmall,
+        ModeId::StepLarge,
+        ModeId::Form,
+        ModeId::Recover,
+        ModeId::Autotune,
+        ModeId::Stopped,
+        ModeId::Faulted,
+    ];
+
+    /// The mode's name as the console shows it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ModeId::Standby => "standby",
+            ModeId::StepSmall => "step-small",
+            ModeId::StepLarge => "step-large",
+            ModeId::Form => "form",
+            ModeId::Recover => "recover",
+            ModeId::Autotune => "autotune",
+            ModeId::Stopped => "stopped",
+            ModeId::Faulted => "fault",
+        }
+    }
+
+    /// Whether `mode NAME` enters it (autotune has its own command; stopped and fault are
+    /// reached by `stop` and by a fault).
+    pub const fn requestable(self) -> bool {
+        match self {
+            ModeId::Standby
+            | ModeId::StepSmall
+            | ModeId::StepLarge
+            | ModeId::Form
+            | ModeId::Recover => true,
+            ModeId::Autotune | ModeId::Stopped | ModeId::Faulted => false,
+        }
+    }
+
+    /// Whether the mode drives the springs (a `mode` command may name them).
+    pub const fn takes_springs(self) -> bool {
+        match self {
+            ModeId::StepSmall | ModeId::StepLarge => true,
+            ModeId::Standby
+            | ModeId::Form
+            | ModeId::Recover
+            | ModeId::Autotune
+            | ModeId::Stopped
+            | ModeId::Faulted => false,
+        }
+    }
+
+    /// The requestable mode called `name` (case-insensitive).
+    pub fn requested(name: &str) -> Option<ModeId> {
+        ModeId::ALL
+            .into_iter()
+            .find(|m| m.requestable() && m.name().eq_ignore_ascii_case(name))
+    }
+}
+
+/// The supervisor's mode; each variant carries its own state.
+#[derive(Clone, Debug)]
+pub enum Mode {
+    /// Mode 0: hold `standby_k`.
+    Standby,
+    /// Modes 1 and 2.
+    Stepping(Stepping),
+    /// Mode 3: fan on, heater off, until the hotter target is at `form_end_k`.
+    Forming(Forming),
+    /// Mode 4.
+    Recovery(Recovering),
+    /// A relay autotune.
+    Autotune(Tuning),
+    /// Everything off until a `mode` command.
+    Stopped,
+    /// A fault is latched: heater and springs off.
+    Faulted,
+}
+
+impl Mode {
+    /// Return the mode's id.
+    pub fn id(&self) -> ModeId {
+        match self {
+            Mode::Standby => ModeId::Standby,
+            Mode::Stepping(s) => match s.kind {
+                StepKind::Small => ModeId::StepSmall,
+                StepKind::Large => ModeId::StepLarge,
+            },
+            Mode::Forming(_) => ModeId::Form,
+            Mode::Recovery(_) => ModeId::Recover,
+            Mode::Autotune(_) => ModeId::Autotune,
+            Mode::Stopped => ModeId::Stopped,
+            Mode::Faulted => ModeId::Faulted,
+        }
+    }
+
+    /// Return the mode's name as `status` and telemetry show it.
+    pub fn name(&self) -> &'static str {
+        self.id().name()
+    }
+
+    /// Return the stepping/recovery phase's name (`-` where a mode has none).
+    pub fn phase_name(&self) -> &'static str {
+        match self {
+            Mode::Stepping(s) if s.paused => "paused",
+            Mode::Stepping(s) => match s.phase {
+                StepPhase::Soak { .. } => "soak",
+                StepPhase::Rest => "rest",
+                StepPhase::Prewarm { .. } => "prewarm",
+                StepPhase::Spring { .. } => "spring",
+                StepPhase::Pulse { .. } => "pulse",
+                StepPhase::Hold => "hold",
+            },
+            Mode::Recovery(r) => match r.phase {
+                RecoverPhase::Heat { .. } => "heat",
+                RecoverPhase::Pulse { .. } => "pulse",
+                RecoverPhase::Hold { .. } => "hold",
+                RecoverPhase::Cool { .. } => "cool",
+            },
+            Mode::Standby
+            | Mode::Forming(_)
+            | Mode::Autotune(_)
+            | Mode::Stopped
+            | Mode::Faulted => "-",
+        }
+    }
+
+    /// Cooling with the heater off and the fan on (forming, and recovery's last phase): no
+    /// loop runs, and the sensing expects the surface hotter. Since when, if so.
+    pub fn cooling_since(&self) -> Option<Millis> {
+        match self {
+            Mode::Forming(f) => Some(f.since),
+            Mode::Recovery(r) => match r.phase {
+                RecoverPhase::Cool { since } => Some(since),
+                RecoverPhase::Heat { .. }
+                | RecoverPhase::Pulse { .. }
+                | RecoverPhase::Hold { .. } => None,
+            },
+            Mode::Standby
+            | Mode::Stepping(_)
+            | Mode::Autotune(_)
+            | Mode::Stopped
+            | Mode::Faulted => None,
+        }
+    }
+}
+
+/// What a mode's step sees: the time, the settings and the measurements, the springs' state,
+/// and the event log to write to.
+pub(super) struct Ctx<'a> {
+    /// This step's time.
+    pub now: Millis,
+    /// Time since the last step, ms.
+    pub elapsed_ms: u32,
+    /// The settings in force.
+    pub s: Settings,
+    /// Tc of the last valid measurement, K (NaN before the first).
+    pub tc_k: f32,
+    /// The hotter target of the last valid measurement, K.
+    pub hotter_k: Option<f32>,
+    /// When the mode was entered.
+    pub mode_since: Millis,
+    /// A new valid measurement came this step.
+    pub fresh: Option<&'a Measurement>,
+    /// The heater duty of the last decision.
+    pub last_heater: Duty,
+    /// The springs' heat estimate.
+    pub spring_heat: &'a SpringHeat,
+    /// The fault checks (spring on-time and duty).
+    pub safety: &'a Safety,
+    /// The event log.
+    pub events: &'a mut EventLog,
+}
+
+/// What the mode wants of the heater and the fan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Drive {
+    /// The loop holds this target, K.
+    Hold(f32),
+    /// Heater off, fan at `form_fan` (forming, recovery's cooling).
+    Cool,
+    /// The autotune relay's heater duty (fan off), capped like the loop.
+    Relay(Duty),
+}
+
+/// Where the mode goes next.
+#[derive(Clone, Debug)]
+pub(super) enum Next {
+    /// Enter this mode.
+    Enter(Mode),
+    /// A wait gave up (`soak`, `reheat`, `form`, `recover`, `hold`): standby, with an event.
+    GiveUp(&'static str),
+    /// Autotune finished: these settings (with the tuned gains) and standby.
+    Tuned(Settings),
+}
+
+/// What one step of a mode decided.
+#[derive(Clone, Debug)]
+pub(super) struct ModeStep {
+    /// Heater and fan.
+    pub drive: Drive,
+    /// The springs to drive.
+    pub springs: SpringMask,
+    /// Where to go next, if anywhere.
+    pub next: Option<Next>,
+}
+
+impl ModeStep {
+    /// Hold `target_k` with the springs off and stay.
+    pub fn hold(target_k: f32) -> ModeStep {
+        ModeStep {
+            drive: Drive::Hold(target_k),
+            springs: SpringMask::NONE,
+            next: None,
+        }
+    }
+}
+
+/// What a wait for a temperature (the ready one, or forming's end) decided this step.
+pub(super) enum Soak {
+    /// Keep heating.
+    Wait,
+    /// Ready: go on to the next phase.
+    Go,
+    /// Not there within its timeout: give up, back to standby.
+    GiveUp,
+}
+
+impl Ctx<'_> {
+    /// The mode has lasted past `soak_timeout_s`.
+    pub fn soak_timed_out(&self) -> bool {
+        self.now.seconds_since(self.mode_since) > self.s.soak_timeout_s
+    }
+
+    /// Ready: Tc has reached `hot_k` (with the stepping weights, the colder region: the whole
+    /// cross-section) and has not fallen more than `ready_band_k` below it since, for
+    /// `ready_dwell_s`; a wait past `soak_timeout_s` gives up. Returns the new `ready_since`.
+    pub fn ready(&self, since: Option<Millis>) -> (Option<Millis>, Soak) {
+        let (s, tc, now) = (&self.s, self.tc_k, self.now);
+        let (since, go) = match since {
+            Some(t0) if tc >= s.hot_k - s.ready_band_k => {
+                (Some(t0), now.seconds_since(t0) >= s.ready_dwell_s)
+            }
+            None if tc >= s.hot_k => (Some(now), s.ready_dwell_s <= 0.0),
+            _ => (None, false),
+        };
+        let outcome = match (go, self.soak_timed_out()) {
+            (true, _) => Soak::Go,
+            (false, true) => Soak::GiveUp,
+            (false, false) => Soak::Wait,
+        };
+        (since, outcome)
+    }
+
+    /// Forming's end, and recovery's cooling's: the hotter target at `form_end_k` is done
+    /// (Go), past `form_timeout_s` from `since` it gives up.
+    pub fn cooled(&self, since: Millis) -> Soak {
+        if self.hotter_k.is_some_and(|h| h <= self.s.form_end_k) {
+            Soak::Go
+        } else if self.now.seconds_since(since) > self.s.form_timeout_s {
+            Soak::GiveUp
+        } else {
+            Soak::Wait
+        }
+    }
+
+    /// Log `kind` now.
+    pub fn event(&mut self, kind: EventKind) {
+        self.events.push(self.now, kind);
+    }
+}
+
+/// Seconds to whole milliseconds (rounded).
+pub(super) fn ms(seconds: f32) -> u32 {
+    (seconds * 1000.0 + 0.5) as u32
+}

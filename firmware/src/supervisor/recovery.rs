@@ -1,0 +1,177 @@
+//! Mode 4, recovery: reheat to `hot_k` while the springs are balanced to austenite together,
+//! pulse them all, hold, then cool as forming does with the springs still balanced, so the
+//! column locks straight.
+
+use super::events::EventKind;
+use super::mode::{Ctx, Drive, ModeStep, Next, Soak, ms};
+use super::safety::Safety;
+use crate::control::SpringHeat;
+use crate::outputs::{SPRINGS, SpringMask};
+use crate::settings::Settings;
+use crate::units::Millis;
+
+/// Recovery's balancing drives the springs whose heat estimate is within this of the
+/// coldest's ([`SpringHeat::balance`]): one 0.25 s frame at full current adds ≈0.01.
+pub(super) const BALANCE_BAND: f32 = 0.05;
+
+/// Where recovery is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RecoverPhase {
+    /// Heating to `hot_k` (as stepping's soak) while the springs are balanced. Ends once Tc is
+    /// ready and every spring's heat estimate has reached `spring_recover_heat`.
+    Heat {
+        /// The first time Tc was within the ready band, if it still is.
+        ready_since: Option<Millis>,
+    },
+    /// All springs on to clear stress-induced martensite (the thesis's pulse); time left, ms.
+    Pulse {
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Holding `hot_k` while the stored strain releases and the springs hold the column
+    /// straight; time left, ms.
+    Hold {
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Cooling as forming does (heater off, fan `form_fan`) with the springs still balanced, so
+    /// the column locks straight; ends when the hotter target is at `form_end_k`.
+    Cool {
+        /// When the cooling started (its `form_timeout_s` counts from here).
+        since: Millis,
+    },
+}
+
+/// Recovery's state: its phase and the springs' drive windows.
+///
+/// Throughout recovery the springs are balanced ([`SpringHeat::balance`]) in windows of
+/// `recover_on_s` on and `recover_off_s` off (within the on-time limit): the coldest springs by
+/// their heat estimate are driven first, until all three have reached `spring_recover_heat`,
+/// and topped up after. Three austenite springs pull the soft column straight together; a spring that stayed
+/// austenite from the stepping would otherwise hold the bend (in still air it takes minutes to
+/// turn martensite again), and the stored strain's release alone cannot undo that.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Recovering {
+    /// Where recovery is.
+    pub phase: RecoverPhase,
+    /// In a window where springs may be on.
+    pub window_on: bool,
+    /// Time left in the window, ms.
+    pub window_left_ms: u32,
+}
+
+impl Recovering {
+    /// Recovery from its start: heating, in an on window.
+    pub fn new(s: &Settings) -> Recovering {
+        Recovering {
+            phase: RecoverPhase::Heat { ready_since: None },
+            window_on: true,
+            window_left_ms: ms(s.recover_on_s).max(1),
+        }
+    }
+
+    /// One step of recovery.
+    pub(super) fn advance(&mut self, c: &mut Ctx) -> ModeStep {
+        let s = c.s;
+        let now = c.now;
+        // A spring near its duty or heat limit, or whose on-time what is left of the window
+        // would take past the limit, sits the window out.
+        let may_run = |safety: &Safety, heat: &SpringHeat, left_ms: u32| -> SpringMask {
+            let bits = (0..SPRINGS)
+                .filter(|&i| {
+                    safety.spring_duty(i) < 0.9 * s.spring_duty_max
+                        && safety.spring_may_run(i, left_ms as f32 * 1e-3, &s)
+                        && heat.heat(i) < s.spring_heat_max - BALANCE_BAND
+                })
+                .fold(0u8, |b, i| b | 1 << i);
+            SpringMask::from_bits(bits)
+        };
+        self.window_left_ms = self.window_left_ms.saturating_sub(c.elapsed_ms);
+        if self.window_left_ms == 0 {
+            self.window_on = !self.window_on;
+            self.window_left_ms = ms(if self.window_on {
+                s.recover_on_s
+            } else {
+                s.recover_off_s
+            })
+            .max(1);
+        }
+        let balanced = c.spring_heat.all_at(s.spring_recover_heat);
+        let mut next = None;
+        match &mut self.phase {
+            RecoverPhase::Heat { ready_since } => {
+                let (since, go) = c.ready(*ready_since);
+                *ready_since = since;
+                // The pulse runs inside an on window (it fits in what is left of it), so a
+                // spring's continuous on-time stays within the window's.
+                let pulse_fits = self.window_on
+                    && self.window_left_ms >= ms(s.recover_pulse_s)
+                    && may_run(c.safety, c.spring_heat, self.window_left_ms) == SpringMask::ALL;
+                match go {
+                    Soak::Go if balanced && pulse_fits => {
+                        self.phase = RecoverPhase::Pulse {
+                            left_ms: ms(s.recover_pulse_s),
+                        }
+                    }
+                    Soak::GiveUp => next = Some(Next::GiveUp("reheat")),
+                    // Ready but the springs not yet balanced: the heat phase still ends by
+                    // soak_timeout_s.
+                    Soak::Go | Soak::Wait if c.soak_timed_out() => {
+                        next = Some(Next::GiveUp("reheat"))
+                    }
+                    Soak::Go | Soak::Wait => {}
+                }
+            }
+            RecoverPhase::Pulse { left_ms } => {
+                *left_ms = left_ms.saturating_sub(c.elapsed_ms);
+                if *left_ms == 0 {
+                    self.phase = RecoverPhase::Hold {
+                        left_ms: ms(s.recover_hold_s),
+                    };
+                }
+            }
+            RecoverPhase::Hold { left_ms } => {
+                *left_ms = left_ms.saturating_sub(c.elapsed_ms);
+                if *left_ms == 0 {
+                    self.phase = RecoverPhase::Cool { since: now };
+                    c.event(EventKind::RecoveryCooling);
+                }
+            }
+            RecoverPhase::Cool { since } => match c.cooled(*since) {
+                Soak::Go => next = Some(Next::Enter(super::mode::Mode::Standby)),
+                Soak::GiveUp => next = Some(Next::GiveUp("recover")),
+                Soak::Wait => {}
+            },
+        }
+        let allowed = may_run(c.safety, c.spring_heat, self.window_left_ms);
+        let springs = match self.phase {
+            RecoverPhase::Pulse { .. } => {
+                SpringMask::from_bits(SpringMask::ALL.bits() & allowed.bits())
+            }
+            RecoverPhase::Heat { .. } | RecoverPhase::Hold { .. } | RecoverPhase::Cool { .. }
+                if self.window_on =>
+            {
+                SpringMask::from_bits(
+                    c.spring_heat
+                        .balance(s.spring_recover_heat, BALANCE_BAND)
+                        .bits()
+                        & allowed.bits(),
+                )
+            }
+            RecoverPhase::Heat { .. } | RecoverPhase::Hold { .. } | RecoverPhase::Cool { .. } => {
+                SpringMask::NONE
+            }
+        };
+        let drive = match self.phase {
+            RecoverPhase::Cool { .. } => Drive::Cool,
+            RecoverPhase::Heat { .. } | RecoverPhase::Pulse { .. } | RecoverPhase::Hold { .. } => {
+                Drive::Hold(s.hot_k)
+            }
+        };
+        ModeStep {
+            drive,
+            springs,
+            next,
+        }
+    }
+}

@@ -1,0 +1,222 @@
+//! Modes 1 and 2, small and large stepping: soak until the whole cross-section is at `hot_k`,
+//! rest the springs if they are still warm, pre-warm them, then the stepping phases with pulses
+//! between, then hold.
+
+use super::events::EventKind;
+use super::mode::{Ctx, Drive, ModeStep, Next, Soak, ms};
+use crate::outputs::{SPRINGS, SpringMask};
+use crate::settings::Settings;
+use crate::units::Millis;
+
+/// Which stepping mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepKind {
+    /// One stepping phase.
+    Small,
+    /// `large_steps` stepping phases with pulses between.
+    Large,
+}
+
+/// Where a stepping mode is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepPhase {
+    /// Heating until the colder target is ready; since when it has been ready.
+    Soak {
+        /// The first time the colder target was within the ready band, if it still is.
+        ready_since: Option<Millis>,
+    },
+    /// The soak is done but a spring is still warm from an earlier cycle: holding `hot_k` with
+    /// the springs off until every spring's heat estimate is at most `spring_rest` (a passive
+    /// spring that is still austenite would hold the column against the stepping).
+    Rest,
+    /// The springs' pre-warm: on for `prewarm_s` (from room temperature to just below their
+    /// transformation, so the first stepping phase loads at once), then off for
+    /// `prewarm_gap_s` (which also ends the continuous on-time).
+    Prewarm {
+        /// Springs on (the pulse) or off (the gap).
+        on: bool,
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Springs on: phase `index` (0-based), `left_ms` to go.
+    Spring {
+        /// Which stepping phase.
+        index: u8,
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Springs off between stepping phases.
+    Pulse {
+        /// The stepping phase that follows.
+        index: u8,
+        /// Time left, ms.
+        left_ms: u32,
+    },
+    /// Done: holding `hot_k` with the springs off.
+    Hold,
+}
+
+/// A stepping mode's state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stepping {
+    /// Small or large.
+    pub kind: StepKind,
+    /// The springs it drives.
+    pub springs: SpringMask,
+    /// Where it is.
+    pub phase: StepPhase,
+    /// Paused: springs off and timers held.
+    pub paused: bool,
+    /// Since when the stepping has been holding `hot_k` without a spring phase to run (hold or
+    /// paused): past `hold_timeout_s` it returns to standby.
+    pub idle_since: Option<Millis>,
+}
+
+/// The first springs-on phase of a stepping: the pre-warm, or the first stepping phase.
+fn first_spring_phase(s: &Settings) -> StepPhase {
+    if s.prewarm_s > 0.0 {
+        StepPhase::Prewarm {
+            on: true,
+            left_ms: ms(s.prewarm_s),
+        }
+    } else {
+        StepPhase::Spring {
+            index: 0,
+            left_ms: ms(s.step_s),
+        }
+    }
+}
+
+impl Stepping {
+    /// A new stepping of `kind` driving `springs`: it starts with a fresh soak (from a hold at
+    /// hot_k a new step still waits the dwell).
+    pub fn new(kind: StepKind, springs: SpringMask) -> Stepping {
+        Stepping {
+            kind,
+            springs,
+            phase: StepPhase::Soak { ready_since: None },
+            paused: false,
+            idle_since: None,
+        }
+    }
+
+    /// Pause (springs off, timer held) or resume; `Err` with the reason where it means nothing.
+    pub fn pause(&mut self, pause: bool) -> Result<(), &'static str> {
+        let in_spring_phase = match self.phase {
+            StepPhase::Prewarm { .. } | StepPhase::Spring { .. } | StepPhase::Pulse { .. } => true,
+            StepPhase::Soak { .. } | StepPhase::Rest | StepPhase::Hold => false,
+        };
+        match (pause, self.paused) {
+            (true, true) => Err("already paused"),
+            (false, false) => Err("not paused"),
+            // Pause holds a spring phase's timer; soak, rest and hold have none.
+            (true, false) if !in_spring_phase => {
+                Err("pause only in a spring phase (prewarm, spring, pulse)")
+            }
+            (p, _) => {
+                self.paused = p;
+                Ok(())
+            }
+        }
+    }
+
+    /// One step of the stepping.
+    pub(super) fn advance(&mut self, c: &mut Ctx) -> ModeStep {
+        let s = c.s;
+        let now = c.now;
+        let run_ms = if self.paused { 0 } else { c.elapsed_ms };
+        let mut next = None;
+        match &mut self.phase {
+            StepPhase::Soak { ready_since } => {
+                let (since, mut go) = c.ready(*ready_since);
+                *ready_since = since;
+                // A spring whose on-time a gap has not yet cleared (a mode changed straight
+                // from its phase) waits: it would trip the on-time limit.
+                let cleared = (0..SPRINGS)
+                    .all(|i| !self.springs.contains(i) || c.safety.spring_on_s(i) == 0.0);
+                if matches!(go, Soak::Go) && !cleared {
+                    go = Soak::Wait;
+                }
+                match go {
+                    Soak::Go if !c.spring_heat.rested(s.spring_rest) => {
+                        c.event(EventKind::SpringsResting);
+                        self.phase = StepPhase::Rest;
+                    }
+                    Soak::Go => self.phase = first_spring_phase(&s),
+                    Soak::GiveUp => next = Some(Next::GiveUp("soak")),
+                    Soak::Wait => {}
+                }
+            }
+            StepPhase::Rest => {
+                if c.spring_heat.rested(s.spring_rest) {
+                    self.phase = first_spring_phase(&s);
+                }
+            }
+            StepPhase::Prewarm { on, left_ms } => {
+                *left_ms = left_ms.saturating_sub(run_ms);
+                if *left_ms == 0 {
+                    self.phase = if *on {
+                        StepPhase::Prewarm {
+                            on: false,
+                            left_ms: ms(s.prewarm_gap_s).max(1),
+                        }
+                    } else {
+                        StepPhase::Spring {
+                            index: 0,
+                            left_ms: ms(s.step_s),
+                        }
+                    };
+                }
+            }
+            StepPhase::Spring { index, left_ms } => {
+                *left_ms = left_ms.saturating_sub(run_ms);
+                if *left_ms == 0 {
+                    let steps = match self.kind {
+                        StepKind::Small => 1,
+                        StepKind::Large => s.large_steps as u8,
+                    };
+                    self.phase = if *index + 1 >= steps {
+                        c.event(EventKind::SteppingDone);
+                        StepPhase::Hold
+                    } else {
+                        StepPhase::Pulse {
+                            index: *index + 1,
+                            left_ms: ms(s.pulse_s),
+                        }
+                    };
+                }
+            }
+            StepPhase::Pulse { index, left_ms } => {
+                *left_ms = left_ms.saturating_sub(run_ms);
+                if *left_ms == 0 {
+                    self.phase = StepPhase::Spring {
+                        index: *index,
+                        left_ms: ms(s.step_s),
+                    };
+                }
+            }
+            StepPhase::Hold => {}
+        }
+        // Hold and pause hold hot_k with nothing to run: an idle timeout ends them in standby.
+        // (Rest ends by the springs' model, within cool_s·ln(h/spring_rest).)
+        let idle = self.paused || matches!(self.phase, StepPhase::Hold);
+        if !idle {
+            self.idle_since = None;
+        } else if now.seconds_since(*self.idle_since.get_or_insert(now)) > s.hold_timeout_s {
+            next = Some(Next::GiveUp("hold"));
+        }
+        let on = matches!(
+            self.phase,
+            StepPhase::Spring { .. } | StepPhase::Prewarm { on: true, .. }
+        );
+        ModeStep {
+            drive: Drive::Hold(s.hot_k),
+            springs: if on && !self.paused {
+                self.springs
+            } else {
+                SpringMask::NONE
+            },
+            next,
+        }
+    }
+}
