@@ -1,7 +1,7 @@
 //! Thermorph firmware library: every piece of logic the board runs, free of hardware.
 //!
 //! The library is `no_std`, allocation-free and builds and tests on the host. The board binary
-//! (`src/bin/board.rs`) wires embassy's peripherals to it; `host-sim` wires simulated ones.
+//! (`src/bin/board/`) wires embassy's peripherals to it; `host-sim` wires simulated ones.
 //!
 //! - [`units`]: physical quantities as newtypes (Kelvin inside, as the thesis).
 //! - [`mlx90640`]: the MLX90640 thermal camera — typed registers, calibration extraction, the
@@ -18,9 +18,11 @@
 //! - [`control`]: the control laws: PID, split range, relay autotune.
 //! - [`storage`]: the settings record in a NOR flash (sequential-storage), for `save`/`load`.
 //! - [`supervisor`]: modes, safety and the fault latch; `Supervisor::step` → `Decision`.
+//! - [`app`]: the one owner of a control period ([`app::Controller`]): button, frame, line.
 //! - [`fmath`]: the few float functions the target lacks in `core` (square root).
 #![cfg_attr(not(test), no_std)]
 
+pub mod app;
 pub mod block;
 pub mod command;
 pub mod console;

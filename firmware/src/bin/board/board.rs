@@ -26,7 +26,8 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Delay, Duration, Instant, Ticker, Timer};
 use embedded_io_async::{Read as _, Write as _};
 use static_cell::ConstStaticCell;
-use thermorph::command::{self, ParseError};
+use thermorph::app::{Controller, Line};
+use thermorph::command::ParseError;
 use thermorph::console::{ConsoleError, LineReader, MAX_LINE};
 use thermorph::measurement::{Measurement, SensingHint};
 use thermorph::mlx90640::{Calibration, Image, SubpageFrame};
@@ -34,8 +35,8 @@ use thermorph::mtts;
 use thermorph::outputs::Outputs;
 use thermorph::sensing::{Clock, Outcome, Parts, Pipeline, PipelineConfig, Sensor, Storage};
 use thermorph::storage::FlashStore;
+use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
-use thermorph::supervisor::{Decision, Supervisor};
 use thermorph::units::Millis;
 
 use defmt_rtt as _;
@@ -360,7 +361,7 @@ async fn main(spawner: Spawner) {
     if !boot_line.is_empty() {
         let _ = OUT.try_send(Out::Text(boot_line));
     }
-    let mut supervisor = match boot {
+    let supervisor = match boot {
         retained::Boot::Kept(memory) => {
             info!("springs: memory kept across the reset");
             Supervisor::with_memory(now(), settings, memory)
@@ -374,12 +375,13 @@ async fn main(spawner: Spawner) {
             Supervisor::new(now(), settings)
         }
     };
-    retained::keep(&supervisor.spring_memory());
+    let mut control = Controller::new(supervisor);
+    retained::keep(&control.supervisor().spring_memory());
     let mut ticker = Ticker::every(TICK);
     loop {
         // Wake on a measurement or an e-stop press, a console line (only while a reply slot
         // is free, so the reply cannot block this loop) or the tick.
-        let line = if OUT.free_capacity() > 1 {
+        let item = if OUT.free_capacity() > 1 {
             match select3(WAKE.wait(), LINES.receive(), ticker.next()).await {
                 Either3::Second(item) => Some(item),
                 _ => None,
@@ -392,65 +394,53 @@ async fn main(spawner: Spawner) {
         let measurement = MEASUREMENT.lock(Cell::take);
         let t = now();
 
-        // The control step: the e-stop button's level (or a press since the last look), the
-        // measurement, then the line, each a step of the supervisor; only the last decision's
-        // outputs are applied (they are the newest).
+        // The control period (the library's Controller orders it): the e-stop button's level
+        // (or a press since the last look), the measurement, then the line.
         let tapped = ESTOP_TAPPED.swap(false, Ordering::AcqRel);
-        supervisor.button(t, pins::estop_pressed() || tapped);
-        let mut decision = supervisor.step(t, measurement.as_ref(), None);
-        let alive = decision.alive;
-        let mut telemetry = decision.telemetry;
-        let mut warnings = [decision.warning.take(), None];
-        match line {
-            Some(Item::Busy(n)) => {
-                let _ = OUT.try_send(Out::Busy(n));
-            }
-            Some(Item::Refused(e)) => {
-                let _ = OUT.try_send(Out::Reply(Reply::parse_error(ParseError::from(e))));
-            }
-            Some(Item::Line(l)) => {
-                let mut d = match command::parse(&l) {
-                    Ok(c) => supervisor.step(t, None, Some(c)),
-                    Err(e) => Decision {
-                        reply: Some(Reply::parse_error(e)),
-                        ..supervisor.step(t, None, None)
-                    },
-                };
-                // `save` and `load`: the outputs (heater and springs off) go to the pins
-                // first and hold through the flash operation, which stalls the core; then
-                // the flash gives the reply.
-                if let Some(req) = d.store.take() {
-                    outputs.apply(&d.outputs);
-                    let reply = with_long_watchdog(
-                        &mut watchdog,
-                        store.carry_out(&req, &mut supervisor, now),
-                    )
-                    .await;
-                    d.reply = Some(reply);
-                }
-                telemetry |= d.telemetry;
-                warnings[1] = d.warning.take();
-                if let Some(r) = d.reply.clone() {
-                    let _ = OUT.try_send(Out::Reply(r));
-                }
-                decision = d;
-            }
-            None => {}
+        let line = match &item {
+            Some(Item::Line(l)) => Some(Line::Text(l.as_str())),
+            Some(Item::Refused(e)) => Some(Line::Refused(*e)),
+            Some(Item::Busy(_)) | None => None,
+        };
+        let mut period = control.period(
+            t,
+            Some(pins::estop_pressed() || tapped),
+            measurement.as_ref(),
+            line,
+        );
+        if let Some(Item::Busy(n)) = item {
+            let _ = OUT.try_send(Out::Busy(n));
         }
-        outputs.apply(&decision.outputs);
-        retained::keep(&supervisor.spring_memory());
-        HINT.signal(decision.sensing);
+        // `save` and `load`: the outputs (heater and springs off) go to the pins first and
+        // hold through the flash operation, which stalls the core; then the flash gives the
+        // reply.
+        if let Some(req) = period.store.take() {
+            outputs.apply(&period.outputs);
+            let reply = with_long_watchdog(
+                &mut watchdog,
+                store.carry_out(&req, control.supervisor_mut(), now),
+            )
+            .await;
+            period.reply = Some(reply);
+        }
+        if let Some(r) = period.reply.take() {
+            let _ = OUT.try_send(Out::Reply(r));
+        }
+        outputs.apply(&period.outputs);
+        retained::keep(&control.supervisor().spring_memory());
+        HINT.signal(period.sensing);
         // After the reply, whose slot is kept free: a warning, then telemetry.
-        for w in warnings.into_iter().flatten() {
+        for w in period.warnings.into_iter().flatten() {
             write_warning(w);
         }
-        if telemetry {
+        if period.telemetry {
             let mut line = heapless::String::<TELEMETRY_CAP>::new();
-            if supervisor.write_telemetry(t, &mut line).is_ok() {
+            if control.write_telemetry(t, &mut line).is_ok() {
                 // Best effort: a port that is behind loses telemetry, never a reply.
                 let _ = OUT.try_send(Out::Text(line));
             }
         }
+        let alive = period.alive;
 
         // The watchdog is fed after every completed control step that was alive: it used a
         // fresh measurement, or a fault holds the outputs safe (a stale measurement latches
@@ -462,7 +452,7 @@ async fn main(spawner: Spawner) {
         // LD2: a 50 ms flash every second, or 10 Hz while a fault is latched (by the clock:
         // the loop also wakes between ticks).
         let slot = t.0 / TICK.as_millis();
-        let on = if supervisor.fault().is_some() {
+        let on = if control.supervisor().fault().is_some() {
             slot.is_multiple_of(2)
         } else {
             slot.is_multiple_of(20)
