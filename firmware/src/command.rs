@@ -76,43 +76,14 @@ pub fn parse_read(line: Result<&str, ConsoleError>) -> Result<Command, ParseErro
     parse(line?)
 }
 
-/// A mode the console can ask for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
-pub enum ModeRequest {
-    /// Mode 0: hold the standby temperature.
-    Standby,
-    /// Mode 1: one stepping phase.
-    StepSmall,
-    /// Mode 2: stepping phases with pulses between them.
-    StepLarge,
-    /// Mode 3: cool with the fan to lock the shape.
-    Form,
-    /// Mode 4: reheat with the springs cold to recover the straight shape.
-    Recover,
-}
-
-impl ModeRequest {
-    /// The mode it asks for (whose [`ModeId::name`] is its console name).
-    pub const fn id(self) -> ModeId {
-        match self {
-            ModeRequest::Standby => ModeId::Standby,
-            ModeRequest::StepSmall => ModeId::StepSmall,
-            ModeRequest::StepLarge => ModeId::StepLarge,
-            ModeRequest::Form => ModeId::Form,
-            ModeRequest::Recover => ModeId::Recover,
-        }
-    }
-}
-
-/// The console names of [`ModeRequest`]s (from [`ModeId`]'s one name table), in the order of
-/// the thesis's mode numbers.
-pub const MODE_NAMES: [(&str, ModeRequest); 5] = [
-    (ModeRequest::Standby.id().name(), ModeRequest::Standby),
-    (ModeRequest::StepSmall.id().name(), ModeRequest::StepSmall),
-    (ModeRequest::StepLarge.id().name(), ModeRequest::StepLarge),
-    (ModeRequest::Form.id().name(), ModeRequest::Form),
-    (ModeRequest::Recover.id().name(), ModeRequest::Recover),
+/// The modes a `mode` command asks for, with their console names ([`ModeId`]'s one name
+/// table), in the order of the thesis's mode numbers.
+pub const MODE_NAMES: [(&str, ModeId); 5] = [
+    (ModeId::Standby.name(), ModeId::Standby),
+    (ModeId::StepSmall.name(), ModeId::StepSmall),
+    (ModeId::StepLarge.name(), ModeId::StepLarge),
+    (ModeId::Form.name(), ModeId::Form),
+    (ModeId::Recover.name(), ModeId::Recover),
 ];
 
 /// A parsed command.
@@ -125,7 +96,7 @@ pub enum Command {
     /// Show mode, temperatures, outputs and faults.
     Status,
     /// Enter a mode; the springs for the stepping modes (default: the last used, at first A).
-    Mode(ModeRequest, Option<SpringMask>),
+    Mode(ModeId, Option<SpringMask>),
     /// Pause stepping (springs off, timers held).
     Pause,
     /// Resume paused stepping.
@@ -300,7 +271,7 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
                 None => None,
                 Some(w) => Some(SpringMask::parse(w).ok_or(bad)?),
             };
-            if springs.is_some() && !mode.id().takes_springs() {
+            if springs.is_some() && !mode.takes_springs() {
                 return Err(bad);
             }
             Ok(Command::Mode(*mode, springs))
@@ -362,14 +333,11 @@ mod tests {
     fn modes_springs_and_numbers() {
         assert_eq!(
             parse("MODE Step-Large ba"),
-            Ok(Command::Mode(
-                ModeRequest::StepLarge,
-                SpringMask::parse("AB")
-            ))
+            Ok(Command::Mode(ModeId::StepLarge, SpringMask::parse("AB")))
         );
         assert_eq!(
             parse("mode standby"),
-            Ok(Command::Mode(ModeRequest::Standby, None))
+            Ok(Command::Mode(ModeId::Standby, None))
         );
         assert_eq!(parse("mode form A"), Err(ParseError::BadArguments));
         assert_eq!(parse("mode step-small ABD"), Err(ParseError::BadArguments));

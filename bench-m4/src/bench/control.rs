@@ -6,10 +6,11 @@
 use core::hint::black_box;
 
 use cortex_m_semihosting::hprintln;
-use thermorph::command::{Command, ModeRequest};
+use thermorph::command::Command;
 use thermorph::measurement::{Measurement, Quality};
 use thermorph::outputs::SpringMask;
 use thermorph::settings::Settings;
+use thermorph::supervisor::ModeId;
 use thermorph::supervisor::{SpringMemory, Supervisor};
 use thermorph::units::{Kelvin, Millis};
 
@@ -41,10 +42,7 @@ pub fn bench(overhead: u64) {
     sup.step(
         Millis(0),
         None,
-        Some(Command::Mode(
-            ModeRequest::StepLarge,
-            SpringMask::parse("AB"),
-        )),
+        Some(Command::Mode(ModeId::StepLarge, SpringMask::parse("AB"))),
     );
     let (mut worst, mut sum, mut n) = (0u64, 0u64, 0u64);
     // 60 s at 4 frames a second: the soak, the stepping phases and the hold.

@@ -96,10 +96,9 @@ mod standby;
 pub mod stepping;
 pub mod store;
 
-use crate::command::{Command, ModeRequest};
+use crate::command::Command;
 use crate::control::{Pid, PidConfig, SplitRange, SpringHeat};
 use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
-use crate::mtts::Prior;
 use crate::outputs::{Duty, Outputs, SpringMask};
 use crate::settings::{PARAMS, SetError, Settings};
 use crate::units::{Kelvin, Millis};
@@ -366,38 +365,7 @@ impl Supervisor {
 
     /// Return the sensing hint of the mode.
     pub fn sensing_hint(&self) -> SensingHint {
-        let form = SensingHint {
-            prior: Prior::SurfaceHotter,
-            weights: Settings::weights(self.settings.w1_form),
-        };
-        match &self.mode {
-            Mode::Forming(_) => form,
-            Mode::Recovery(r) if matches!(r.phase, RecoverPhase::Cool { .. }) => form,
-            Mode::Stopped | Mode::Faulted => SensingHint {
-                prior: Prior::Unknown,
-                weights: Settings::weights(self.settings.w1_standby),
-            },
-            Mode::Stepping(_) | Mode::Recovery(_) | Mode::Standby | Mode::Autotune(_)
-                if self.film_fallback =>
-            {
-                SensingHint {
-                    prior: Prior::HeaterHotter,
-                    weights: Settings::weights(1.0),
-                }
-            }
-            Mode::Stepping(_) => SensingHint {
-                prior: Prior::HeaterHotter,
-                weights: Settings::weights(self.settings.w1_step),
-            },
-            Mode::Recovery(_) => SensingHint {
-                prior: Prior::HeaterHotter,
-                weights: Settings::weights(self.settings.w1_recover),
-            },
-            Mode::Standby | Mode::Autotune(_) => SensingHint {
-                prior: Prior::HeaterHotter,
-                weights: Settings::weights(self.settings.w1_standby),
-            },
-        }
+        self.mode.sensing(&self.settings, self.film_fallback)
     }
 
     /// One step: take the measurement (if a new one came) and the command (if a line came),
@@ -680,13 +648,8 @@ impl Supervisor {
             safety: &self.safety,
             events: &mut self.events,
         };
-        let step = match &mut self.mode {
-            Mode::Standby => standby::advance(&c),
-            Mode::Stepping(st) => st.advance(&mut c),
-            Mode::Forming(f) => f.advance(&mut c),
-            Mode::Recovery(r) => r.advance(&mut c),
-            Mode::Autotune(t) => t.advance(&mut c),
-            Mode::Stopped | Mode::Faulted => return self.safe_outputs(),
+        let Some(step) = self.mode.advance(&mut c) else {
+            return self.safe_outputs();
         };
         if let Some(next) = step.next {
             let mode = match next {
@@ -814,39 +777,21 @@ impl Supervisor {
             }
             Command::Pause | Command::Resume => {
                 let pause = c == Command::Pause;
-                match &mut self.mode {
-                    Mode::Stepping(st) => match st.pause(pause) {
-                        Ok(()) => Reply::ok(if pause { "paused" } else { "resumed" }),
-                        Err(why) => Reply::err("bad-state", why),
-                    },
-                    Mode::Standby
-                    | Mode::Forming(_)
-                    | Mode::Recovery(_)
-                    | Mode::Autotune(_)
-                    | Mode::Stopped
-                    | Mode::Faulted => Reply::err("bad-state", "only stepping pauses"),
+                match self.mode.pause(pause) {
+                    Ok(()) => Reply::ok(if pause { "paused" } else { "resumed" }),
+                    Err(why) => Reply::err("bad-state", why),
                 }
             }
             Command::Autotune => {
                 self.enter(now, Mode::Autotune(Tuning::start(&self.settings)));
                 Reply::ok("autotune started")
             }
-            Command::Mode(req, springs) => {
-                let mode = match req {
-                    ModeRequest::Standby => Mode::Standby,
-                    ModeRequest::StepSmall | ModeRequest::StepLarge => {
-                        if let Some(sp) = springs {
-                            self.springs = sp;
-                        }
-                        let kind = if req == ModeRequest::StepSmall {
-                            StepKind::Small
-                        } else {
-                            StepKind::Large
-                        };
-                        Mode::Stepping(Stepping::new(kind, self.springs))
-                    }
-                    ModeRequest::Form => Mode::Forming(Forming::new(now)),
-                    ModeRequest::Recover => Mode::Recovery(Recovering::new(&self.settings)),
+            Command::Mode(id, springs) => {
+                if let Some(sp) = springs.filter(|_| id.takes_springs()) {
+                    self.springs = sp;
+                }
+                let Some(mode) = Mode::start(id, now, &self.settings, self.springs) else {
+                    return Reply::err("bad-state", "not a mode to ask for");
                 };
                 self.enter(now, mode);
                 Reply::mode(&self.mode, self.springs)

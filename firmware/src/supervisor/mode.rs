@@ -14,7 +14,8 @@ use super::recovery::{RecoverPhase, Recovering};
 use super::safety::Safety;
 use super::stepping::{StepKind, StepPhase, Stepping};
 use crate::control::SpringHeat;
-use crate::measurement::Measurement;
+use crate::measurement::{Measurement, SensingHint};
+use crate::mtts::Prior;
 use crate::outputs::{Duty, SpringMask};
 use crate::settings::Settings;
 use crate::units::Millis;
@@ -94,6 +95,19 @@ impl ModeId {
         }
     }
 
+    /// Whether the mode drives the block (heater loop, springs or fan on purpose): no flash
+    /// operation then, since it stalls the core.
+    pub const fn drives_block(self) -> bool {
+        match self {
+            ModeId::StepSmall
+            | ModeId::StepLarge
+            | ModeId::Form
+            | ModeId::Recover
+            | ModeId::Autotune => true,
+            ModeId::Standby | ModeId::Stopped | ModeId::Faulted => false,
+        }
+    }
+
     /// The requestable mode called `name` (case-insensitive).
     pub fn requested(name: &str) -> Option<ModeId> {
         ModeId::ALL
@@ -122,6 +136,66 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// The mode `id` entered at `now` with `s`, stepping with `springs`; `None` for a mode no
+    /// command enters (a fault is latched, never asked for).
+    pub fn start(id: ModeId, now: Millis, s: &Settings, springs: SpringMask) -> Option<Mode> {
+        Some(match id {
+            ModeId::Standby => Mode::Standby,
+            ModeId::StepSmall => Mode::Stepping(Stepping::new(StepKind::Small, springs)),
+            ModeId::StepLarge => Mode::Stepping(Stepping::new(StepKind::Large, springs)),
+            ModeId::Form => Mode::Forming(Forming::new(now)),
+            ModeId::Recover => Mode::Recovery(Recovering::new(s)),
+            ModeId::Autotune => Mode::Autotune(Tuning::start(s)),
+            ModeId::Stopped => Mode::Stopped,
+            ModeId::Faulted => return None,
+        })
+    }
+
+    /// One step of the mode; `None` where no mode runs (stopped, faulted: outputs safe).
+    pub(super) fn advance(&mut self, c: &mut Ctx) -> Option<ModeStep> {
+        Some(match self {
+            Mode::Standby => super::standby::advance(c),
+            Mode::Stepping(st) => st.advance(c),
+            Mode::Forming(f) => f.advance(c),
+            Mode::Recovery(r) => r.advance(c),
+            Mode::Autotune(t) => t.advance(c),
+            Mode::Stopped | Mode::Faulted => return None,
+        })
+    }
+
+    /// `pause` (`true`) or `resume`: `Err` with the reason where it means nothing.
+    pub fn pause(&mut self, pause: bool) -> Result<(), &'static str> {
+        match self {
+            Mode::Stepping(st) => st.pause(pause),
+            Mode::Standby
+            | Mode::Forming(_)
+            | Mode::Recovery(_)
+            | Mode::Autotune(_)
+            | Mode::Stopped
+            | Mode::Faulted => Err("only stepping pauses"),
+        }
+    }
+
+    /// What the sensing should assume and weigh in this mode ([`SensingHint`]); with
+    /// `film_fallback` every heating mode weighs the film region alone.
+    pub fn sensing(&self, s: &Settings, film_fallback: bool) -> SensingHint {
+        let hint = |prior, w1| SensingHint {
+            prior,
+            weights: Settings::weights(w1),
+        };
+        let heating = |w1| hint(Prior::HeaterHotter, if film_fallback { 1.0 } else { w1 });
+        match self {
+            Mode::Forming(_) => hint(Prior::SurfaceHotter, s.w1_form),
+            Mode::Recovery(r) if matches!(r.phase, RecoverPhase::Cool { .. }) => {
+                hint(Prior::SurfaceHotter, s.w1_form)
+            }
+            Mode::Stopped | Mode::Faulted => hint(Prior::Unknown, s.w1_standby),
+            Mode::Stepping(_) => heating(s.w1_step),
+            Mode::Recovery(_) => heating(s.w1_recover),
+            Mode::Standby | Mode::Autotune(_) => heating(s.w1_standby),
+        }
+    }
+
     /// Return the mode's id.
     pub fn id(&self) -> ModeId {
         match self {

@@ -18,8 +18,8 @@
 
 use core::fmt::Write;
 
+use super::Supervisor;
 use super::report::Reply;
-use super::{Mode, Supervisor};
 use crate::settings::{PARAMS, RECORD_LEN, RECORD_VERSION, Record, Settings};
 use crate::units::Millis;
 
@@ -74,19 +74,15 @@ impl Supervisor {
     }
 
     fn store_request(&mut self, req: StoreRequest) -> Reply {
-        match self.mode {
-            Mode::Standby | Mode::Stopped | Mode::Faulted => {
-                self.store = Some(req);
-                // Replaced by `finish_store`'s reply.
-                Reply::ok("storing")
-            }
-            Mode::Stepping(_) | Mode::Forming { .. } | Mode::Recovery(_) | Mode::Autotune(_) => {
-                Reply::err(
-                    "bad-state",
-                    "save and load only in standby, stopped or fault (the flash stalls the board)",
-                )
-            }
+        if self.mode.id().drives_block() {
+            return Reply::err(
+                "bad-state",
+                "save and load only in standby, stopped or fault (the flash stalls the board)",
+            );
         }
+        self.store = Some(req);
+        // Replaced by `finish_store`'s reply.
+        Reply::ok("storing")
     }
 
     /// `defaults`: every parameter back to its default, in RAM.
@@ -144,7 +140,8 @@ impl Supervisor {
 mod tests {
     use super::super::Decision;
     use super::*;
-    use crate::command::{Command, ModeRequest, parse};
+    use crate::command::{Command, parse};
+    use crate::supervisor::ModeId;
     use crate::units::Millis;
     use std::format;
     use std::string::String;
@@ -211,7 +208,7 @@ mod tests {
         s.step(
             Millis(5),
             None,
-            Some(Command::Mode(ModeRequest::StepLarge, None)),
+            Some(Command::Mode(ModeId::StepLarge, None)),
         );
         let d = run(&mut s, "save");
         assert!(d.store.is_none());
