@@ -76,15 +76,14 @@ pub fn parse_read(line: Result<&str, ConsoleError>) -> Result<Command, ParseErro
     parse(line?)
 }
 
-/// The modes a `mode` command asks for, with their console names ([`ModeId`]'s one name
-/// table), in the order of the thesis's mode numbers.
-pub const MODE_NAMES: [(&str, ModeId); 5] = [
-    (ModeId::Standby.name(), ModeId::Standby),
-    (ModeId::StepSmall.name(), ModeId::StepSmall),
-    (ModeId::StepLarge.name(), ModeId::StepLarge),
-    (ModeId::Form.name(), ModeId::Form),
-    (ModeId::Recover.name(), ModeId::Recover),
-];
+/// The modes a `mode` command asks for ([`ModeId::requestable`]), with their console names
+/// ([`ModeId`]'s one name table), in the order of the thesis's mode numbers.
+pub fn mode_names() -> impl Iterator<Item = (&'static str, ModeId)> {
+    ModeId::ALL
+        .into_iter()
+        .filter(|m| m.requestable())
+        .map(|m| (m.name(), m))
+}
 
 /// A parsed command.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -263,10 +262,7 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
         "defaults" => none(Command::Defaults),
         "mode" => {
             let name = a.ok_or(bad)?;
-            let (_, mode) = MODE_NAMES
-                .iter()
-                .find(|(n, _)| n.eq_ignore_ascii_case(name))
-                .ok_or(bad)?;
+            let mode = ModeId::requested(name).ok_or(bad)?;
             let springs = match b {
                 None => None,
                 Some(w) => Some(SpringMask::parse(w).ok_or(bad)?),
@@ -274,7 +270,7 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
             if springs.is_some() && !mode.takes_springs() {
                 return Err(bad);
             }
-            Ok(Command::Mode(*mode, springs))
+            Ok(Command::Mode(mode, springs))
         }
         "get" => match (a, b) {
             (None, None) => Ok(Command::Get(None)),

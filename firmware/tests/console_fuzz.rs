@@ -11,7 +11,7 @@
 //! `THERMORPH_FUZZ_LINES` sets the number of lines (default 1 000 000; the test prints the
 //! count and the mix).
 
-use thermorph::command::{COMMANDS, MODE_NAMES, parse_read};
+use thermorph::command::{COMMANDS, mode_names, parse_read};
 use thermorph::console::{LineReader, MAX_LINE};
 use thermorph::measurement::{Measurement, Quality};
 use thermorph::settings::{PARAMS, Settings};
@@ -47,7 +47,8 @@ fn valid_line(r: &mut Rng) -> String {
     let p = r.pick(PARAMS);
     match c.name {
         "mode" => {
-            let (m, _) = r.pick(&MODE_NAMES);
+            let names: Vec<_> = mode_names().collect();
+            let (m, _) = *r.pick(&names);
             if m.starts_with("step") && r.chance(50) {
                 format!("mode {m} {}", r.pick(&["A", "B", "C", "AB", "abc", "CA"]))
             } else {

@@ -1,7 +1,7 @@
 //! `connect`: the interactive console.
 //!
 //! Line editing and history by rustyline; Tab completes command words from the library's
-//! [`COMMANDS`], mode names from [`MODE_NAMES`], parameter names from [`PARAMS`] and spring
+//! [`COMMANDS`], mode names from [`mode_names`], parameter names from [`PARAMS`] and spring
 //! letters. Replies print as `< …` as they come. Telemetry is kept apart from them: it never
 //! prints line by line; a status line `| t=… mode … T1 … T2 …` of the latest telemetry is printed
 //! at most every `--status-every` seconds, and `.t` prints the latest telemetry line in full.
@@ -20,7 +20,7 @@ use rustyline::hint::Hinter;
 use rustyline::history::FileHistory;
 use rustyline::validate::Validator;
 use rustyline::{Context, Editor, ExternalPrinter, Helper};
-use thermorph::command::{COMMANDS, MODE_NAMES};
+use thermorph::command::{COMMANDS, mode_names};
 use thermorph::settings::PARAMS;
 
 use super::link::{Line, Link};
@@ -51,7 +51,7 @@ pub fn complete(before: &str) -> (usize, Vec<String>) {
             .map(|c| c.name.to_string())
             .chain(LOCAL.iter().map(|l| l.0.to_string()))
             .collect(),
-        (1, Some("mode")) => MODE_NAMES.iter().map(|m| m.0.to_string()).collect(),
+        (1, Some("mode")) => mode_names().map(|m| m.0.to_string()).collect(),
         (1, Some("get" | "set")) => PARAMS.iter().map(|p| p.name.to_string()).collect(),
         (1, Some("stream")) => vec!["on".into(), "off".into()],
         (2, Some("mode")) if words[1].to_ascii_lowercase().starts_with("step-") => {
