@@ -6,31 +6,7 @@
 use crate::mtts::REGIONS;
 use crate::units::{Kelvin, Millis};
 
-/// How well a frame separated the two control targets (T1, the heater area seen through the
-/// lattice, and T2, the SMP outer surface).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
-pub enum Quality {
-    /// T1 and T2 were measured as two separate targets.
-    Resolved,
-    /// The image cannot separate them at this lattice period and optics; both carry the best
-    /// estimate of their area-weighted mean.
-    Merged,
-    /// No lattice or cylinder fit yet (a cold, uniform block at power-up): T2 is the cylinder
-    /// core's temperature and T1 the same.
-    Fallback,
-}
-
-impl Quality {
-    /// Return the stable lower-case name used on the console and in files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Resolved => "resolved",
-            Self::Merged => "merged",
-            Self::Fallback => "fallback",
-        }
-    }
-}
+pub use crate::mtts::Quality;
 
 /// One whole frame's result, as the supervisor sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]

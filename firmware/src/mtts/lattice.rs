@@ -40,9 +40,9 @@
 //! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
 //! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
 
+use super::Quality;
 use super::regions::{CORE_U, Coords, Geometry};
 use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
-use crate::measurement::Quality;
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
 pub const EXPOSED_MIN: f32 = 0.3;

@@ -25,10 +25,35 @@ pub mod upsample;
 use cluster::{Clusters, DEFAULT_BINS, DpScratch, Histogram, Seeding, XorShift};
 use regions::{Coords, Fresh, Geometry};
 
-pub use crate::measurement::Quality;
 use upsample::{UpsampleScratch, Upsampler};
 
 use crate::units::Kelvin;
+
+/// How well a frame separated the two control targets (T1, the heater area seen through the
+/// lattice, and T2, the SMP outer surface).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum Quality {
+    /// T1 and T2 were measured as two separate targets.
+    Resolved,
+    /// The image cannot separate them at this lattice period and optics; both carry the best
+    /// estimate of their area-weighted mean.
+    Merged,
+    /// No lattice or cylinder fit yet (a cold, uniform block at power-up): T2 is the cylinder
+    /// core's temperature and T1 the same.
+    Fallback,
+}
+
+impl Quality {
+    /// Return the stable lower-case name used on the console and in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Resolved => "resolved",
+            Self::Merged => "merged",
+            Self::Fallback => "fallback",
+        }
+    }
+}
 
 /// Image rows.
 pub const IMG_ROWS: usize = 24;
