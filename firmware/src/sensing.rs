@@ -27,8 +27,9 @@
 //!   (a zone no cluster was given). A uniform block has no lattice, so MTTS may give T1 or T2
 //!   no cluster: the other stands for both, quality `Fallback` ([`to_measurement`]). More than
 //!   [`PipelineConfig::max_filled_pixels`] broken pixels in a frame is an error.
-//! - Every error is a [`SensingError`] with a stable [`SensingError::code`]: the supervisor's
-//!   sensor-loss fault reads them (and the age of the last [`Measurement`]).
+//! - Every error is a [`SensingError`] with a stable [`SensingError::code`], for the logs: an
+//!   error publishes no [`Measurement`], and the supervisor's sensor-loss fault is the age of
+//!   the last valid one (it does not read the errors).
 //! - The [`SensingHint`] from the supervisor sets the MTTS prior and the weights of Tc for the
 //!   frames that follow.
 
@@ -106,7 +107,8 @@ pub enum Implausible {
     Regions,
 }
 
-/// A sensing error: what the supervisor's sensor-loss fault counts.
+/// A sensing error (logged; the frame it spoiled publishes no measurement, which is what the
+/// supervisor's sensor-loss fault sees).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub enum SensingError {
