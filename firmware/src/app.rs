@@ -17,6 +17,11 @@ use crate::supervisor::store::{StoreOutcome, StoreRequest};
 use crate::supervisor::{Decision, Supervisor};
 use crate::units::Millis;
 
+/// The board's control period, ms: the control loop steps at least this often (besides every
+/// measurement and console line) — the spring timing's resolution and the sensor-loss check's.
+/// The simulator's board steps at the same period.
+pub const CONTROL_PERIOD_MS: u64 = 50;
+
 /// A console line as the reader gave it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Line<'a> {

@@ -42,7 +42,7 @@ use crate::runs::scenario::Scenario;
 
 /// Longest tick of the simulated block, s: the supervisor steps at least this often (telemetry
 /// runs at up to 20 Hz).
-pub const TICK_S: f64 = 0.05;
+pub const TICK_S: f64 = thermorph::app::CONTROL_PERIOD_MS as f64 * 1e-3;
 
 /// Arguments of `host-sim console`.
 #[derive(clap::Args, Debug, Clone)]

@@ -116,9 +116,9 @@ impl Storage for BoardStorage {
     }
 }
 
-/// Control loop tick (besides every measurement and console line): spring timing resolution
-/// and the sensor-loss check run at least this often.
-const TICK: Duration = Duration::from_millis(50);
+/// Control loop tick (besides every measurement and console line): the library's control
+/// period.
+const TICK: Duration = Duration::from_millis(thermorph::app::CONTROL_PERIOD_MS);
 
 /// Where the settings live in the flash region of sectors 5-7 (`pins::Board::flash`):
 /// sectors 6 and 7, which memory.x keeps out of the program.
