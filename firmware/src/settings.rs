@@ -280,19 +280,32 @@ impl Settings {
         Ok(())
     }
 
-    /// The highest heat estimate ([`SpringHeat`]) a spring reaches over a planned stepping
-    /// from rest: the pre-warm, its gap, every stepping phase and the pulses between, fraction
-    /// of the heat to austenite. (Recovery tops the springs up to `spring_recover_heat`.)
-    pub fn spring_plan_heat(&self) -> f32 {
+    /// A large stepping's spring phases as planned, `(on, seconds)` in order: the pre-warm and
+    /// its gap (if any), then every stepping phase with the pulses between (large stepping,
+    /// which includes small).
+    fn stepping_plan(&self) -> impl Iterator<Item = (bool, f32)> + use<> {
         let steps = self.large_steps.max(1.0) as usize;
+        let (step_s, pulse_s) = (self.step_s, self.pulse_s);
         let prewarm = (self.prewarm_s > 0.0)
             .then_some([(true, self.prewarm_s), (false, self.prewarm_gap_s)])
             .into_iter()
             .flatten();
-        let stepping = (0..steps).flat_map(|_| [(true, self.step_s), (false, self.pulse_s)]);
+        let stepping = (0..steps).flat_map(move |i| {
+            [
+                (true, step_s),
+                (false, if i + 1 < steps { pulse_s } else { 0.0 }),
+            ]
+        });
+        prewarm.chain(stepping)
+    }
+
+    /// The highest heat estimate ([`SpringHeat`]) a spring reaches over a planned stepping
+    /// from rest, fraction of the heat to austenite. (Recovery tops the springs up to
+    /// `spring_recover_heat`.)
+    pub fn spring_plan_heat(&self) -> f32 {
         let mut h = SpringHeat::COLD;
         let mut peak = 0.0f32;
-        for (on, s) in prewarm.chain(stepping) {
+        for (on, s) in self.stepping_plan() {
             let mask = if on {
                 SpringMask::ALL
             } else {
@@ -305,24 +318,13 @@ impl Settings {
     }
 
     /// The longest continuous on-time any planned sequence of spring phases reaches, as the
-    /// on-time limit counts it ([`OnTimer`]: a short gap does not end an on-time): the pre-warm,
-    /// its gap and every stepping phase with the pulses between (large stepping, which includes
-    /// small), and recovery's windows (on, off, repeated; the pulse runs inside an on window), s.
+    /// on-time limit counts it ([`OnTimer`]: a short gap does not end an on-time): the
+    /// stepping's plan, and recovery's windows (on, off, repeated; the pulse runs inside an on
+    /// window), s.
     pub fn spring_plan_peak_s(&self) -> f32 {
-        let steps = self.large_steps.max(1.0) as usize;
-        let prewarm = (self.prewarm_s > 0.0)
-            .then_some([(true, self.prewarm_s), (false, self.prewarm_gap_s)])
-            .into_iter()
-            .flatten();
-        let stepping = (0..steps).flat_map(|i| {
-            [
-                (true, self.step_s),
-                (false, if i + 1 < steps { self.pulse_s } else { 0.0 }),
-            ]
-        });
         let windows =
             (0..16).flat_map(|_| [(true, self.recover_on_s), (false, self.recover_off_s)]);
-        OnTimer::peak_s(prewarm.chain(stepping)).max(OnTimer::peak_s(windows))
+        OnTimer::peak_s(self.stepping_plan()).max(OnTimer::peak_s(windows))
     }
 }
 
