@@ -1,15 +1,36 @@
-//! The README's console section is checked against the tables it documents: every command of
-//! `COMMANDS` with its arguments, every parameter of `PARAMS` with unit, range and default, every
-//! parse error code, and the telemetry fields in `TELEMETRY_FIELDS`' order — so the code's
-//! tables stay the source and the README cannot drift from them.
+//! The console reference (`docs/console.md`, once the README's console section) is checked
+//! against the tables it documents: every command of `COMMANDS` with its arguments, every
+//! parameter of `PARAMS` with unit, range and default, the settings record's size, every `err`
+//! code the firmware answers (and none it does not), every fault code (here and in the safety
+//! table of `docs/control-and-safety.md`), and the telemetry fields in `TELEMETRY_FIELDS`' order
+//! — so the code's tables stay the source and the pages cannot drift from them.
+
+use std::path::{Path, PathBuf};
 
 use thermorph::command::{COMMANDS, ParseError};
+use thermorph::console::MAX_LINE;
 use thermorph::settings::{PARAMS, Settings};
-
+use thermorph::supervisor::mode::ModeId;
 use thermorph::supervisor::report::TELEMETRY_FIELDS;
+use thermorph::supervisor::safety::{Fault, FaultKind};
 
-fn readme() -> String {
-    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap()
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn doc(name: &str) -> String {
+    let path = root().join("docs").join(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The console reference.
+fn console_md() -> String {
+    doc("console.md")
+}
+
+/// `text` with every run of white space (line ends included) one space.
+fn flat(text: &str) -> String {
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// The rows (cells, trimmed, `\|` unescaped) of the first table after `heading`.
@@ -37,17 +58,17 @@ fn table(text: &str, heading: &str, after: &str) -> Vec<Vec<String>> {
 }
 
 fn num(v: f32) -> String {
-    // As the README writes them: whole numbers bare, others to six significant digits.
+    // As the page writes them: whole numbers bare, others to six significant digits.
     let r = (v * 1e4).round() / 1e4;
     format!("{r}")
 }
 
 #[test]
-fn readme_lists_every_command_with_its_arguments() {
-    let rows = table(&readme(), "### Commands", "| command |");
+fn console_doc_lists_every_command_with_its_arguments() {
+    let rows = table(&console_md(), "## Commands", "| command |");
     let names: Vec<String> = COMMANDS.iter().map(|c| format!("`{}`", c.name)).collect();
     let listed: Vec<String> = rows.iter().map(|r| r[0].clone()).collect();
-    assert_eq!(listed, names, "the README's commands, in table order");
+    assert_eq!(listed, names, "docs/console.md's commands, in table order");
     for (c, r) in COMMANDS.iter().zip(&rows) {
         let args = if c.args.is_empty() {
             String::new()
@@ -58,7 +79,7 @@ fn readme_lists_every_command_with_its_arguments() {
     }
 }
 
-/// The README's parameter rows as they must read (printed when they do not, to paste).
+/// The parameter rows as they must read (printed when they do not, to paste).
 fn parameter_rows() -> Vec<String> {
     let d = Settings::DEFAULT;
     PARAMS
@@ -82,17 +103,17 @@ fn parameter_rows() -> Vec<String> {
 }
 
 #[test]
-fn readme_lists_every_parameter_with_unit_range_and_default() {
-    let text = readme();
+fn console_doc_lists_every_parameter_with_unit_range_and_default() {
+    let text = console_md();
     let want = parameter_rows();
-    let rows = table(&text, "### Commands", "| name | unit |");
+    let rows = table(&text, "## Parameters", "| name | unit |");
     let got: Vec<String> = rows
         .iter()
         .map(|r| format!("| {} |", r.join(" | ")))
         .collect();
     assert!(
         got == want,
-        "the README's parameter table differs from PARAMS; its rows should be:\n{}",
+        "docs/console.md's parameter table differs from PARAMS; its rows should be:\n{}",
         want.join("\n")
     );
     let size = format!(
@@ -101,36 +122,188 @@ fn readme_lists_every_parameter_with_unit_range_and_default() {
         PARAMS.len()
     );
     assert!(
-        text.split_whitespace()
-            .collect::<Vec<_>>()
-            .join(" ")
-            .contains(&size),
+        flat(&text).contains(&size),
         "the record's size should read: {size:?}"
     );
+    // On the board each save is a sequential-storage item: 8-byte header, then the 1-byte key
+    // and the record padded to whole 4-byte words.
+    let item = 8 + (thermorph::settings::RECORD_LEN + 1).div_ceil(4) * 4;
+    let flat = flat(&text);
+    let want = format!("each save takes {item} bytes");
+    assert!(flat.contains(&want), "the flash item should read: {want:?}");
+    for (page, label) in [
+        (16 * 1024, " saves per 16 KiB"),
+        (128 * 1024, " per 128 KiB page"),
+    ] {
+        let at = flat.find(label).unwrap_or_else(|| panic!("no {label:?}"));
+        let n: f64 = flat[..at].rsplit(' ').next().unwrap().parse().unwrap();
+        let fits = page as f64 / item as f64;
+        assert!((n - fits).abs() <= 0.01 * fits, "{n}{label}: {fits:.0} fit");
+    }
 }
 
-#[test]
-fn readme_lists_every_parse_error_code() {
-    let rows = table(&readme(), "### Commands", "| code | when |");
-    let codes: Vec<&str> = rows.iter().map(|r| r[0].trim_matches('`')).collect();
-    for e in [
+/// Every `err` code the firmware's sources answer: the parse errors' codes, and the codes
+/// written by `Reply::err("…", …)` or in a `"err …:` format string anywhere in
+/// `firmware/src/` (the library and the board binary).
+fn firmware_error_codes() -> Vec<String> {
+    let mut codes: Vec<String> = [
         ParseError::LineTooLong,
         ParseError::BinaryInput,
         ParseError::LostBytes,
         ParseError::UnknownCommand,
         ParseError::BadArguments,
         ParseError::UnknownName,
-    ] {
-        assert!(codes.contains(&e.code()), "{}", e.code());
+        ParseError::Busy,
+    ]
+    .iter()
+    .map(|e| {
+        // Fails to compile when a parse error is added: add it to the list above.
+        match e {
+            ParseError::LineTooLong
+            | ParseError::BinaryInput
+            | ParseError::LostBytes
+            | ParseError::UnknownCommand
+            | ParseError::BadArguments
+            | ParseError::UnknownName
+            | ParseError::Busy => e.code().to_string(),
+        }
+    })
+    .collect();
+    let mut files = vec![root().join("firmware/src")];
+    while let Some(p) = files.pop() {
+        if p.is_dir() {
+            files.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+            continue;
+        }
+        if p.extension().is_none_or(|e| e != "rs") || p.ends_with("tests.rs") {
+            continue;
+        }
+        let text = flat(&std::fs::read_to_string(&p).unwrap());
+        for (pattern, after) in [
+            ("Reply::err( \"", '"'),
+            ("Reply::err(\"", '"'),
+            ("\"err ", ':'),
+        ] {
+            for (i, _) in text.match_indices(pattern) {
+                let rest = &text[i + pattern.len()..];
+                let code = &rest[..rest.find(after).unwrap_or(0)];
+                let is_code =
+                    !code.is_empty() && code.bytes().all(|b| b.is_ascii_lowercase() || b == b'-');
+                if is_code && !codes.iter().any(|c| c == code) {
+                    codes.push(code.to_string());
+                }
+            }
+        }
     }
+    codes
 }
 
 #[test]
-fn readme_telemetry_table_is_the_field_list() {
-    let text = readme();
-    let rows = table(&text, "### Telemetry", "| field |");
+fn console_doc_lists_every_error_code_the_firmware_answers() {
+    let text = console_md();
+    let rows = table(&text, "## Error and fault codes", "| code | when |");
+    let listed: Vec<&str> = rows.iter().map(|r| r[0].trim_matches('`')).collect();
+    let codes = firmware_error_codes();
+    for c in [
+        "out-of-range",
+        "conflict",
+        "bad-state",
+        "fault-latched",
+        "cause-present",
+    ] {
+        assert!(codes.iter().any(|x| x == c), "the source scan misses {c}");
+    }
+    for c in &codes {
+        assert!(
+            listed.contains(&c.as_str()),
+            "docs/console.md lacks `err {c}`"
+        );
+    }
+    for c in &listed {
+        assert!(
+            codes.iter().any(|x| x == c),
+            "docs/console.md lists `err {c}`, which the firmware never answers"
+        );
+    }
+    // The limits the protocol's rules and the table name.
+    assert!(
+        flat(&text).contains(&format!("A line over {MAX_LINE} bytes")),
+        "the line limit is {MAX_LINE} bytes"
+    );
+    let board = std::fs::read_to_string(root().join("firmware/src/bin/board/board.rs")).unwrap();
+    let outstanding = board
+        .split("const OUTSTANDING: usize = ")
+        .nth(1)
+        .and_then(|r| r.split(';').next())
+        .expect("OUTSTANDING in board.rs");
+    assert!(
+        flat(&text).contains(&format!("while {outstanding} commands were still waiting")),
+        "the board queues {outstanding} commands (`err busy`)"
+    );
+}
+
+/// Every fault code, from [`Fault::code`].
+fn fault_codes() -> Vec<&'static str> {
+    let kinds = [
+        FaultKind::OverTemperature,
+        FaultKind::SpringOnTime(0),
+        FaultKind::SpringDuty(0),
+        FaultKind::SpringHeat(0),
+        FaultKind::SensorLoss,
+        FaultKind::RunawayHeating,
+        FaultKind::RunawayHolding,
+        FaultKind::NoResponse,
+        FaultKind::EStop,
+    ];
+    kinds
+        .iter()
+        .map(|&kind| {
+            // Fails to compile when a fault is added: add it to the list above.
+            match kind {
+                FaultKind::OverTemperature
+                | FaultKind::SpringOnTime(_)
+                | FaultKind::SpringDuty(_)
+                | FaultKind::SpringHeat(_)
+                | FaultKind::SensorLoss
+                | FaultKind::RunawayHeating
+                | FaultKind::RunawayHolding
+                | FaultKind::NoResponse
+                | FaultKind::EStop => Fault { kind, value: 0.0 }.code(),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn docs_list_every_fault_code() {
+    let codes = fault_codes();
+    // The console reference's list, in order.
+    let text = flat(&console_md());
+    let at = text.find("Fault codes (").expect("the fault code list");
+    let at = at + text[at..].find("):").expect("Fault codes (…): …") + 2;
+    let list = &text[at..at + text[at..].find("`.").expect("…, `last`.") + 1];
+    let listed: Vec<&str> = list
+        .split(',')
+        .map(|c| c.trim().trim_matches('`'))
+        .collect();
+    assert_eq!(listed, codes, "docs/console.md's fault codes");
+    // The safety table: one row per fault, in order.
+    let rows = table(&doc("control-and-safety.md"), "## Safety", "| fault |");
+    let listed: Vec<&str> = rows.iter().map(|r| r[0].trim_matches('`')).collect();
+    assert_eq!(listed, codes, "docs/control-and-safety.md's safety table");
+}
+
+#[test]
+fn console_doc_telemetry_table_is_the_field_list() {
+    let text = console_md();
+    let rows = table(&text, "## Telemetry", "| field |");
     let fields: Vec<String> = rows.iter().map(|r| r[0].trim_matches('`').into()).collect();
     assert_eq!(fields, TELEMETRY_FIELDS);
+    // The `mode` row names every mode, in `ModeId::ALL`'s order.
+    let modes = &rows[fields.iter().position(|f| f == "mode").unwrap()][2];
+    let listed: Vec<&str> = modes.split(", ").map(|m| m.trim_matches('`')).collect();
+    let names: Vec<&str> = ModeId::ALL.iter().map(|m| m.name()).collect();
+    assert_eq!(listed, names, "the telemetry table's modes");
     // The format line shows them in the same order.
     let line = TELEMETRY_FIELDS
         .iter()

@@ -1,0 +1,818 @@
+//! The README and `docs/*.md` against what they describe (the console's tables are
+//! `readme_protocol`'s):
+//!
+//! - every relative link (and `#anchor`) points at a file (and heading) that exists, and every
+//!   page in `docs/` is linked from the README;
+//! - the console examples (the README's and the session `scripts/record-session` recorded in
+//!   `docs/console.md`) are replayed through `host-sim console`: every reply that does not
+//!   depend on the simulated temperatures must be today's (`status` is checked by its fields and
+//!   states, `log` with its times masked, telemetry by its fields);
+//! - the usage blocks of `host-sim` and `thermorph-desk` list every subcommand and option their
+//!   `--help` has, and no other;
+//! - the desk's walk-through transcript runs `docs/desk-cycle.txt`'s lines and names the PNG's
+//!   real size;
+//! - every `host_sim::…` and `thermorph::…` path the pages name is a module or an item;
+//! - the thesis's figures quoted from `host-sim paper --json` (camera on: the table in
+//!   `docs/control-and-safety.md`; `--no-camera`: the table in `docs/PLANT-API.md` and the
+//!   figures quoted in `docs/simulator.md` and the autotune's paragraph) are today's, to the
+//!   decimals they are written with.
+
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use thermorph::supervisor::report::TELEMETRY_FIELDS;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The README and every page in `docs/`, as paths relative to the workspace root.
+fn pages() -> Vec<PathBuf> {
+    let mut pages = vec![PathBuf::from("README.md")];
+    let mut docs: Vec<PathBuf> = std::fs::read_dir(root().join("docs"))
+        .unwrap()
+        .map(|e| Path::new("docs").join(e.unwrap().file_name()))
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .collect();
+    docs.sort();
+    pages.extend(docs);
+    pages
+}
+
+/// The lines of `text` outside fenced code blocks, with inline code spans removed.
+fn prose_lines(text: &str) -> Vec<String> {
+    let mut fenced = false;
+    let mut out = Vec::new();
+    for line in text.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+            continue;
+        }
+        if fenced {
+            continue;
+        }
+        // Drop `code` spans (a span never holds a link).
+        let mut kept = String::new();
+        for (i, part) in line.split('`').enumerate() {
+            if i % 2 == 0 {
+                kept.push_str(part);
+            }
+        }
+        out.push(kept);
+    }
+    out
+}
+
+/// The targets of the markdown links and images in `text` (`[text](target)`).
+fn links(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for line in prose_lines(text) {
+        let mut rest = line.as_str();
+        while let Some(i) = rest.find("](") {
+            rest = &rest[i + 2..];
+            let end = rest.find(')').expect("a link's closing parenthesis");
+            out.push(rest[..end].to_string());
+            rest = &rest[end..];
+        }
+    }
+    out
+}
+
+/// GitHub's anchors of the headings in `text` (lower case, punctuation dropped, spaces to
+/// hyphens; a repeated heading gets `-1`, `-2`, …).
+fn anchors(text: &str) -> BTreeSet<String> {
+    let mut seen = BTreeSet::new();
+    let mut fenced = false;
+    for line in text.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+        }
+        if fenced || !line.starts_with('#') {
+            continue;
+        }
+        let Some(title) = line.trim_start_matches('#').strip_prefix(' ') else {
+            continue;
+        };
+        let slug: String = title
+            .trim()
+            .to_lowercase()
+            .chars()
+            .filter(|c| c.is_alphanumeric() || *c == ' ' || *c == '-' || *c == '_')
+            .map(|c| if c == ' ' { '-' } else { c })
+            .collect();
+        let mut s = slug.clone();
+        let mut n = 0;
+        while seen.contains(&s) {
+            n += 1;
+            s = format!("{slug}-{n}");
+        }
+        seen.insert(s);
+    }
+    seen
+}
+
+#[test]
+fn every_relative_link_points_at_an_existing_file_and_heading() {
+    // Code blocks and spans do not count, so the fenced code the pages hold cannot hide a link.
+    let text = prose_lines("a [x](y.md) `[no](z)`\n```\n[no](w)\n```\n![i](p.png#a)").join("\n");
+    assert_eq!(links(&text), ["y.md", "p.png#a"]);
+    assert!(
+        anchors("## The `host-sim console`\n## Researcher's desk").contains("the-host-sim-console")
+    );
+
+    let mut wrong = Vec::new();
+    let mut count = 0;
+    for page in pages() {
+        let text = read(&root().join(&page));
+        let dir = page.parent().unwrap();
+        for target in links(&text) {
+            if target.contains("://") || target.starts_with("mailto:") {
+                continue;
+            }
+            count += 1;
+            let (file, anchor) = match target.split_once('#') {
+                Some((f, a)) => (f, Some(a)),
+                None => (target.as_str(), None),
+            };
+            let path = if file.is_empty() {
+                page.clone()
+            } else {
+                dir.join(file)
+            };
+            if !root().join(&path).exists() {
+                wrong.push(format!(
+                    "{}: {target}: no {}",
+                    page.display(),
+                    path.display()
+                ));
+                continue;
+            }
+            if let Some(a) = anchor {
+                let is_md = path.extension().is_some_and(|e| e == "md");
+                if !is_md || !anchors(&read(&root().join(&path))).contains(a) {
+                    wrong.push(format!("{}: {target}: no heading #{a}", page.display()));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "broken links:\n{}", wrong.join("\n"));
+    assert!(count > 20, "only {count} links found");
+
+    // Every page in docs/ is reachable from the README.
+    let readme = links(&read(&root().join("README.md")));
+    for page in pages().iter().skip(1) {
+        let want = page.to_str().unwrap();
+        assert!(
+            readme.iter().any(|l| l.split('#').next() == Some(want)),
+            "the README does not link {want}"
+        );
+    }
+}
+
+/// A transcript: each line sent (`> `, `\xHH` unescaped) with the lines that came back.
+struct Exchange {
+    sent: Vec<u8>,
+    got: Vec<String>,
+}
+
+fn unescape(s: &str) -> Vec<u8> {
+    let b = s.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'\\' && b.get(i + 1) == Some(&b'x') {
+            out.push(u8::from_str_radix(&s[i + 2..i + 4], 16).unwrap());
+            i += 4;
+        } else if b[i] == b'\\' && b.get(i + 1) == Some(&b'\\') {
+            out.push(b'\\');
+            i += 2;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    out
+}
+
+fn transcript(block: &str) -> Vec<Exchange> {
+    let mut out: Vec<Exchange> = Vec::new();
+    for line in block.lines() {
+        if let Some(sent) = line.strip_prefix("> ") {
+            out.push(Exchange {
+                sent: unescape(sent),
+                got: Vec::new(),
+            });
+        } else {
+            out.last_mut()
+                .expect("a transcript starts with a line sent")
+                .got
+                .push(line.to_string());
+        }
+    }
+    out
+}
+
+/// The first fenced block after `marker` in `text` (and, with `end`, before it).
+fn block_after<'a>(text: &'a str, marker: &str, end: Option<&str>) -> &'a str {
+    let at = text.find(marker).unwrap_or_else(|| panic!("no {marker:?}"));
+    let rest = &text[at..];
+    let limit = end.map_or(rest.len(), |e| rest.find(e).expect(e));
+    let rest = &rest[..limit];
+    let open = rest.find("```text\n").expect("a ```text block") + 8;
+    let close = rest[open..].find("\n```").expect("the block's end");
+    &rest[open..open + close]
+}
+
+/// `host-sim console` (stdin/stdout, a fresh settings file) answering `lines`: what it wrote.
+fn replay(name: &str, lines: &[Vec<u8>]) -> Vec<String> {
+    let dir = std::env::temp_dir().join(format!("thermorph-docs-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["console", "--speed", "10", "--settings"])
+        .arg(dir.join("settings.bin"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut input = Vec::new();
+    for l in lines {
+        input.extend_from_slice(l);
+        input.extend_from_slice(b"\r\n");
+    }
+    child.stdin.take().unwrap().write_all(&input).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{out:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .split_terminator("\r\n")
+        .map(String::from)
+        .collect()
+}
+
+/// Every number in `s` as `N`.
+fn mask_numbers(s: &str) -> String {
+    let mut out = String::new();
+    let mut in_number = false;
+    for c in s.chars() {
+        let digit = c.is_ascii_digit() || (in_number && c == '.');
+        if digit && !in_number {
+            out.push('N');
+        } else if !digit {
+            out.push(c);
+        }
+        in_number = digit;
+    }
+    out
+}
+
+/// A `status` reply's states (mode, phase, springs, selection, fault): what a replay at
+/// another time must still answer (the measured fields differ, and before the first frame
+/// some are missing).
+fn status_shape(reply: &str) -> Vec<String> {
+    const STATES: [&str; 5] = ["mode", "phase", "springs", "select", "fault"];
+    reply
+        .split_whitespace()
+        .filter(|w| !w.contains('=') || STATES.contains(&w.split('=').next().unwrap()))
+        .map(String::from)
+        .collect()
+}
+
+/// Check a transcript against a replay of its lines; return how many replies were compared.
+fn check_transcript(name: &str, block: &str) -> usize {
+    let session = transcript(block);
+    assert!(!session.is_empty(), "{name}: an empty transcript");
+    let sent: Vec<Vec<u8>> = session.iter().map(|e| e.sent.clone()).collect();
+    let replayed: Vec<String> = replay(name, &sent)
+        .into_iter()
+        .filter(|l| !l.starts_with('#'))
+        .collect();
+    assert_eq!(replayed.len(), session.len(), "{name}: one reply per line");
+    let mut wrong = Vec::new();
+    for (e, now) in session.iter().zip(&replayed) {
+        let line = String::from_utf8_lossy(&e.sent);
+        let replies: Vec<&String> = e.got.iter().filter(|l| !l.starts_with('#')).collect();
+        let [then] = replies[..] else {
+            panic!("{name}: `{line}` got {:?}, not one reply", e.got);
+        };
+        for t in e.got.iter().filter(|l| l.starts_with("# t_s=")) {
+            let fields: Vec<&str> = t[2..]
+                .split_whitespace()
+                .map(|f| f.split('=').next().unwrap())
+                .collect();
+            assert_eq!(fields, TELEMETRY_FIELDS, "{name}: {t}");
+        }
+        let (a, b) = match line.split_whitespace().next() {
+            Some("status") => (status_shape(then).join(" "), status_shape(now).join(" ")),
+            Some("log") => (mask_numbers(then), mask_numbers(now)),
+            _ => (then.clone(), now.clone()),
+        };
+        if a != b {
+            wrong.push(format!("> {line}\n  page:  {then}\n  today: {now}"));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "{name}: the firmware answers differently today (run `python3 scripts/record-session` \
+         for docs/console.md's session, or edit the README's example):\n{}",
+        wrong.join("\n")
+    );
+    session.len()
+}
+
+#[test]
+fn console_examples_are_what_the_firmware_answers() {
+    assert_eq!(
+        mask_numbers("ok events=2 | 6.55 mode a -> b"),
+        "ok events=N | N mode a -> b"
+    );
+    assert_eq!(unescape("stat\\x1bus"), b"stat\x1bus");
+
+    let readme = read(&root().join("README.md"));
+    let n = check_transcript("readme", block_after(&readme, "<!-- console example", None));
+    assert!(n >= 5, "{n}");
+
+    let console = read(&root().join("docs/console.md"));
+    let block = block_after(
+        &console,
+        "<!-- session: begin",
+        Some("<!-- session: end -->"),
+    );
+    let n = check_transcript("session", block);
+    assert!(n >= 15, "{n}");
+    let lines: Vec<&str> = block.lines().collect();
+    let telemetry = lines.iter().filter(|l| l.starts_with("# t_s=")).count();
+    assert!(
+        telemetry >= 6,
+        "the session streams telemetry: {telemetry} lines"
+    );
+    // The script that writes it is named beside it, and holds the same lines.
+    assert!(console.contains("`python3 scripts/record-session`"));
+    let script = read(&root().join("scripts/record-session"));
+    for e in transcript(block) {
+        let literal = String::from_utf8_lossy(&e.sent).replace('\x1b', "\\x1b");
+        assert!(
+            script.contains(&format!("b\"{literal}\",")),
+            "scripts/record-session does not send {literal:?}"
+        );
+    }
+}
+
+/// `binary`'s subcommands (from `--help`) with the long options of each.
+fn cli(binary: &str) -> Vec<(String, BTreeSet<String>)> {
+    let help = |args: &[&str]| {
+        let out = Command::new(binary).args(args).output().unwrap();
+        assert!(out.status.success(), "{binary} {args:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let top = help(&["--help"]);
+    let commands: Vec<String> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .map(|l| l.split_whitespace().next().unwrap().to_string())
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 4, "{top}");
+    commands
+        .into_iter()
+        .map(|c| {
+            let options = help(&[&c, "--help"])
+                .lines()
+                .filter(|l| l.trim_start().starts_with('-'))
+                .flat_map(|l| {
+                    // The flags, up to the description: `-o, --out <OUT>  Output …`.
+                    l.split([' ', ','])
+                        .filter(|w| !w.is_empty())
+                        .take_while(|w| w.starts_with('-') || w.starts_with('<'))
+                        .map(String::from)
+                        .collect::<Vec<_>>()
+                })
+                .filter(|w| w.starts_with("--") && w != "--help" && w != "--version")
+                .collect();
+            (c, options)
+        })
+        .collect()
+}
+
+/// The usage lines of `binary` in the first fenced block after `marker` in `page`: subcommand
+/// (the first word after the name, `[run]` as `run`) → the long options the line names.
+fn usage(page: &str, marker: &str, binary: &str) -> Vec<(String, BTreeSet<String>)> {
+    let text = read(&root().join(page));
+    let at = text
+        .find(marker)
+        .unwrap_or_else(|| panic!("{page}: no {marker:?}"));
+    let block = block_after(&text[at..], "", None);
+    let mut lines: Vec<String> = Vec::new();
+    for l in block.lines() {
+        match lines.last_mut() {
+            Some(last) if l.starts_with(' ') => last.push_str(l),
+            _ => lines.push(l.to_string()),
+        }
+    }
+    lines
+        .iter()
+        .filter_map(|l| l.strip_prefix(&format!("{binary} ")))
+        .map(|l| {
+            let l = l.split(" # ").next().unwrap();
+            let command = l
+                .split_whitespace()
+                .next()
+                .unwrap()
+                .trim_matches(['[', ']']);
+            let options = l
+                .split(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
+                .filter(|w| w.starts_with("--"))
+                .map(String::from)
+                .collect();
+            (command.to_string(), options)
+        })
+        .collect()
+}
+
+#[test]
+fn usage_blocks_list_every_subcommand_and_option() {
+    for (page, marker, name, binary) in [
+        (
+            "docs/simulator.md",
+            "## Commands",
+            "host-sim",
+            env!("CARGO_BIN_EXE_host-sim"),
+        ),
+        (
+            "docs/desk.md",
+            "# Researcher's desk",
+            "thermorph-desk",
+            env!("CARGO_BIN_EXE_thermorph-desk"),
+        ),
+    ] {
+        let mut want = cli(binary);
+        let mut got = usage(page, marker, name);
+        want.sort();
+        got.sort();
+        assert_eq!(
+            got, want,
+            "{page}: the usage block of {name} against its --help (subcommand, long options)"
+        );
+    }
+}
+
+#[test]
+fn desk_walk_through_runs_the_script_and_names_the_plot() {
+    let desk = read(&root().join("docs/desk.md"));
+    let script = read(&root().join("docs/desk-cycle.txt"));
+    let script: Vec<&str> = script.lines().collect();
+    let at = desk
+        .find("[   0.00 s] line")
+        .expect("the walk-through's output");
+    let block = &desk[at..at + desk[at..].find("```").unwrap()];
+    let mut n = 0;
+    for l in block.lines().filter(|l| l.starts_with('[')) {
+        let rest = l.split_once("] line ").expect("[ t s] line N: …").1;
+        let (number, step) = rest.split_once(": ").unwrap();
+        let number: usize = number.parse().unwrap();
+        let step = match step.split_once(" -> ") {
+            Some((command, _)) => command,
+            None => step.rsplit_once(": ").unwrap().0,
+        };
+        let line = script[number - 1];
+        let line = line.split(" within ").next().unwrap();
+        assert_eq!(step, line, "docs/desk-cycle.txt line {number}");
+        n += 1;
+    }
+    assert!(n >= 8, "{n} steps");
+
+    // `wrote docs/desk-cycle.png (WxH px: …)` is the PNG beside it.
+    let png = std::fs::read(root().join("docs/desk-cycle.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
+    let size = format!("wrote docs/desk-cycle.png ({}x{} px", be(16), be(20));
+    assert!(
+        block.contains(&size),
+        "the walk-through should read {size:?}"
+    );
+}
+
+/// The `host_sim::…` and `thermorph::…` paths the pages name.
+fn rust_paths(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for krate in ["host_sim::", "thermorph::"] {
+        for (i, _) in text.match_indices(krate) {
+            let before = text[..i].chars().next_back();
+            if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+                continue;
+            }
+            let path: String = text[i..]
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':')
+                .collect();
+            out.push(path.trim_end_matches(':').to_string());
+        }
+    }
+    out
+}
+
+/// Whether `text` holds `words` with no identifier character just before or after.
+fn has_word(text: &str, words: &str) -> bool {
+    let ident = |c: Option<char>| c.is_some_and(|c| c.is_alphanumeric() || c == '_');
+    text.match_indices(words).any(|(i, _)| {
+        !ident(text[..i].chars().next_back()) && !ident(text[i + words.len()..].chars().next())
+    })
+}
+
+/// Whether `path` names a module of the workspace's crates, or an item declared in one (then
+/// any further segments, as `Type::method`, declared in that module's folder).
+fn resolves(path: &str) -> bool {
+    let mut segments = path.split("::");
+    let (mut dir, mut file) = match segments.next() {
+        Some("host_sim") => (
+            root().join("host-sim/src"),
+            root().join("host-sim/src/lib.rs"),
+        ),
+        Some("thermorph") => (
+            root().join("firmware/src"),
+            root().join("firmware/src/lib.rs"),
+        ),
+        _ => return false,
+    };
+    let rest: Vec<&str> = segments.collect();
+    for (i, seg) in rest.iter().enumerate() {
+        if dir.join(format!("{seg}.rs")).exists() {
+            file = dir.join(format!("{seg}.rs"));
+            dir = dir.join(seg);
+        } else if dir.join(seg).join("mod.rs").exists() {
+            file = dir.join(seg).join("mod.rs");
+            dir = dir.join(seg);
+        } else {
+            let declares = |text: &str, name: &str| {
+                [
+                    "fn", "struct", "enum", "trait", "const", "static", "type", "mod",
+                ]
+                .iter()
+                .any(|k| has_word(text, &format!("{k} {name}")))
+                    || text
+                        .split(';')
+                        .map(|s| s.lines().filter(|l| !l.trim_start().starts_with("//")))
+                        .map(|s| s.collect::<Vec<_>>().join(" "))
+                        .any(|s| s.trim_start().starts_with("pub use") && has_word(&s, name))
+            };
+            if !declares(&read(&file), seg) {
+                return false;
+            }
+            // Members of the item: declared somewhere beside it.
+            let beside: String = std::fs::read_dir(file.parent().unwrap())
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .filter(|p| p.extension().is_some_and(|e| e == "rs"))
+                .map(|p| read(&p))
+                .collect();
+            return rest[i + 1..].iter().all(|m| declares(&beside, m));
+        }
+    }
+    true
+}
+
+#[test]
+fn every_rust_path_the_pages_name_exists() {
+    assert!(resolves("host_sim::runs::run::run"));
+    assert!(!resolves("host_sim::run::run"));
+    let mut wrong = Vec::new();
+    let mut count = 0;
+    for page in pages() {
+        for path in rust_paths(&read(&root().join(&page))) {
+            count += 1;
+            if !resolves(&path) {
+                wrong.push(format!("{}: {path}", page.display()));
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "no such module or item:\n{}",
+        wrong.join("\n")
+    );
+    assert!(count >= 8, "only {count} paths found");
+}
+
+/// `host-sim paper --json` (camera on, or with `--no-camera`): figure → `{thesis, sim, pass}`.
+fn paper(camera: bool) -> serde_json::Map<String, serde_json::Value> {
+    let mut args = vec!["paper", "--json"];
+    if !camera {
+        args.push("--no-camera");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "host-sim {args:?}: {out:?}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    v.as_object().unwrap().clone()
+}
+
+/// A figure's simulated values (one, or the pulse drops' three).
+fn sims(figure: &serde_json::Value) -> Vec<f64> {
+    match &figure["sim"] {
+        serde_json::Value::Array(a) => a.iter().map(|x| x.as_f64().unwrap()).collect(),
+        x => vec![x.as_f64().unwrap()],
+    }
+}
+
+/// The numbers written in `text` with their decimals (`−` or `-` before a digit is a sign).
+fn numbers(text: &str) -> Vec<(f64, usize)> {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < chars.len() {
+        let signed = matches!(chars[i], '−' | '-')
+            && chars.get(i + 1).is_some_and(|c| c.is_ascii_digit())
+            && !(i > 0 && chars[i - 1].is_alphanumeric());
+        let starts = chars[i].is_ascii_digit() && !(i > 0 && chars[i - 1].is_alphanumeric());
+        if !(signed || starts) {
+            i += 1;
+            continue;
+        }
+        let mut s = String::from(if signed { "-" } else { "" });
+        i += usize::from(signed);
+        let mut decimals = None;
+        while i < chars.len() {
+            let c = chars[i];
+            if c.is_ascii_digit() {
+                s.push(c);
+                decimals = decimals.map(|d: usize| d + 1);
+            } else if c == '.'
+                && decimals.is_none()
+                && chars.get(i + 1).is_some_and(|c| c.is_ascii_digit())
+            {
+                s.push(c);
+                decimals = Some(0);
+            } else {
+                break;
+            }
+            i += 1;
+        }
+        out.push((s.parse().unwrap(), decimals.unwrap_or(0)));
+    }
+    out
+}
+
+/// Whether a number written with `decimals` decimals is `sim` rounded.
+fn rounds_to(written: (f64, usize), sim: f64) -> bool {
+    (written.0 - sim).abs() <= 0.5 * 10f64.powi(-(written.1 as i32)) + 1e-9
+}
+
+/// The rows (cells, trimmed) of the first table after `heading` in `text`.
+fn table_after(text: &str, heading: &str) -> Vec<Vec<String>> {
+    let at = text
+        .find(heading)
+        .unwrap_or_else(|| panic!("no {heading:?}"));
+    text[at..]
+        .lines()
+        .skip_while(|l| !l.starts_with('|'))
+        .take_while(|l| l.starts_with('|'))
+        .skip(2)
+        .map(|l| {
+            l.trim_matches('|')
+                .split('|')
+                .map(|c| c.trim().to_string())
+                .collect()
+        })
+        .collect()
+}
+
+/// In `text`, the number right after `before` rounds `sim`.
+fn check_after(wrong: &mut Vec<String>, place: &str, text: &str, before: &str, sim: f64) {
+    let Some(at) = text.find(before) else {
+        wrong.push(format!("{place}: no {before:?}"));
+        return;
+    };
+    match numbers(&text[at + before.len()..]).first() {
+        Some(&n)
+            if rounds_to(n, sim)
+                && text[at + before.len()..]
+                    .starts_with(|c: char| c.is_ascii_digit() || c == '−' || c == '-') => {}
+        n => wrong.push(format!("{place}: after {before:?}: {n:?}, today {sim}")),
+    }
+}
+
+#[test]
+fn paper_figures_in_the_docs_are_todays() {
+    assert_eq!(
+        numbers("−0.02, −0.11, 1406; ×4.54 a2"),
+        [(-0.02, 2), (-0.11, 2), (1406.0, 0), (4.54, 2)]
+    );
+    let mut wrong = Vec::new();
+
+    // Camera on: docs/control-and-safety.md's table, one row per figure.
+    let on = paper(true);
+    let page = read(&root().join("docs/control-and-safety.md"));
+    let rows = table_after(&page, "`host-sim paper` (camera on, 298 K):");
+    let listed: BTreeSet<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(
+        listed,
+        on.keys().map(String::as_str).collect(),
+        "the table's figures"
+    );
+    for r in &rows {
+        let f = &on[&r[0]];
+        let written = numbers(&r[2]);
+        let today = sims(f);
+        let same = written.len() == today.len()
+            && written.iter().zip(&today).all(|(&w, &s)| rounds_to(w, s));
+        let pass = f["pass"].as_bool().unwrap();
+        if !same || r[4].starts_with("pass") != pass {
+            wrong.push(format!(
+                "control-and-safety.md: {} | {} | {}: today {today:?}, {}",
+                r[0],
+                r[2],
+                r[4],
+                if pass { "pass" } else { "fail" }
+            ));
+        }
+    }
+
+    // Camera off: docs/PLANT-API.md's table (figures grouped by row) and the prose that quotes it.
+    let off = paper(false);
+    let page = read(&root().join("docs/PLANT-API.md"));
+    let rows = table_after(
+        &page,
+        "## Closed loop (`cargo run --release -p host-sim -- paper --no-camera`)",
+    );
+    let groups: [&[&str]; 7] = [
+        &[
+            "preheat_time_s",
+            "standby_overshoot_k",
+            "standby_hold_band_k",
+        ],
+        &[
+            "large_stepping_time_s",
+            "full_loading_one_spring_deg",
+            "full_loading_two_springs_deg",
+        ],
+        &["pulse_drop_deg"],
+        &["forming_time_s", "forming_angle_loss_deg"],
+        &["formed_k_b", "stiffness_ratio"],
+        &["recovery_time_s"],
+        &["cycle_time_s"],
+    ];
+    assert_eq!(rows.len(), groups.len(), "PLANT-API.md's closed-loop rows");
+    for (r, keys) in rows.iter().zip(groups) {
+        let today: Vec<f64> = keys.iter().flat_map(|k| sims(&off[*k])).collect();
+        let written = numbers(&r[2]);
+        let same = written.len() == today.len()
+            && written.iter().zip(&today).all(|(&w, &s)| rounds_to(w, s));
+        let pass = keys.iter().all(|k| off[*k]["pass"].as_bool().unwrap());
+        if !same || r[3].starts_with("pass") != pass {
+            wrong.push(format!(
+                "PLANT-API.md: {} | {} | {}: today {today:?}",
+                r[0], r[2], r[3]
+            ));
+        }
+    }
+    let sim = |k: &str| sims(&off[k])[0];
+    let page = read(&root().join("docs/simulator.md"));
+    let at = page
+        .find("In the closed loop (")
+        .expect("simulator.md's closed-loop figures");
+    let para = &page[at..at + page[at..].find("\n\n").unwrap()];
+    let para = para.split_whitespace().collect::<Vec<_>>().join(" ");
+    for (before, key) in [
+        ("forming takes ", "forming_time_s"),
+        ("loses ", "forming_angle_loss_deg"),
+        ("k_b ", "formed_k_b"),
+        ("(×", "stiffness_ratio"),
+        ("loading ", "full_loading_one_spring_deg"),
+        ("° / ", "full_loading_two_springs_deg"),
+        ("recovery ", "recovery_time_s"),
+    ] {
+        check_after(&mut wrong, "simulator.md", &para, before, sim(key));
+    }
+    let page = read(&root().join("docs/control-and-safety.md"));
+    let at = page
+        .find("`host-sim paper --no-camera`) ")
+        .expect("the autotune's figures");
+    let para = page[at..at + 300]
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    for (before, key) in [
+        ("322.5 K in ", "preheat_time_s"),
+        ("323 K by ", "standby_overshoot_k"),
+        ("holds ±", "standby_hold_band_k"),
+    ] {
+        check_after(&mut wrong, "control-and-safety.md", &para, before, sim(key));
+    }
+    assert!(
+        wrong.is_empty(),
+        "figures that `host-sim paper --json [--no-camera]` gives otherwise today:\n{}",
+        wrong.join("\n")
+    );
+}
