@@ -1,4 +1,4 @@
-//! The console's command set: one table ([`COMMANDS`]) drives parsing, `help` and the README's
+//! The console's command set: one table ([`COMMANDS`]) drives parsing, `help` and docs/console.md's
 //! list, and [`parse`] turns a line into a typed [`Command`] for `Supervisor::step`.
 //!
 //! Words are separated by spaces or tabs and are case-insensitive. Parsing checks the shape of

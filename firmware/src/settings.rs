@@ -2,7 +2,7 @@
 //! limits, with units and ranges.
 //!
 //! This module owns the parameter list. [`PARAMS`] drives the console's `get` and `set`, the
-//! `help` text, the README's list and the stored settings record, so a parameter exists in
+//! `help` text, docs/console.md's list and the stored settings record, so a parameter exists in
 //! exactly one place. Values are `f32` in the unit the name ends with (`_k` Kelvin, `_s`
 //! seconds, `_pct` percent, gains per Kelvin of error on a duty fraction).
 
@@ -64,7 +64,7 @@ pub struct Settings {
     pub w1_step: f32,
     /// Weight of T1 in Tc in recovery: 0.5 — on the film alone (1) the outer layer stays below
     /// 340 K and the column cannot come back straight; on the colder alone (0) the reheat is
-    /// slow (measured on the simulated block, README's control section).
+    /// slow (measured on the simulated block, docs/control-and-safety.md).
     pub w1_recover: f32,
     /// Weight of T1 in Tc in forming (ordering: T1 = the colder, heater side): 0 cools until the
     /// hotter region is at `form_end_k`.

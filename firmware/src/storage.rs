@@ -285,7 +285,7 @@ mod tests {
             block_on(store.write(&s.encode())).unwrap();
         }
         let nor = store.release();
-        // 1000 records of 168 bytes and their headers in 16 KiB pages: about 11 page erases.
+        // 1000 records of a few hundred bytes and their headers in 16 KiB pages: about 11 page erases.
         assert!((5..=30).contains(&nor.erases), "{} erases", nor.erases);
         let mut store = FlashStore::new(nor, range).unwrap();
         let mut out = String::new();

@@ -20,7 +20,7 @@ impl Tuning {
     /// band, and switch within two expected periods once cycling.
     pub fn start(s: &Settings) -> Tuning {
         // Ziegler–Nichols' classic rule: on the simulated block it gives 0.6 K of overshoot and
-        // a ±0.2 K hold (docs, control section); the no-overshoot rule holds the standby target
+        // a ±0.2 K hold (docs/control-and-safety.md); the no-overshoot rule holds the standby target
         // ±0.3 K but takes 30 s to preheat.
         Tuning {
             relay: RelayAutotune::new(AutotuneConfig {

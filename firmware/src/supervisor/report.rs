@@ -1,5 +1,5 @@
 //! The supervisor's words: reply lines (`ok …` / `err <code>: <message>`) and telemetry lines
-//! (`# …`). This module owns their formats; the README documents them.
+//! (`# …`). This module owns their formats; docs/console.md documents them.
 //!
 //! A reply is one line without its end (the board adds CR LF). It never holds a line break,
 //! and a reply that would not fit [`REPLY_CAP`] is cut and ends in ` ...`.
@@ -268,7 +268,7 @@ fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
     }
 }
 
-/// The telemetry line's fields, in order (the README's table is checked against this).
+/// The telemetry line's fields, in order (docs/console.md's table is checked against this).
 pub const TELEMETRY_FIELDS: [&str; 11] = [
     "t_s",
     "mode",

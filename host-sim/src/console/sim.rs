@@ -2,8 +2,10 @@
 //! the board's console, on standard input/output or on a pseudo-terminal.
 //!
 //! This module owns the interactive console: the real-time loop, the byte path and the
-//! settings file. The byte path is exactly the board's: bytes →
-//! [`LineReader`] → [`parse_read`] → [`Supervisor::step`], one reply per complete non-blank line
+//! settings file. The byte path is the board's: bytes → [`LineReader`] → [`parse_read`] →
+//! [`Supervisor::step`] (the board orders these steps through `thermorph::app::Controller`;
+//! this console does not drive it yet, and steps once per line where the board steps the
+//! frame first), one reply per complete non-blank line
 //! (`err …` from [`Reply::parse_error`] for a refused one), every line ended by CR LF, and `#`
 //! telemetry lines from [`Supervisor::write_telemetry`] written between whole replies by the
 //! same loop, so neither breaks the other.
