@@ -91,7 +91,7 @@ pub struct Settings {
     /// Length of one pulsing phase (springs off between steps), s.
     pub pulse_s: f32,
     /// Stepping phases in large stepping.
-    pub large_steps: f32,
+    pub large_steps: u8,
     /// Recovery: length of the pulse on all springs, s.
     pub recover_pulse_s: f32,
     /// Recovery: time held at `hot_k` after the pulse before standby, s.
@@ -191,7 +191,7 @@ impl Settings {
         prewarm_gap_s: 1.0,
         step_s: 6.0,
         pulse_s: 2.0,
-        large_steps: 4.0,
+        large_steps: 4,
         recover_pulse_s: 1.0,
         recover_hold_s: 15.0,
         spring_heat_s: SPRING_HEAT_S,
@@ -284,7 +284,7 @@ impl Settings {
     /// its gap (if any), then every stepping phase with the pulses between (large stepping,
     /// which includes small).
     fn stepping_plan(&self) -> impl Iterator<Item = (bool, f32)> + use<> {
-        let steps = self.large_steps.max(1.0) as usize;
+        let steps = self.large_steps.max(1) as usize;
         let (step_s, pulse_s) = (self.step_s, self.pulse_s);
         let prewarm = (self.prewarm_s > 0.0)
             .then_some([(true, self.prewarm_s), (false, self.prewarm_gap_s)])
@@ -387,12 +387,19 @@ macro_rules! param {
     };
 }
 
-/// A whole-number parameter.
+/// A whole-number parameter, kept as an integer (the record stores it as `f32`, whole; the
+/// range check happens before `set`, so the cast is exact).
 macro_rules! count {
     ($name:literal, $min:expr, $max:expr, $help:literal, |$s:ident| $field:expr) => {
         Param {
+            name: $name,
+            unit: "",
+            min: $min,
+            max: $max,
+            help: $help,
+            get: |$s: &Settings| $field as f32,
+            set: |$s: &mut Settings, v: f32| $field = v as _,
             integer: true,
-            ..param!($name, "", $min, $max, $help, |$s| $field)
         }
     };
 }
@@ -1216,9 +1223,9 @@ mod tests {
         s.prewarm_s = 0.0;
         s.step_s = 3.0;
         s.pulse_s = 0.5;
-        s.large_steps = 2.0;
+        s.large_steps = 2;
         assert!((s.spring_plan_peak_s() - 6.0).abs() < 1e-4);
-        s.large_steps = 3.0;
+        s.large_steps = 3;
         assert!((s.spring_plan_peak_s() - 9.0).abs() < 1e-4);
     }
 }

@@ -173,7 +173,7 @@ impl Stepping {
                 if *left_ms == 0 {
                     let steps = match self.kind {
                         StepKind::Small => 1,
-                        StepKind::Large => s.large_steps as u8,
+                        StepKind::Large => s.large_steps,
                     };
                     self.phase = if *index + 1 >= steps {
                         c.event(EventKind::SteppingDone);
