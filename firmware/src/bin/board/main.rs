@@ -10,7 +10,7 @@
 //!   runs one control step: it hands the supervisor the e-stop button's level
 //!   (`Supervisor::button`; a press seen since the last step counts as pressed), steps it with
 //!   the newest measurement, then with the line, and applies the last decision's `Outputs`
-//!   through `pins::Outputs::apply` (the only path that drives a load). A `save` or `load`
+//!   through `pins::Gates::apply` (the only path that drives a load). A `save` or `load`
 //!   applies that decision's outputs (heater and springs off) *before* the flash operation and
 //!   holds them through it. It writes the springs' memory to RAM kept across a reset
 //!   (`board/retained.rs`), queues the reply, a `# warning: …` line for a decision's warning

@@ -35,7 +35,7 @@ use embassy_stm32::{Config, Peri, Peripherals, bind_interrupts, dma, interrupt};
 use embassy_time::Timer;
 use embedded_hal::i2c::{ErrorType, Operation};
 use static_cell::ConstStaticCell;
-use thermorph::outputs::{Duty, Outputs as OutputState, SPRINGS};
+use thermorph::outputs::{Duty, Outputs, SPRINGS};
 use thermorph::sensing::{BusStuck, RecoverBus};
 
 use super::fault::OffProgram;
@@ -106,17 +106,18 @@ pub fn clocks() -> Config {
     config
 }
 
-/// The heater, fan and spring outputs: driven only by [`Outputs::apply`].
-pub struct Outputs {
+/// The heater, fan and spring gates: driven only by [`Gates::apply`] with the library's
+/// [`Outputs`].
+pub struct Gates {
     heater: SimplePwm<'static, peripherals::TIM3>,
     fan: SimplePwm<'static, peripherals::TIM4>,
     springs: [Output<'static>; SPRINGS],
 }
 
-impl Outputs {
+impl Gates {
     /// Drive every output as `state` says: heater and fan duty, spring gates. The only
     /// function that switches a load on.
-    pub fn apply(&mut self, state: &OutputState) {
+    pub fn apply(&mut self, state: &Outputs) {
         fn duty(
             ch: &mut embassy_stm32::timer::simple_pwm::SimplePwmChannel<
                 '_,
@@ -294,7 +295,7 @@ pub struct Board {
     /// USART2, the console.
     pub console: BufferedUart<'static>,
     /// Heater, fan and springs.
-    pub outputs: Outputs,
+    pub outputs: Gates,
     /// The user button, for its edges (its level: [`estop_pressed`]).
     pub estop: ExtiInput<'static, Async>,
     /// LD2.
@@ -367,7 +368,7 @@ impl Board {
         Board {
             i2c,
             console,
-            outputs: Outputs {
+            outputs: Gates {
                 heater,
                 fan,
                 springs,
