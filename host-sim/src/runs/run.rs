@@ -38,7 +38,7 @@ use thermorph::units::{Kelvin, Millis};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 use crate::runs::scenario::{
-    BURNING_FILM_K, CameraFault, ELSEWHERE_K, FaultKind, FaultSpec, Scenario,
+    BURNING_FILM_K, CameraFault, ELSEWHERE_K, FaultSpec, Injection, Scenario,
 };
 use crate::sensing::scene::{self, Geometry, Temps};
 use crate::sensor::demo::Rig;
@@ -213,10 +213,10 @@ pub(crate) fn apply_faults(
     for (i, f) in faults.iter().enumerate().filter(|(_, f)| f.active(t_s)) {
         mask |= 1 << i.min(31);
         match f.kind {
-            FaultKind::HeaterOpen => inputs.heater_open = true,
-            FaultKind::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
-            FaultKind::Sensor(s) => camera.sensor = Some(s),
-            FaultKind::Camera(v) => camera.view = Some(v),
+            Injection::HeaterOpen => inputs.heater_open = true,
+            Injection::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
+            Injection::Sensor(s) => camera.sensor = Some(s),
+            Injection::Camera(v) => camera.view = Some(v),
         }
     }
     (mask, camera)

@@ -105,7 +105,7 @@ pub struct CommandLine {
 
 /// What an injected fault does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FaultKind {
+pub enum Injection {
     /// The heater is open-circuit: no power whatever the duty.
     HeaterOpen,
     /// A spring's MOSFET is stuck on or off.
@@ -147,7 +147,7 @@ pub struct FaultSpec {
     /// End, s (`None`: to the end of the run).
     pub until_s: Option<f64>,
     /// What it does.
-    pub kind: FaultKind,
+    pub kind: Injection,
 }
 
 impl FaultSpec {
@@ -541,7 +541,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
                 })
             };
             let kind = match kind_name {
-                0 => FaultKind::HeaterOpen,
+                0 => Injection::HeaterOpen,
                 1 => {
                     let (k, v) = need("spring")?;
                     let set = springs(&cx, k, v, &format!("{p}spring"))?;
@@ -561,7 +561,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
                         &format!("{p}stuck"),
                         &[("on", true), ("off", false)],
                     )?;
-                    FaultKind::StuckSpring { spring, on }
+                    Injection::StuckSpring { spring, on }
                 }
                 3 => {
                     if !camera.enabled {
@@ -572,7 +572,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
                         ));
                     }
                     let (k, v) = need("camera")?;
-                    FaultKind::Camera(choice(
+                    Injection::Camera(choice(
                         &cx,
                         k,
                         v,
@@ -585,7 +585,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
                 }
                 _ => {
                     let (k, v) = need("sensor")?;
-                    FaultKind::Sensor(choice(
+                    Injection::Sensor(choice(
                         &cx,
                         k,
                         v,
@@ -1110,13 +1110,13 @@ mod tests {
         assert_eq!(s.actions[1].springs_on, Some([true, false, true]));
         assert_eq!(
             s.faults[0].kind,
-            FaultKind::StuckSpring {
+            Injection::StuckSpring {
                 spring: 1,
                 on: true
             }
         );
         assert!(s.faults[0].active(2.5) && !s.faults[0].active(3.0) && !s.faults[0].active(1.9));
-        assert_eq!(s.faults[1].kind, FaultKind::Sensor(SensorFault::Frozen));
+        assert_eq!(s.faults[1].kind, Injection::Sensor(SensorFault::Frozen));
         assert!(s.faults[1].active(1e9));
     }
 
@@ -1129,7 +1129,7 @@ mod tests {
             "t",
         )
         .unwrap();
-        assert_eq!(s.faults[0].kind, FaultKind::Camera(CameraFault::Elsewhere));
+        assert_eq!(s.faults[0].kind, Injection::Camera(CameraFault::Elsewhere));
         let e = err(&format!("{MINIMAL}{fault}"));
         assert!(
             e.contains("t.toml:5: `fault[1].kind`: a `camera` fault needs the camera on"),
