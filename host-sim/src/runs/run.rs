@@ -23,7 +23,7 @@ use std::time::Instant;
 
 use embassy_futures::block_on;
 use serde::Serialize;
-use thermorph::mlx90640::Config as SensorConfig;
+use thermorph::mlx90640::{Config as SensorConfig, Mlx90640};
 use thermorph::mtts::{IMG_PIXELS, REGIONS};
 use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 
@@ -40,10 +40,10 @@ use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 use crate::runs::scenario::{
     BURNING_FILM_K, CameraFault, ELSEWHERE_K, FaultSpec, Injection, Scenario,
 };
-use crate::sensing::scene::{self, Geometry, Temps};
-use crate::sensor::demo::Rig;
+use crate::sensing::scene::{Geometry, Layout, Temps};
+use crate::sensor::eeprom;
 use crate::sensor::sim_time::{SimClock, SimDelay};
-use crate::sensor::virtual_mlx::{HeapBuffers, VirtualBus};
+use crate::sensor::virtual_mlx::{HeapBuffers, VirtualBus, VirtualMlx90640};
 
 /// One control period of a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -105,33 +105,59 @@ pub struct FaultRecord {
 /// The camera chain: renderer → virtual MLX90640 → the firmware's sensing pipeline (driver,
 /// subpage pairing, MTTS) — the same policy as the board's sensor task.
 pub(crate) struct Camera {
-    rig: Rig,
+    clock: SimClock,
+    bus: VirtualBus,
     pub(crate) sensor: Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>,
     pub(crate) frames: u64,
     errors: u64,
     /// The latest measurement; `None` after an error until the next frame.
     last: Option<Measurement>,
+    /// Which region each sample of the view shows, for the last geometry (the column's tilt
+    /// changes only while it bends).
+    layout: Option<Layout>,
+    /// The rendered view, K.
+    view_k: Box<[f64; IMG_PIXELS]>,
 }
+
+/// Samples per pixel side of the camera's view.
+const CAMERA_SUBGRID: usize = 4;
 
 impl Camera {
     pub(crate) fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
-        let rig = Rig::realistic(seed, SensorConfig::default())?;
-        rig.set_noise(noise_k);
+        let clock = SimClock::new();
+        let mut device =
+            VirtualMlx90640::new(eeprom::realistic(seed).encode()?, clock.clone(), seed)
+                .map_err(|e| format!("virtual sensor: {e}"))?;
+        device.noise_k = noise_k;
+        let bus = VirtualBus::new(device);
+        // The sensor has been read and set to the pipeline's rate once before the sensing
+        // task's own setup (≈ 44 ms of bus time): the timing every camera run has had.
+        let mut probe = Mlx90640::new(
+            bus.clone(),
+            SimDelay::new(clock.clone()),
+            thermorph::mlx90640::ADDRESS,
+        );
+        let mut words = [0u16; thermorph::mlx90640::EEPROM_WORDS];
+        block_on(probe.read_eeprom(&mut words)).map_err(|e| e.to_string())?;
+        block_on(probe.configure(SensorConfig::default())).map_err(|e| e.to_string())?;
         let pipeline = Pipeline::new(PipelineConfig::default()).map_err(|e| e.to_string())?;
         let sensor = Sensor::new(
-            rig.bus.clone(),
-            SimDelay::new(rig.clock.clone()),
-            rig.clock.clone(),
+            bus.clone(),
+            SimDelay::new(clock.clone()),
+            clock.clone(),
             thermorph::mlx90640::ADDRESS,
             pipeline,
             HeapBuffers::new(),
         );
         Ok(Camera {
-            rig,
+            clock,
+            bus,
             sensor,
             frames: 0,
             errors: 0,
             last: None,
+            layout: None,
+            view_k: Box::new([0.0; IMG_PIXELS]),
         })
     }
 
@@ -147,34 +173,36 @@ impl Camera {
     ) -> Option<Measurement> {
         self.sensor.set_hint(hint);
         let frames = self.frames;
-        let mut temps = camera_temps(obs);
-        if faults.view == Some(CameraFault::BurningFilm) {
-            temps.heater_k = BURNING_FILM_K;
+        {
+            let mut dev = self.bus.0.borrow_mut();
+            if faults.view == Some(CameraFault::Elsewhere) {
+                dev.field_k = [ELSEWHERE_K as f32; IMG_PIXELS];
+            } else {
+                let mut temps = camera_temps(obs);
+                if faults.view == Some(CameraFault::BurningFilm) {
+                    temps.heater_k = BURNING_FILM_K;
+                }
+                let plane = obs.bend_plane_deg.to_radians();
+                let geometry = Geometry {
+                    tilt_deg: 0.5 * obs.bend_deg * plane.cos(),
+                    springs: true,
+                    ..Geometry::default()
+                };
+                // The view as `scene::render` draws it (no noise: the sensor adds its own).
+                let layout = match &mut self.layout {
+                    Some(l) if *l.geometry() == geometry => l,
+                    slot => slot.insert(Layout::new(&geometry, CAMERA_SUBGRID)),
+                };
+                layout.image(&temps, &mut self.view_k);
+                for (dst, &k) in dev.field_k.iter_mut().zip(self.view_k.iter()) {
+                    *dst = k as f32;
+                }
+            }
+            dev.set_fault(faults.sensor);
         }
-        let plane = obs.bend_plane_deg.to_radians();
-        let geometry = Geometry {
-            tilt_deg: 0.5 * obs.bend_deg * plane.cos(),
-            springs: true,
-            ..Geometry::default()
-        };
-        let r = scene::render(
-            &geometry,
-            &temps,
-            &scene::Options {
-                subgrid: 4,
-                noise_k: 0.0,
-                seed: 0,
-            },
-        );
-        let field = match faults.view {
-            Some(CameraFault::Elsewhere) => [ELSEWHERE_K as f32; IMG_PIXELS],
-            Some(CameraFault::BurningFilm) | None => r.image_k,
-        };
-        self.rig.set_field(&field);
-        self.rig.bus.0.borrow_mut().set_fault(faults.sensor);
         let t_end_us = (t_s * 1e6) as u64;
         // Every action advances the simulated clock (bus time, a pause or a timeout).
-        while self.rig.clock.now_us() < t_end_us {
+        while self.clock.now_us() < t_end_us {
             match block_on(self.sensor.step()) {
                 Outcome::Frame(m) => {
                     self.frames += 1;

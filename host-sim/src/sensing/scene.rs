@@ -12,7 +12,9 @@
 //! Each sensor pixel integrates a `subgrid`×`subgrid` grid of samples (the optics' blur is a
 //! box of one pixel), then Gaussian noise of `noise_k` rms (the MLX90640's NETD, ≈ 0.1 K) is
 //! added. The result carries each region's true temperature and each pixel's area fraction
-//! per region.
+//! per region. [`Layout`] keeps which region each sample shows for one geometry, so a view of
+//! the same geometry at other temperatures (the camera of `host-sim run`, each period) costs
+//! only the temperatures — the same image, bit for bit, as [`render`] without noise.
 
 use thermorph::block::LATTICE_GAP_FRACTION;
 use thermorph::mtts::{IMG_COLS, IMG_PIXELS, IMG_ROWS, REGIONS};
@@ -139,65 +141,413 @@ pub struct Rendered {
 
 /// What a sample point at (row, col) shows: region index (0…4) or `None` for a spring.
 pub fn sample(g: &Geometry, row: f64, col: f64) -> Option<usize> {
-    let slope = g.tilt_deg.to_radians().tan();
-    let norm = (1.0 + slope * slope).sqrt();
-    let d = (col - (g.axis_col0 + slope * row)) / norm;
-    let t = (row + slope * (col - g.axis_col0)) / norm;
-    let ad = d.abs();
-    if ad < g.half_width_px {
-        if ad >= (1.0 - g.edge_fraction) * g.half_width_px {
-            return Some(2);
-        }
-        let x = t - g.phase_px;
-        let ph = x - (x / g.period_px).floor() * g.period_px;
-        return Some(if ph < g.exposed * g.period_px { 0 } else { 1 });
+    match Sampler::new(g).region_at(row, col) {
+        SPRING => None,
+        z => Some(z as usize),
     }
-    if g.springs && (ad - (g.half_width_px + 1.5)).abs() < 0.25 {
-        return None;
-    }
-    if ad < g.half_width_px + g.radiation_px {
-        Some(3)
+}
+
+/// `x.floor()` (up to the sign of a zero result), without a library call where the
+/// target has no rounding instruction.
+#[inline]
+fn floor(x: f64) -> f64 {
+    if x.abs() < 4.0e15 {
+        let t = x as i64 as f64;
+        if t > x { t - 1.0 } else { t }
     } else {
-        Some(4)
+        x.floor()
+    }
+}
+
+/// `floor` of each of `q` (up to the sign of a zero result): rounded to nearest by the
+/// 1.5·2⁵² trick, less one where that rounded up — exact below 2⁵⁰, and done without branches
+/// or library calls; larger values go through `f64::floor`.
+#[inline]
+fn floor16(q: &[f64; 16]) -> [f64; 16] {
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    let mut out = [0.0; 16];
+    let mut big = false;
+    for k in 0..16 {
+        let r = (q[k] + MAGIC) - MAGIC;
+        out[k] = r - if r > q[k] { 1.0 } else { 0.0 };
+        // NaN counts as large.
+        big |= q[k].abs() >= 1.0e15 || q[k].is_nan();
+    }
+    if big {
+        for k in 0..16 {
+            out[k] = q[k].floor();
+        }
+    }
+    out
+}
+
+/// A pixel the cheap proof of [`Sampler::settled`] leaves open.
+const UNSETTLED: u8 = u8::MAX;
+
+/// The region code of a spring sample (regions are 0…4).
+const SPRING: u8 = 5;
+/// Region codes: the five regions and the springs.
+const CODES: usize = 6;
+
+/// A geometry's constants, computed once: [`sample`] for many points. Every value is computed
+/// with the same operations, in the same order, as the per-sample formulas, so a sample's
+/// region is bit for bit what those formulas give.
+#[derive(Clone, Copy, Debug)]
+struct Sampler {
+    slope: f64,
+    norm: f64,
+    axis: f64,
+    half_width: f64,
+    /// Where the edge starts: `(1 − edge_fraction)·half_width`.
+    inner: f64,
+    /// The springs' distance from the axis: `half_width + 1.5`.
+    spring: f64,
+    springs: bool,
+    /// The radiation zone's outer border: `half_width + radiation`.
+    outer: f64,
+    phase: f64,
+    period: f64,
+    /// The gap's length along the axis: `exposed·period`.
+    gap: f64,
+}
+
+/// What the distance from the axis decides for a sample (each a monotone test of |d|).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Across {
+    cylinder: bool,
+    edge: bool,
+    spring_lo: bool,
+    spring_hi: bool,
+    radiation: bool,
+}
+
+impl Sampler {
+    fn new(g: &Geometry) -> Self {
+        let slope = g.tilt_deg.to_radians().tan();
+        Sampler {
+            slope,
+            norm: (1.0 + slope * slope).sqrt(),
+            axis: g.axis_col0,
+            half_width: g.half_width_px,
+            inner: (1.0 - g.edge_fraction) * g.half_width_px,
+            spring: g.half_width_px + 1.5,
+            springs: g.springs,
+            outer: g.half_width_px + g.radiation_px,
+            phase: g.phase_px,
+            period: g.period_px,
+            gap: g.exposed * g.period_px,
+        }
+    }
+
+    /// Signed distance from the axis, perpendicular to it.
+    #[inline]
+    fn d(&self, row: f64, col: f64) -> f64 {
+        (col - (self.axis + self.slope * row)) / self.norm
+    }
+
+    /// Position along the axis.
+    #[inline]
+    fn t(&self, row: f64, col: f64) -> f64 {
+        (row + self.slope * (col - self.axis)) / self.norm
+    }
+
+    #[inline]
+    fn across(&self, ad: f64) -> Across {
+        let s = ad - self.spring;
+        Across {
+            cylinder: ad < self.half_width,
+            edge: ad >= self.inner,
+            spring_lo: s > -0.25,
+            spring_hi: s < 0.25,
+            radiation: ad < self.outer,
+        }
+    }
+
+    /// The lattice unit (floor of the axial phase) and whether the heater shows.
+    #[inline]
+    fn along(&self, t: f64) -> (f64, bool) {
+        let x = t - self.phase;
+        let unit = floor(x / self.period);
+        let ph = x - unit * self.period;
+        (unit, ph < self.gap)
+    }
+
+    /// The region every sample of a pixel shows, or [`UNSETTLED`]: its samples' distances
+    /// from the axis lie within `reach` of `d` and their axial positions within `reach` of `t`
+    /// (`reach` covers the rounding of `d` and `t` and of the samples' own values), so if no
+    /// test's border comes that close, they all show the region of (`d`, `t`). No branches.
+    #[inline]
+    fn settled(&self, d: f64, t: f64, reach: f64) -> u8 {
+        let ad = d.abs();
+        let sp = ad - self.spring;
+        let mut near = (ad - self.half_width).abs();
+        near = near.min((ad - self.inner).abs());
+        near = near.min((ad - self.outer).abs());
+        if self.springs {
+            near = near.min((sp + 0.25).abs()).min((sp - 0.25).abs());
+        }
+        let x = t - self.phase;
+        let ph = x - floor(x / self.period) * self.period;
+        let gap = ph < self.gap;
+        let along = ph.min(self.period - ph).min((ph - self.gap).abs());
+        let lattice = (ad < self.half_width) & (ad < self.inner);
+        let sure = (near > reach) & (!lattice | (along > reach));
+        let cylinder = if ad >= self.inner { 2 } else { 1 - gap as u8 };
+        let spring = self.springs & (sp > -0.25) & (sp < 0.25);
+        let outside = if spring {
+            SPRING
+        } else {
+            4 - (ad < self.outer) as u8
+        };
+        let code = if ad < self.half_width {
+            cylinder
+        } else {
+            outside
+        };
+        if sure { code } else { UNSETTLED }
+    }
+
+    /// The region codes of the 4×4 samples at `rows` × `cols`, row by row: [`Self::region_at`]
+    /// of each, computed for all sixteen at once without branches (a pixel a border crosses
+    /// has no likely region).
+    fn regions_4x4(&self, rows: [f64; 4], cols: [f64; 4]) -> [u8; 16] {
+        let centre: [f64; 4] = core::array::from_fn(|i| self.axis + self.slope * rows[i]);
+        let shift: [f64; 4] = core::array::from_fn(|j| self.slope * (cols[j] - self.axis));
+        let mut ad = [0.0; 16];
+        let mut x = [0.0; 16];
+        for k in 0..16 {
+            ad[k] = ((cols[k % 4] - centre[k / 4]) / self.norm).abs();
+            x[k] = (rows[k / 4] + shift[k % 4]) / self.norm - self.phase;
+        }
+        let mut q = [0.0; 16];
+        for k in 0..16 {
+            q[k] = x[k] / self.period;
+        }
+        let unit = floor16(&q);
+        let mut out = [0u8; 16];
+        for k in 0..16 {
+            let ad = ad[k];
+            let ph = x[k] - unit[k] * self.period;
+            let gap = (ph < self.gap) as u8;
+            let sp = ad - self.spring;
+            let cylinder = if ad >= self.inner { 2 } else { 1 - gap };
+            let spring = self.springs & (sp > -0.25) & (sp < 0.25);
+            let outside = if spring {
+                SPRING
+            } else {
+                4 - (ad < self.outer) as u8
+            };
+            out[k] = if ad < self.half_width {
+                cylinder
+            } else {
+                outside
+            };
+        }
+        out
+    }
+
+    /// The region code of the sample at (`row`, `col`).
+    #[inline]
+    fn region_at(&self, row: f64, col: f64) -> u8 {
+        self.region_of(self.across(self.d(row, col).abs()), || {
+            self.along(self.t(row, col)).1
+        })
+    }
+
+    /// The region code of a sample of tests `a`; `gap` says whether the lattice shows the
+    /// heater there (asked only inside the cylinder, off its edge).
+    #[inline]
+    fn region_of(&self, a: Across, gap: impl FnOnce() -> bool) -> u8 {
+        if a.cylinder {
+            if a.edge {
+                2
+            } else if gap() {
+                0
+            } else {
+                1
+            }
+        } else if self.springs && a.spring_lo && a.spring_hi {
+            SPRING
+        } else if a.radiation {
+            3
+        } else {
+            4
+        }
+    }
+}
+
+/// Which region each sample of each pixel shows, for one geometry and subgrid: what a render
+/// keeps between calls, so a view whose geometry did not change costs only its temperatures.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    geometry: Geometry,
+    subgrid: usize,
+    /// Per pixel: a region code (< [`CODES`]) when every sample shows it, else
+    /// `CODES + k` for the `k`-th mixed pixel, whose samples' codes are
+    /// `mixed[k·n²..(k+1)·n²]` in sample order.
+    pixel: [u8; IMG_PIXELS],
+    mixed_at: [u16; IMG_PIXELS],
+    mixed: Vec<u8>,
+}
+
+impl Layout {
+    /// Work out the regions of every sample of `g` on a `subgrid`×`subgrid` grid per pixel,
+    /// each exactly as [`sample`] decides it.
+    ///
+    /// A pixel's samples lie within `reach` of its centre, both across the axis and along it
+    /// (the grid is symmetric about the centre), and their computed values within rounding
+    /// (≪ 1e-9 px) of the exact ones; so where no test's border comes within `reach` of the
+    /// centre, every sample shows the centre's region. Only the pixels a border crosses (about
+    /// a quarter) are sampled one by one.
+    pub fn new(g: &Geometry, subgrid: usize) -> Self {
+        let n = subgrid.max(1);
+        let s = Sampler::new(g);
+        let half = (n - 1) as f64 / (2 * n) as f64;
+        let reach = half * (1.0 + s.slope.abs()) / s.norm + 1e-9;
+        let inv_norm = 1.0 / s.norm;
+        let mut out = Layout {
+            geometry: *g,
+            subgrid: n,
+            pixel: [0; IMG_PIXELS],
+            mixed_at: [0; IMG_PIXELS],
+            mixed: Vec::new(),
+        };
+        // Sample coordinates, exactly as the per-sample formula writes them.
+        let coord = |k: usize, i: usize| k as f64 - 0.5 + (i as f64 + 0.5) / n as f64;
+        // Every pixel the cheap proof settles, in one pass without branches.
+        for r in 0..IMG_ROWS {
+            let row = r as f64;
+            let centre = s.axis + s.slope * row;
+            for c in 0..IMG_COLS {
+                let col = c as f64;
+                let d = (col - centre) * inv_norm;
+                let t = (row + s.slope * (col - s.axis)) * inv_norm;
+                out.pixel[r * IMG_COLS + c] = s.settled(d, t, reach);
+            }
+        }
+        let mut n_mixed = 0usize;
+        for p in 0..IMG_PIXELS {
+            if out.pixel[p] != UNSETTLED {
+                continue;
+            }
+            let (r, c) = (p / IMG_COLS, p % IMG_COLS);
+            if n == 4 {
+                let rows: [f64; 4] = core::array::from_fn(|i| coord(r, i));
+                let cols: [f64; 4] = core::array::from_fn(|j| coord(c, j));
+                out.mixed.extend_from_slice(&s.regions_4x4(rows, cols));
+            } else {
+                for i in 0..n {
+                    let row = coord(r, i);
+                    for j in 0..n {
+                        out.mixed.push(s.region_at(row, coord(c, j)));
+                    }
+                }
+            }
+            out.mixed_at[p] = n_mixed as u16;
+            n_mixed += 1;
+            out.pixel[p] = CODES as u8;
+        }
+        out
+    }
+
+    /// Return the geometry.
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    /// Return the samples per pixel side.
+    pub fn subgrid(&self) -> usize {
+        self.subgrid
+    }
+
+    /// Return how many pixels a border crosses (sampled in full).
+    pub fn mixed_pixels(&self) -> usize {
+        self.pixel.iter().filter(|&&z| z as usize >= CODES).count()
+    }
+
+    /// The noise-free image of `temps`, K: each pixel the mean of its samples' temperatures,
+    /// summed in sample order as [`render`] does.
+    pub fn image(&self, temps: &Temps, out: &mut [f64; IMG_PIXELS]) {
+        let n2 = self.subgrid * self.subgrid;
+        let w = 1.0 / n2 as f64;
+        let truth = temps.regions();
+        let value: [f64; CODES] = core::array::from_fn(|z| {
+            if z == SPRING as usize {
+                temps.spring_k * w
+            } else {
+                truth[z] * w
+            }
+        });
+        let uniform: [f64; CODES] = core::array::from_fn(|z| {
+            let mut acc = 0.0;
+            for _ in 0..n2 {
+                acc += value[z];
+            }
+            acc
+        });
+        for p in 0..IMG_PIXELS {
+            let z = self.pixel[p] as usize;
+            out[p] = if z < CODES {
+                uniform[z]
+            } else {
+                let k = self.mixed_at[p] as usize * n2;
+                let mut acc = 0.0;
+                for &c in &self.mixed[k..k + n2] {
+                    acc += value[c as usize];
+                }
+                acc
+            };
+        }
+    }
+
+    /// Each pixel's area fraction per region (springs count as background).
+    fn fractions(&self, out: &mut [[f32; IMG_PIXELS]; REGIONS]) {
+        let n2 = self.subgrid * self.subgrid;
+        let w = (1.0 / n2 as f64) as f32;
+        // The sum of k samples' weights, added one by one.
+        let mut sums = vec![0f32; n2 + 1];
+        for k in 1..=n2 {
+            sums[k] = sums[k - 1] + w;
+        }
+        let region = |c: u8| (c as usize).min(REGIONS - 1);
+        for p in 0..IMG_PIXELS {
+            let z = self.pixel[p] as usize;
+            if z < CODES {
+                out[region(z as u8)][p] = sums[n2];
+            } else {
+                let k = self.mixed_at[p] as usize * n2;
+                let mut count = [0usize; REGIONS];
+                for &c in &self.mixed[k..k + n2] {
+                    count[region(c)] += 1;
+                }
+                for (f, &m) in out.iter_mut().zip(count.iter()) {
+                    if m > 0 {
+                        f[p] = sums[m];
+                    }
+                }
+            }
+        }
     }
 }
 
 /// Render the view.
 pub fn render(g: &Geometry, temps: &Temps, opts: &Options) -> Rendered {
-    let n = opts.subgrid.max(1);
-    let truth = temps.regions();
-    let mut rng = Rng::new(opts.seed);
+    let layout = Layout::new(g, opts.subgrid);
     let mut out = Rendered {
         image_k: [0.0; IMG_PIXELS],
-        truth_k: truth,
+        truth_k: temps.regions(),
         fraction: [[0.0; IMG_PIXELS]; REGIONS],
     };
-    let w = 1.0 / (n * n) as f64;
-    for r in 0..IMG_ROWS {
-        for c in 0..IMG_COLS {
-            let p = r * IMG_COLS + c;
-            let mut acc = 0.0;
-            for i in 0..n {
-                for j in 0..n {
-                    let row = r as f64 - 0.5 + (i as f64 + 0.5) / n as f64;
-                    let col = c as f64 - 0.5 + (j as f64 + 0.5) / n as f64;
-                    match sample(g, row, col) {
-                        Some(z) => {
-                            acc += truth[z] * w;
-                            out.fraction[z][p] += w as f32;
-                        }
-                        None => {
-                            acc += temps.spring_k * w;
-                            out.fraction[4][p] += w as f32;
-                        }
-                    }
-                }
-            }
-            if opts.noise_k > 0.0 {
-                acc += opts.noise_k * rng.gauss();
-            }
-            out.image_k[p] = acc as f32;
+    let mut image = [0.0; IMG_PIXELS];
+    layout.image(temps, &mut image);
+    layout.fractions(&mut out.fraction);
+    let mut rng = Rng::new(opts.seed);
+    for (dst, &acc) in out.image_k.iter_mut().zip(image.iter()) {
+        let mut acc = acc;
+        if opts.noise_k > 0.0 {
+            acc += opts.noise_k * rng.gauss();
         }
+        *dst = acc as f32;
     }
     out
 }
@@ -295,6 +645,140 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The renderer as first written: every sample through the per-sample formulas.
+    fn render_reference(g: &Geometry, temps: &Temps, opts: &Options) -> Rendered {
+        let sample = |row: f64, col: f64| -> Option<usize> {
+            let slope = g.tilt_deg.to_radians().tan();
+            let norm = (1.0 + slope * slope).sqrt();
+            let d = (col - (g.axis_col0 + slope * row)) / norm;
+            let t = (row + slope * (col - g.axis_col0)) / norm;
+            let ad = d.abs();
+            if ad < g.half_width_px {
+                if ad >= (1.0 - g.edge_fraction) * g.half_width_px {
+                    return Some(2);
+                }
+                let x = t - g.phase_px;
+                let ph = x - (x / g.period_px).floor() * g.period_px;
+                return Some(if ph < g.exposed * g.period_px { 0 } else { 1 });
+            }
+            if g.springs && (ad - (g.half_width_px + 1.5)).abs() < 0.25 {
+                return None;
+            }
+            if ad < g.half_width_px + g.radiation_px {
+                Some(3)
+            } else {
+                Some(4)
+            }
+        };
+        let n = opts.subgrid.max(1);
+        let truth = temps.regions();
+        let mut rng = Rng::new(opts.seed);
+        let mut out = Rendered {
+            image_k: [0.0; IMG_PIXELS],
+            truth_k: truth,
+            fraction: [[0.0; IMG_PIXELS]; REGIONS],
+        };
+        let w = 1.0 / (n * n) as f64;
+        for r in 0..IMG_ROWS {
+            for c in 0..IMG_COLS {
+                let p = r * IMG_COLS + c;
+                let mut acc = 0.0;
+                for i in 0..n {
+                    for j in 0..n {
+                        let row = r as f64 - 0.5 + (i as f64 + 0.5) / n as f64;
+                        let col = c as f64 - 0.5 + (j as f64 + 0.5) / n as f64;
+                        match sample(row, col) {
+                            Some(z) => {
+                                acc += truth[z] * w;
+                                out.fraction[z][p] += w as f32;
+                            }
+                            None => {
+                                acc += temps.spring_k * w;
+                                out.fraction[4][p] += w as f32;
+                            }
+                        }
+                    }
+                }
+                if opts.noise_k > 0.0 {
+                    acc += opts.noise_k * rng.gauss();
+                }
+                out.image_k[p] = acc as f32;
+            }
+        }
+        out
+    }
+
+    fn assert_same(a: &Rendered, b: &Rendered, what: &str) {
+        assert_eq!(a.truth_k, b.truth_k, "{what}");
+        for p in 0..IMG_PIXELS {
+            assert_eq!(
+                a.image_k[p].to_bits(),
+                b.image_k[p].to_bits(),
+                "{what}: pixel {p}: {} vs {}",
+                a.image_k[p],
+                b.image_k[p]
+            );
+            for z in 0..REGIONS {
+                assert_eq!(
+                    a.fraction[z][p].to_bits(),
+                    b.fraction[z][p].to_bits(),
+                    "{what}: fraction {z} of pixel {p}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn render_matches_the_per_sample_formulas_bit_for_bit() {
+        for s in standard_scenes() {
+            for seed in [1, 2] {
+                let opts = Options {
+                    subgrid: 8,
+                    noise_k: s.noise_k,
+                    seed,
+                };
+                let want = render_reference(&s.geometry, &s.temps, &opts);
+                assert_same(&render(&s.geometry, &s.temps, &opts), &want, s.name);
+            }
+        }
+        // The camera's geometries: springs, a 4×4 subgrid, tilts of a bending column, shifts.
+        let mut rng = Rng::new(42);
+        let temps = Temps {
+            spring_k: 340.0,
+            ..Temps::from_surfaces(298.15, 352.0, 347.5, 0.0)
+        };
+        for k in 0..300 {
+            let g = Geometry {
+                tilt_deg: if k < 20 {
+                    k as f64 * 0.5 - 5.0
+                } else {
+                    (rng.uniform() - 0.5) * 70.0
+                },
+                axis_col0: 15.5 + if k % 3 == 0 { rng.uniform() - 0.5 } else { 0.0 },
+                phase_px: if k % 5 == 0 {
+                    rng.uniform() * 15.0
+                } else {
+                    2.0
+                },
+                springs: k % 2 == 0,
+                ..Geometry::default()
+            };
+            for subgrid in [1, 3, 4] {
+                let opts = Options {
+                    subgrid,
+                    noise_k: 0.0,
+                    seed: 0,
+                };
+                let want = render_reference(&g, &temps, &opts);
+                assert_same(
+                    &render(&g, &temps, &opts),
+                    &want,
+                    &format!("{g:?} n={subgrid}"),
+                );
+            }
+        }
+    }
 
     #[test]
     fn fractions_sum_to_one_and_noise_free_pixels_are_weighted_means() {
