@@ -1,6 +1,7 @@
 //! Console robustness: random and mutated lines through the board's console path, bytes →
-//! [`LineReader`] → [`parse_read`] → [`Supervisor::step`] (with `save`/`load` carried out on an
-//! in-memory store), while the supervisor also steps on measurements of a warming block.
+//! [`LineReader`] → [`Controller::period`] (which parses the line and steps the supervisor;
+//! `save`/`load` carried out on an in-memory store), while the controller also steps on
+//! measurements of a warming block.
 //!
 //! Lines: binary, overlong, partial UTF-8, valid commands with bad arguments, mutated valid
 //! commands, blank lines, CR / LF / CR LF ends, fed in bursts split at random points (so a CR
@@ -11,12 +12,12 @@
 //! `THERMORPH_FUZZ_LINES` sets the number of lines (default 1 000 000; the test prints the
 //! count and the mix).
 
-use thermorph::command::{COMMANDS, mode_names, parse_read};
+use thermorph::app::{Controller, Line};
+use thermorph::command::{COMMANDS, mode_names};
 use thermorph::console::{LineReader, MAX_LINE};
 use thermorph::measurement::{Measurement, Quality};
 use thermorph::settings::{PARAMS, Settings};
 use thermorph::supervisor::Supervisor;
-use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest};
 use thermorph::units::{Kelvin, Millis};
 
@@ -192,7 +193,7 @@ fn answered(line: &[u8], cap: usize) -> bool {
 
 struct Console {
     reader: LineReader<MAX_LINE>,
-    sup: Supervisor,
+    sup: Controller,
     flash: Option<Vec<u8>>,
     now_ms: u64,
     replies: Vec<String>,
@@ -205,24 +206,24 @@ impl Console {
                 continue;
             };
             let now = Millis(self.now_ms);
-            let reply = match parse_read(line) {
-                Ok(c) => {
-                    let d = self.sup.step(now, None, Some(c));
-                    match (d.reply, d.store) {
-                        (Some(r), None) => r,
-                        (None, Some(StoreRequest::Save(rec))) => {
-                            self.flash = Some(rec.to_vec());
-                            self.sup.finish_store(Millis(0), StoreOutcome::Saved)
-                        }
-                        (None, Some(StoreRequest::Load)) => {
-                            let f = self.flash.clone();
-                            self.sup
-                                .finish_store(Millis(0), StoreOutcome::Loaded(f.as_deref()))
-                        }
-                        other => panic!("a step gave {other:?}"),
-                    }
+            // The board's path: the Controller orders the period and parses the line.
+            let line = match line {
+                Ok(text) => Line::Text(text),
+                Err(e) => Line::Refused(e),
+            };
+            let p = self.sup.period(now, None, None, Some(line));
+            let reply = match (p.reply, p.store) {
+                (Some(r), None) => r,
+                (None, Some(StoreRequest::Save(rec))) => {
+                    self.flash = Some(rec.to_vec());
+                    self.sup.finish_store(now, StoreOutcome::Saved)
                 }
-                Err(e) => Reply::parse_error(e),
+                (None, Some(StoreRequest::Load)) => {
+                    let f = self.flash.clone();
+                    self.sup
+                        .finish_store(now, StoreOutcome::Loaded(f.as_deref()))
+                }
+                other => panic!("a period gave {other:?}"),
             };
             self.replies.push(reply.as_str().to_string());
         }
@@ -247,7 +248,7 @@ impl Console {
             bound: Kelvin(0.5),
             quality: Quality::Resolved,
         };
-        self.sup.step(Millis(self.now_ms), Some(&m), None);
+        self.sup.period(Millis(self.now_ms), None, Some(&m), None);
     }
 }
 
@@ -273,7 +274,7 @@ fn a_million_random_and_mutated_lines() {
     let mut r = Rng(0x5EED_C0FF_EE12_3457);
     let mut c = Console {
         reader: LineReader::new(),
-        sup: Supervisor::new(Millis(0), Settings::DEFAULT),
+        sup: Controller::new(Supervisor::new(Millis(0), Settings::DEFAULT)),
         flash: None,
         now_ms: 0,
         replies: Vec::new(),
