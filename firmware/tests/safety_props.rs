@@ -205,6 +205,16 @@ struct Watch {
 }
 
 impl Watch {
+    fn new() -> Watch {
+        Watch {
+            on: [(0, 0); SPRINGS],
+            duty: [0.0; SPRINGS],
+            estop: false,
+            button: false,
+            last_valid: None,
+        }
+    }
+
     /// Credit `dt_ms` of `o` (the outputs applied over that interval) with `s` in force.
     fn credit(&mut self, o: &Outputs, dt_ms: u64, s: &Settings) -> Result<(), String> {
         let a = (dt_ms as f32 * 1e-3 / s.spring_window_s).min(1.0);
@@ -297,13 +307,7 @@ fn run(events: &[(Event, u16)]) -> Result<(), TestCaseError> {
         film_k: 298.0,
         smp_k: 298.0,
     };
-    let mut w = Watch {
-        on: [(0, 0); SPRINGS],
-        duty: [0.0; SPRINGS],
-        estop: false,
-        button: false,
-        last_valid: None,
-    };
+    let mut w = Watch::new();
     let mut flash: Option<Vec<u8>> = None;
     let (mut now_ms, mut seq) = (0u64, 0u32);
     let mut applied = Outputs::OFF;
@@ -398,13 +402,7 @@ proptest! {
 #[test]
 fn the_watch_itself_catches_short_gaps() {
     let s = Settings::DEFAULT;
-    let mut w = Watch {
-        on: [(0, 0); SPRINGS],
-        duty: [0.0; SPRINGS],
-        estop: false,
-        button: false,
-        last_valid: None,
-    };
+    let mut w = Watch::new();
     let on = Outputs {
         springs: thermorph::outputs::SpringMask::from_bits(1),
         ..Outputs::OFF
