@@ -87,7 +87,7 @@ impl Supervisor {
 
     /// `defaults`: every parameter back to its default, in RAM.
     pub(super) fn defaults(&mut self) -> Reply {
-        self.apply_settings(Settings::DEFAULT);
+        self.configure(Settings::DEFAULT);
         Reply::ok("defaults in use (`save` keeps them)")
     }
 
@@ -108,18 +108,18 @@ impl Supervisor {
                 r
             }
             StoreOutcome::Loaded(None) => {
-                self.apply_settings(Settings::DEFAULT);
+                self.configure(Settings::DEFAULT);
                 Reply::ok("nothing stored, defaults in use")
             }
             StoreOutcome::Loaded(Some(bytes)) => match Settings::decode(bytes) {
                 Ok(s) => {
-                    self.apply_settings(s);
+                    self.configure(s);
                     let mut r = Reply::ok("");
                     let _ = write!(r, "loaded {} parameters", PARAMS.len());
                     r
                 }
                 Err(e) => {
-                    self.apply_settings(Settings::DEFAULT);
+                    self.configure(Settings::DEFAULT);
                     let mut r = Reply::err("bad-record", "");
                     let _ = write!(r, "{e}; defaults in use");
                     r
@@ -127,12 +127,6 @@ impl Supervisor {
             },
             StoreOutcome::Failed(why) => Reply::err("store-failed", why),
         }
-    }
-
-    /// Put checked settings in use ([`Supervisor::configure`]: everything derived from them is
-    /// rebuilt, bumpless).
-    pub(super) fn apply_settings(&mut self, s: Settings) {
-        self.configure(s);
     }
 }
 
