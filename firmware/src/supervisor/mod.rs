@@ -392,7 +392,7 @@ impl Supervisor {
         if let Some(f) = self
             .safety
             .credit_springs(ran.springs, elapsed_ms, &self.settings)
-            .or_else(|| self.spring_heat_fault(ran.springs))
+            .or_else(|| Safety::spring_heat_fault(ran.springs, &self.spring_heat, &self.settings))
         {
             self.latch(now, f);
         }
@@ -462,7 +462,9 @@ impl Supervisor {
         if let Some(f) = self
             .safety
             .spring_fault(outputs.springs, &self.settings)
-            .or_else(|| self.spring_heat_fault(outputs.springs))
+            .or_else(|| {
+                Safety::spring_heat_fault(outputs.springs, &self.spring_heat, &self.settings)
+            })
         {
             self.latch(now, f);
         }
@@ -497,17 +499,6 @@ impl Supervisor {
             alive: age_s <= self.settings.sensor_timeout_s || self.fault.is_some(),
             warning: self.warning,
         }
-    }
-
-    /// A spring of `springs` whose heat estimate is past `spring_heat_max`.
-    fn spring_heat_fault(&self, springs: SpringMask) -> Option<Fault> {
-        (0..crate::outputs::SPRINGS)
-            .filter(|&i| springs.contains(i))
-            .find(|&i| self.spring_heat.heat(i) > self.settings.spring_heat_max)
-            .map(|i| Fault {
-                kind: FaultKind::SpringHeat(i as u8),
-                value: self.spring_heat.heat(i),
-            })
     }
 
     /// Follow how long the frames have not separated T1 and T2; past `unresolved_s` while the

@@ -15,7 +15,7 @@
 
 use core::fmt;
 
-use crate::control::OnTimer;
+use crate::control::{OnTimer, SpringHeat};
 use crate::measurement::{Measurement, Quality};
 use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
 use crate::settings::Settings;
@@ -278,6 +278,23 @@ impl Safety {
                 None
             }
         })
+    }
+
+    /// Return a fault if one of `springs` has a heat estimate past `spring_heat_max` (the
+    /// supervisor checks the springs that ran over the last interval, and the ones about to be
+    /// switched on).
+    pub fn spring_heat_fault(
+        springs: SpringMask,
+        heat: &SpringHeat,
+        s: &Settings,
+    ) -> Option<Fault> {
+        (0..SPRINGS)
+            .filter(|&i| springs.contains(i))
+            .find(|&i| heat.heat(i) > s.spring_heat_max)
+            .map(|i| Fault {
+                kind: FaultKind::SpringHeat(i as u8),
+                value: heat.heat(i),
+            })
     }
 
     /// Return spring `i`'s counted on-time, s.
