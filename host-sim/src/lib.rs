@@ -6,6 +6,8 @@
 //! - [`sensing`]: sensing tools and tables — the camera's view (standard scenes and the
 //!   randomized family), MTTS on images, work-precision tables, the shared dumps.
 //! - [`plant`]: the simulated block: thermal network, SMA springs, SMP lattice, bending.
+//! - [`rig`]: the simulated board — plant, camera chain, injected faults and the firmware's
+//!   controller, stepped at the board's tick and on every frame and line.
 //! - [`runs`]: runs and scenes — scene files, the run loop with the supervisor in it, the
 //!   thesis's experiments, plots.
 //! - [`console`]: the console — the block behind the board's console, and the researcher's
@@ -13,6 +15,7 @@
 
 pub mod console;
 pub mod plant;
+pub mod rig;
 pub mod runs;
 pub mod sensing;
 pub mod sensor;

@@ -33,6 +33,16 @@ fn first(rows: &[Row], pred: impl Fn(&Row) -> bool) -> Option<f64> {
     rows.iter().find(|r| pred(r)).map(|r| r.obs.time_s)
 }
 
+/// When the board latched `code`, s (the supervisor's event: exact to the board's tick or
+/// frame, not to the scene's period).
+fn latched(r: &host_sim::runs::run::RunResult, code: &str) -> Option<f64> {
+    r.summary
+        .faults
+        .iter()
+        .find(|f| f.code == code)
+        .map(|f| f.at_s)
+}
+
 fn safe(r: &Row) -> bool {
     r.inputs.heater_duty == 0.0 && !r.springs_cmd.iter().any(|s| *s)
 }
@@ -144,13 +154,16 @@ fn heater_open_during_preheat_trips_runaway() {
         "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
          [[fault]]\nat = \"2 s\"\nkind = \"heater-open\"\n",
     );
-    let rows = run(&sc, &mut |_| {}).unwrap().rows;
-    let t = first(&rows, |r| fault(r) == Some("runaway-heating")).expect("runaway trips");
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
+    let t = first(rows, |r| fault(r) == Some("runaway-heating")).expect("runaway trips");
+    let exact = latched(&r, "runaway-heating").unwrap();
     println!(
-        "heater open at 2 s: runaway-heating latched at {t:.2} s ({:.2} s after)",
-        t - 2.0
+        "heater open at 2 s: runaway-heating latched at {exact:.2} s ({:.2} s after); rows safe \
+         from {t:.2} s",
+        exact - 2.0
     );
-    assert!(t - 2.0 <= 21.0, "{t}");
+    assert!(exact - 2.0 <= 21.0 && t - 2.0 <= 21.0, "{exact} {t}");
     assert!(rows.iter().filter(|r| r.obs.time_s >= t).all(safe));
 }
 
@@ -163,17 +176,21 @@ fn sensor_nack_mid_stepping_makes_outputs_safe_within_the_loss_window() {
         "[[command]]\nat = \"0 s\"\nline = \"mode step-large AB\"\n\
          [[fault]]\nat = \"150 s\"\nkind = \"sensor\"\nsensor = \"nack\"\n",
     );
-    let rows = run(&sc, &mut |_| {}).unwrap().rows;
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
     assert!(
-        first(&rows, |r| fault(r).is_some()).unwrap() > 150.0,
+        first(rows, |r| fault(r).is_some()).unwrap() > 150.0,
         "no trip before the NACKs"
     );
     // A row's time is the end of its period; the outputs were decided at its start.
-    let t = first(&rows, |r| fault(r) == Some("sensor-loss")).expect("sensor loss trips") - 0.25;
+    let t = first(rows, |r| fault(r) == Some("sensor-loss")).expect("sensor loss trips") - 0.25;
+    let exact = latched(&r, "sensor-loss").unwrap();
     println!(
-        "sensor NACK from 150 s: sensor-loss latched, outputs safe, at {t:.2} s ({:.2} s after)",
-        t - 150.0
+        "sensor NACK from 150 s: sensor-loss latched, outputs safe, at {exact:.2} s ({:.2} s \
+         after; the row of the period from {t:.2} s shows it)",
+        exact - 150.0
     );
+    assert!(exact - 150.0 <= 1.25, "{exact}");
     assert!(
         t - 150.0 <= 1.25,
         "{t}: one 1 s window plus one frame interval"
@@ -206,13 +223,17 @@ fn frozen_frames_trip_sensor_loss() {
         "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
          [[fault]]\nat = \"30 s\"\nkind = \"sensor\"\nsensor = \"frozen\"\n",
     );
-    let rows = run(&sc, &mut |_| {}).unwrap().rows;
-    let t = first(&rows, |r| fault(r).is_some()).expect("frozen data trips");
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
+    let t = first(rows, |r| fault(r).is_some()).expect("frozen data trips");
+    let f = &r.summary.faults[0];
     println!(
-        "frozen frames from 30 s: {} latched at {t:.2} s ({:.2} s after)",
-        fault(rows.iter().find(|r| r.obs.time_s == t).unwrap()).unwrap(),
-        t - 30.0
+        "frozen frames from 30 s: {} latched at {:.2} s ({:.2} s after)",
+        f.code,
+        f.at_s,
+        f.at_s - 30.0
     );
+    assert!(f.at_s - 30.0 <= 3.0, "{}", f.at_s);
     assert!(t - 30.0 <= 3.0, "{t}");
 }
 
@@ -228,7 +249,8 @@ fn stuck_on_spring_is_seen_hot_by_the_camera_and_trips_over_temperature() {
         "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
          [[fault]]\nat = \"30 s\"\nkind = \"stuck-spring\"\nspring = \"C\"\nstuck = \"on\"\n",
     );
-    let rows = run(&sc, &mut |_| {}).unwrap().rows;
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
     assert!(
         rows.iter().all(|r| !r.springs_cmd[2]),
         "the supervisor never commands C"
@@ -242,7 +264,7 @@ fn stuck_on_spring_is_seen_hot_by_the_camera_and_trips_over_temperature() {
         .iter()
         .find(|r| fault(r).is_some())
         .expect("the hot spring trips");
-    let t = at.obs.time_s - 0.25;
+    let t = latched(&r, "over-temperature").expect("latched");
     println!(
         "spring C stuck on from 30 s: {} latched at {t:.2} s ({:.1} s after), spring C at {:.0} K",
         fault(at).unwrap_or("-"),

@@ -1,8 +1,8 @@
 //! `thermorph-desk` end to end, through the real serial stack on pseudo-terminals.
 //!
-//! Each test opens a pty pair and plays a fake board on the master side: the library's own
-//! `Supervisor` and console parser, closed around host-sim's plant (true region temperatures,
-//! no camera) and run faster than real time. The desk binary is started as a process on the
+//! Each test opens a pty pair and plays a fake board on the master side: host-sim's simulated
+//! board (`rig::SimBoard`: the library's `Controller` around the plant, true region
+//! temperatures, no camera), its control loop run faster than real time. The desk binary is started as a process on the
 //! slave side, exactly as it opens the NUCLEO's ST-LINK port. Other boards spew garbage or never
 //! answer, one is reset, one vanishes. Every process is waited for with a limit: a desk that
 //! hangs fails the test instead of hanging it.
@@ -16,15 +16,12 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use host_sim::console::desk::telemetry::csv_header;
-use host_sim::plant::{Inputs, Plant, PlantConfig};
+use host_sim::rig::store::SimFlash;
+use host_sim::rig::{Said, SimBoard};
 use host_sim::runs::plot::Table;
-use host_sim::runs::run::{camera_temps, inputs_of};
+use thermorph::app::Line;
 use thermorph::console::LineReader;
-use thermorph::measurement::{Measurement, Quality, controlled_temperature};
 use thermorph::settings::Settings;
-use thermorph::supervisor::report::Reply;
-use thermorph::supervisor::{SpringMemory, Supervisor};
-use thermorph::units::{Kelvin, Millis};
 
 mod common;
 
@@ -69,6 +66,16 @@ fn write_all(master: &mut File, bytes: &[u8]) {
     }
 }
 
+/// Write what the board said besides its replies (warnings, telemetry), and forget it.
+fn write_said(master: &mut File, said: &mut Vec<Said>) {
+    for s in said.drain(..) {
+        match s {
+            Said::Warning(w) => write_all(master, format!("# warning: {w}\r\n").as_bytes()),
+            Said::Telemetry(t) => write_all(master, t.as_bytes()),
+        }
+    }
+}
+
 impl FakeBoard {
     fn start(behaviour: Behaviour, speed: f64) -> FakeBoard {
         let pty = nix::pty::openpty(None, None).expect("openpty");
@@ -98,52 +105,46 @@ impl FakeBoard {
         let mut master = File::from(master);
         let (tx, rx) = mpsc::channel();
         let thread = std::thread::spawn(move || {
-            let mut plant = Plant::new(&PlantConfig::default()).expect("plant");
-            let mut sup =
-                Supervisor::with_memory(Millis(0), Settings::DEFAULT, SpringMemory::RESTED);
+            // The simulated board (host-sim's rig, the library's Controller inside), camera
+            // off: true region temperatures four times a second.
+            let scene = host_sim::runs::scenario::parse(
+                "name = \"desk\"\nduration = \"1 s\"\nambient = \"298.15 K\"\nperiod = \"0.25 s\"\n\
+                 [fidelity]\ncamera = false\n[[command]]\nat = \"0 s\"\nline = \"status\"\n",
+                "<desk_e2e>",
+                "desk",
+            )
+            .expect("scene");
+            let mut board = SimBoard::new(&scene, true, Settings::DEFAULT, SimFlash::Memory(None))
+                .expect("board");
             let mut reader: LineReader = LineReader::new();
-            let mut inputs = Inputs::default();
             let started = Instant::now();
-            let period_s = 0.25;
-            let (mut t_s, mut boot_s, mut seq) = (0.0f64, 0.0f64, 0u32);
+            let mut said = Vec::new();
             let mut rng = 0x9E37_79B9_7F4A_7C15u64;
             loop {
                 match rx.try_recv() {
                     Ok(Ctl::Vanish) | Err(mpsc::TryRecvError::Disconnected) => return,
                     Ok(Ctl::Reset) => {
                         // A reset keeps RAM: the springs' memory survives it.
-                        sup = Supervisor::with_memory(
-                            Millis(0),
-                            Settings::DEFAULT,
-                            sup.spring_memory(),
-                        );
-                        boot_s = t_s;
-                        inputs = Inputs::default();
+                        board.reset(Settings::DEFAULT);
                         reader = LineReader::new();
                     }
                     Err(mpsc::TryRecvError::Empty) => {}
                 }
-                let now = |t: f64| Millis(((t - boot_s) * 1000.0).round() as u64);
                 let mut buf = [0u8; 256];
                 if let Ok(n) = master.read(&mut buf) {
                     for &b in &buf[..n] {
                         if behaviour != Behaviour::Board {
                             continue;
                         }
-                        let reply = match reader.push(b) {
+                        let line = match reader.push(b) {
                             None => continue,
-                            Some(line) => match thermorph::command::parse_read(line) {
-                                Ok(c) => {
-                                    let d = sup.step(now(t_s), None, Some(c));
-                                    inputs = inputs_of(&d.outputs);
-                                    d.reply
-                                }
-                                Err(e) => Some(Reply::parse_error(e)),
-                            },
+                            Some(Ok(text)) => Line::Text(text),
+                            Some(Err(e)) => Line::Refused(e),
                         };
-                        if let Some(r) = reply {
+                        if let Some(r) = board.line(line, &mut said) {
                             write_all(&mut master, format!("{}\r\n", r.as_str()).as_bytes());
                         }
+                        write_said(&mut master, &mut said);
                     }
                 }
                 if behaviour == Behaviour::Garbage {
@@ -157,35 +158,15 @@ impl FakeBoard {
                         .collect();
                     write_all(&mut master, &junk);
                 }
-                // The plant and the supervisor's control loop, catching up with the clock.
-                let target_s = started.elapsed().as_secs_f64() * speed;
-                let mut n = 0;
-                while t_s + period_s <= target_s && n < 40 {
-                    n += 1;
-                    plant.step(&inputs, period_s);
-                    t_s += period_s;
-                    seq += 1;
-                    let obs = plant.observe();
-                    let regions = camera_temps(&obs).regions().map(|t| Kelvin(t as f32));
-                    let mut m = Measurement {
-                        at: now(t_s),
-                        seq,
-                        regions,
-                        tc: Kelvin(f32::NAN),
-                        cylinder_max: Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32)),
-                        filled_pixels: 0,
-                        quality: Quality::Resolved,
-                        bound: Kelvin(0.0),
-                    };
-                    m.tc = controlled_temperature(&m, &sup.sensing_hint());
-                    let d = sup.step(now(t_s), Some(&m), None);
-                    inputs = inputs_of(&d.outputs);
-                    if d.telemetry && behaviour == Behaviour::Board {
-                        let mut line = String::new();
-                        sup.write_telemetry(now(t_s), &mut line).unwrap();
-                        write_all(&mut master, line.as_bytes());
-                    }
+                // The board's control loop, catching up with the clock (at most 2 s of
+                // simulated time at once).
+                let target_us = (started.elapsed().as_secs_f64() * speed * 1e6) as u64;
+                let target_us = target_us.min(board.time_us() + 2_000_000);
+                board.advance_to(target_us, &mut said);
+                if behaviour == Behaviour::Board {
+                    write_said(&mut master, &mut said);
                 }
+                said.clear();
                 std::thread::sleep(Duration::from_millis(4));
             }
         });

@@ -2,21 +2,18 @@
 //! the board's console, on standard input/output or on a pseudo-terminal.
 //!
 //! This module owns the interactive console: the real-time loop, the byte path and the
-//! settings file. The byte path is the board's: bytes → [`LineReader`] → [`parse_read`] →
-//! [`Supervisor::step`] (the board orders these steps through `thermorph::app::Controller`;
-//! this console does not drive it yet, and steps once per line where the board steps the
-//! frame first), one reply per complete non-blank line
-//! (`err …` from [`Reply::parse_error`] for a refused one), every line ended by CR LF, and `#`
-//! telemetry lines from [`Supervisor::write_telemetry`] written between whole replies by the
-//! same loop, so neither breaks the other.
+//! settings file's place. The byte path is the board's: bytes → [`LineReader`] → a
+//! [`Line`] → the simulated board ([`SimBoard`], which drives the library's
+//! `thermorph::app::Controller` as the board does), one reply per complete non-blank line
+//! (`err …` for a refused one), every line ended by CR LF, and `# warning` and `#` telemetry
+//! lines written after whole replies by the same loop, so neither breaks the other.
 //!
 //! The block is the scene's plant, camera and injected faults (its timed duties and console
-//! lines are not played: the person at the console drives the block), advanced in ticks of at
-//! most [`TICK_S`] so that telemetry runs at up to 20 Hz; the supervisor gets a measurement once
-//! per scene period, as in `host-sim run` ([`crate::runs::run`]'s `Control`, camera chain,
-//! `measure` and [`inputs_of`](crate::runs::run::inputs_of)). `save` writes the settings record
-//! ([`thermorph::settings::Record`]) to the settings file, `load` reads it, and the console
-//! starts with the file's settings (a bad or old file: the defaults and a `# warning` line).
+//! lines are not played: the person at the console drives the block), advanced tick by tick at
+//! the board's control period, with a control period on every frame too. `save` writes the
+//! settings record ([`thermorph::settings::Record`]) to the settings file, `load` reads it
+//! ([`SimFlash::File`]), and the console starts with the file's settings (a bad or old file:
+//! the defaults and a `# warning` line).
 //!
 //! Time runs at `speed` × real time; Ctrl-C (SIGINT or SIGTERM) or the end of standard input
 //! ends the session cleanly.
@@ -29,22 +26,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use thermorph::command::parse_read;
+use thermorph::app::Line;
 use thermorph::console::{LineReader, MAX_LINE};
-use thermorph::measurement::Measurement;
 use thermorph::settings::Settings;
-use thermorph::supervisor::report::Reply;
-use thermorph::supervisor::store::{StoreOutcome, StoreRequest, settings_at_boot};
-use thermorph::supervisor::{SpringMemory, Supervisor};
+use thermorph::supervisor::Supervisor;
+use thermorph::supervisor::store::settings_at_boot;
 use thermorph::units::Millis;
 
-use crate::plant::Plant;
-use crate::runs::run::{Camera, Control, apply_faults, block_of, inputs_of, measure};
+use crate::rig::store::{SettingsFile, SimFlash};
+use crate::rig::{Said, SimBoard, TICK_MS};
 use crate::runs::scenario::Scenario;
-
-/// Longest tick of the simulated block, s: the supervisor steps at least this often (telemetry
-/// runs at up to 20 Hz).
-pub const TICK_S: f64 = thermorph::app::CONTROL_PERIOD_MS as f64 * 1e-3;
 
 /// Arguments of `host-sim console`.
 #[derive(clap::Args, Debug, Clone)]
@@ -63,162 +54,77 @@ pub struct ConsoleArgs {
     pub settings: Option<PathBuf>,
 }
 
-/// The settings file: the record's bytes, written whole (a temporary file renamed over it).
-pub struct SettingsFile {
-    path: PathBuf,
-}
-
-impl SettingsFile {
-    /// The file at `path`.
-    pub fn new(path: PathBuf) -> Self {
-        SettingsFile { path }
-    }
-
-    /// Read the stored record: `Ok(None)` when there is no file.
-    pub fn read(&self) -> Result<Option<Vec<u8>>, String> {
-        match std::fs::read(&self.path) {
-            Ok(b) => Ok(Some(b)),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(format!("{}: {e}", self.path.display())),
-        }
-    }
-
-    /// Write a record.
-    pub fn write(&self, record: &[u8]) -> Result<(), String> {
-        if let Some(dir) = self.path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        }
-        let tmp = self.path.with_extension("tmp");
-        std::fs::write(&tmp, record)
-            .and_then(|()| std::fs::rename(&tmp, &self.path))
-            .map_err(|e| format!("{}: {e}", self.path.display()))
-    }
-
-    /// Carry out the supervisor's request at `now`; return its reply.
-    pub fn carry_out(&self, req: &StoreRequest, supervisor: &mut Supervisor, now: Millis) -> Reply {
-        match req {
-            StoreRequest::Save(record) => match self.write(record) {
-                Ok(()) => supervisor.finish_store(now, StoreOutcome::Saved),
-                Err(e) => {
-                    eprintln!("host-sim console: save: {e}");
-                    supervisor
-                        .finish_store(now, StoreOutcome::Failed("cannot write the settings file"))
-                }
-            },
-            StoreRequest::Load => match self.read() {
-                Ok(b) => supervisor.finish_store(now, StoreOutcome::Loaded(b.as_deref())),
-                Err(e) => {
-                    eprintln!("host-sim console: load: {e}");
-                    supervisor
-                        .finish_store(now, StoreOutcome::Failed("cannot read the settings file"))
-                }
-            },
-        }
-    }
-}
-
-/// The simulated block with its supervisor: plant, camera and faults of a scene.
+/// The simulated block behind the console: a [`SimBoard`] of the scene (its plant, camera and
+/// injected faults; the scene's timed duties and lines are not played) with its controller.
 pub struct Block {
-    scenario: Scenario,
-    plant: Plant,
-    camera: Option<Camera>,
-    control: Option<Control>,
-    measurement: Option<Measurement>,
-    tick_s: f64,
-    ticks_per_period: u64,
-    ticks: u64,
+    board: SimBoard,
 }
 
 impl Block {
-    /// The block of `scenario` at time 0, its supervisor started with `settings`.
-    pub fn new(scenario: Scenario, settings: Settings) -> Result<Self, String> {
-        let (plant, camera) = block_of(&scenario)?;
-        let mut control = Control::new(Millis(0));
-        control.supervisor = Supervisor::with_memory(Millis(0), settings, SpringMemory::RESTED);
-        let ticks_per_period = (scenario.period_s / TICK_S).ceil().max(1.0) as u64;
+    /// The block of `scenario` at time 0, its controller started with `settings`, `save` and
+    /// `load` on `store`.
+    pub fn new(
+        scenario: Scenario,
+        settings: Settings,
+        store: SettingsFile,
+    ) -> Result<Self, String> {
         Ok(Block {
-            tick_s: scenario.period_s / ticks_per_period as f64,
-            ticks_per_period,
-            scenario,
-            plant,
-            camera,
-            control: Some(control),
-            measurement: None,
-            ticks: 0,
+            board: SimBoard::new(&scenario, true, settings, SimFlash::File(store))?,
         })
     }
 
     /// The supervisor.
-    pub fn supervisor(&mut self) -> &mut Supervisor {
-        &mut self.control.as_mut().expect("always set").supervisor
+    pub fn supervisor(&self) -> &Supervisor {
+        self.board
+            .supervisor()
+            .expect("a console board is closed loop")
     }
 
     /// Simulated time, s.
     pub fn time_s(&self) -> f64 {
-        self.ticks as f64 * self.tick_s
+        self.board.time_s()
     }
 
     /// Simulated time of the next tick's end, s.
     pub fn next_tick_s(&self) -> f64 {
-        (self.ticks + 1) as f64 * self.tick_s
+        let tick_us = TICK_MS * 1000;
+        ((self.board.time_us() / tick_us + 1) * tick_us) as f64 * 1e-6
     }
 
-    /// The supervisor's clock now.
+    /// The board's clock now.
     pub fn now(&self) -> Millis {
-        Millis((self.time_s() * 1000.0).round() as u64)
+        self.board.now()
     }
 
-    /// One tick: the supervisor steps (with the measurement of the last period's end, if one
-    /// came), a due telemetry line goes to `out`, and the plant advances with the decided
-    /// outputs and the scene's active faults; at a period's end the block is measured.
+    /// One tick of the board: the block runs to the next tick, with a control period at each
+    /// frame and at the tick; due warnings and telemetry lines go to `out`.
     pub fn tick(&mut self, out: &mut impl Write) -> std::io::Result<()> {
-        let now = self.now();
-        let m = self.measurement.take();
-        let sup = self.supervisor();
-        let d = sup.step(now, m.as_ref(), None);
-        if let Some(w) = d.warning {
-            write!(out, "# warning: {w}\r\n")?;
+        let tick_us = TICK_MS * 1000;
+        let next = (self.board.time_us() / tick_us + 1) * tick_us;
+        let mut said = Vec::new();
+        self.board.advance_to(next, &mut said);
+        write_said(&said, out)
+    }
+
+    /// A console line now: its reply, then the period's warnings and telemetry, on `out`.
+    pub fn line(&mut self, line: Line<'_>, out: &mut impl Write) -> std::io::Result<()> {
+        let mut said = Vec::new();
+        if let Some(reply) = self.board.line(line, &mut said) {
+            out.write_all(reply.as_str().as_bytes())?;
+            out.write_all(b"\r\n")?;
         }
-        if d.telemetry {
-            write_telemetry(sup, now, out)?;
-        }
-        // A line between ticks is stepped at the tick's time, so this step's outputs already
-        // include its effect.
-        let t0_s = self.time_s();
-        let mut inputs = inputs_of(&d.outputs);
-        let (_, camera_faults) = apply_faults(&self.scenario.faults, t0_s, &mut inputs);
-        self.plant.step(&inputs, self.tick_s);
-        self.ticks += 1;
-        if !self.ticks.is_multiple_of(self.ticks_per_period) {
-            return Ok(());
-        }
-        let t1_s = self.time_s();
-        let obs = self.plant.observe();
-        let period = self.ticks / self.ticks_per_period;
-        let hint = self
-            .control
-            .as_ref()
-            .map_or_else(crate::runs::run::open_loop_hint, |c| {
-                c.supervisor.sensing_hint()
-            });
-        self.measurement = measure(
-            self.camera.as_mut(),
-            &obs,
-            camera_faults,
-            t1_s,
-            period,
-            hint,
-        )
-        .1;
-        Ok(())
+        write_said(&said, out)
     }
 }
 
-fn write_telemetry(sup: &Supervisor, now: Millis, out: &mut impl Write) -> std::io::Result<()> {
-    let mut line = String::new();
-    // Writing into a String cannot fail.
-    let _ = sup.write_telemetry(now, &mut line);
-    out.write_all(line.as_bytes())
+fn write_said(said: &[Said], out: &mut impl Write) -> std::io::Result<()> {
+    for s in said {
+        match s {
+            Said::Warning(w) => write!(out, "# warning: {w}\r\n")?,
+            Said::Telemetry(t) => out.write_all(t.as_bytes())?,
+        }
+    }
+    Ok(())
 }
 
 /// A console session: the board's line reader in front of the block.
@@ -226,49 +132,33 @@ pub struct Session {
     reader: LineReader<MAX_LINE>,
     /// The block.
     pub block: Block,
-    store: SettingsFile,
     /// Complete non-blank lines received.
     pub lines: u64,
 }
 
 impl Session {
-    /// A session on `block`, storing settings in `store`.
-    pub fn new(block: Block, store: SettingsFile) -> Self {
+    /// A session on `block`.
+    pub fn new(block: Block) -> Self {
         Session {
             reader: LineReader::new(),
             block,
-            store,
             lines: 0,
         }
     }
 
     /// Feed received bytes; every complete non-blank line is answered on `out` at once (a
-    /// reply, then a telemetry line if that step made one due).
+    /// reply, then warnings and a telemetry line if that period made them due).
     pub fn feed(&mut self, bytes: &[u8], out: &mut impl Write) -> std::io::Result<()> {
         for &b in bytes {
-            let Some(line) = self.reader.push(b) else {
+            let Some(read) = self.reader.push(b) else {
                 continue;
             };
             self.lines += 1;
-            let now = self.block.now();
-            let sup = self.block.supervisor();
-            let (reply, telemetry) = match parse_read(line) {
-                Ok(c) => {
-                    let d = sup.step(now, None, Some(c));
-                    let reply = match (&d.reply, &d.store) {
-                        (Some(r), _) => r.clone(),
-                        (None, Some(req)) => self.store.carry_out(req, sup, now),
-                        (None, None) => Reply::err("internal", "no reply"),
-                    };
-                    (reply, d.telemetry)
-                }
-                Err(e) => (Reply::parse_error(e), false),
+            let line = match read {
+                Ok(text) => Line::Text(text),
+                Err(e) => Line::Refused(e),
             };
-            out.write_all(reply.as_str().as_bytes())?;
-            out.write_all(b"\r\n")?;
-            if telemetry {
-                write_telemetry(sup, now, out)?;
-            }
+            self.block.line(line, out)?;
         }
         Ok(())
     }
@@ -428,7 +318,7 @@ pub fn cli(args: &ConsoleArgs) -> Result<(), String> {
         "host-sim console: scene {} at {}× real time, settings file {}{}; Ctrl-C ends",
         scenario.name,
         args.speed,
-        store.path.display(),
+        store.path().display(),
         if ignored > 0 {
             format!(" (the scene's {ignored} timed duties and lines are not played)")
         } else {
@@ -442,7 +332,7 @@ pub fn cli(args: &ConsoleArgs) -> Result<(), String> {
     });
     let settings = settings_at_boot(stored.as_deref(), &mut boot);
     out.write_all(boot.as_bytes()).map_err(|e| e.to_string())?;
-    let mut session = Session::new(Block::new(scenario, settings)?, store);
+    let mut session = Session::new(Block::new(scenario, settings, store)?);
 
     let started = Instant::now();
     let mut ended = false;

@@ -2,7 +2,8 @@
 //! or timed duties, and what a run writes.
 //!
 //! - [`scenario`]: scene files (TOML) and the bundled scenes (`host-sim/scenes/`).
-//! - [`run`]: `host-sim run`: the run loop, the camera chain, CSV, JSON and PNG outputs.
+//! - [`run`]: `host-sim run`: the run loop over the simulated board, JSON and PNG outputs.
+//! - [`series`]: a run's time series (one row a period) and its CSV.
 //! - [`paper`]: `host-sim paper`, the thesis's experiments against the real supervisor.
 //! - [`plot`]: the PNG plots (of a run and of a desk recording).
 
@@ -10,3 +11,4 @@ pub mod paper;
 pub mod plot;
 pub mod run;
 pub mod scenario;
+pub mod series;

@@ -12,8 +12,9 @@ use serde::Serialize;
 use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::events::EventKind;
 
-use crate::runs::run::{Row, run_with};
+use crate::runs::run::run_with;
 use crate::runs::scenario;
+use crate::runs::series::Row;
 
 /// One figure: the thesis's value, the simulated one and whether it passes.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -259,7 +260,7 @@ pub fn figures(
         ] {
             let path = dir.join(name);
             let mut buf = Vec::new();
-            crate::runs::run::write_csv(rows, &mut buf).map_err(|e| e.to_string())?;
+            crate::runs::series::write_csv(rows, &mut buf).map_err(|e| e.to_string())?;
             std::fs::write(&path, buf).map_err(|e| format!("{}: {e}", path.display()))?;
         }
     }

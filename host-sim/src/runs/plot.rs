@@ -18,7 +18,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
-use crate::runs::run::Row;
+use crate::runs::series::Row;
 
 /// Width of every plot, pixels.
 pub const WIDTH_PX: u32 = 1400;
@@ -789,7 +789,7 @@ pub fn plot_csv(csv: &Path, out: &Path, title: Option<&str>) -> Result<PlotInfo,
 /// Write the PNG plot of a run's `rows` (through the same CSV columns `timeseries.csv` has).
 pub fn write_png(rows: &[Row], scene: &str, path: &Path) -> Result<(), String> {
     let mut buf = Vec::with_capacity(rows.len() * 300);
-    crate::runs::run::write_csv(rows, &mut buf).map_err(|e| e.to_string())?;
+    crate::runs::series::write_csv(rows, &mut buf).map_err(|e| e.to_string())?;
     let text = String::from_utf8(buf).map_err(|e| e.to_string())?;
     let table = Table::parse(&text)?;
     render(&table, &format!("host-sim run: scene {scene}"), path).map(|_| ())

@@ -1,84 +1,33 @@
-//! `host-sim run`: a scene played against the plant, with its time series, summary and plot.
+//! `host-sim run`: a scene played against the simulated board, with its time series, summary
+//! and plot.
 //!
-//! This module owns the run loop and its outputs. Each control period (the scene's `period`,
-//! ≤ 0.5 s) the runner applies the scene's due actions and active faults to the actuator
-//! inputs, advances the [`Plant`], and measures the region temperatures the controller would
-//! see:
-//! - camera off: the true temperatures straight from the plant (region 1 = heater film,
-//!   2 = SMP outer surface, 3–5 from them and the ambient as in [`camera_temps`]);
-//! - camera on: the plant's surface temperatures are rendered into the camera's view
-//!   ([`crate::sensing::scene::render`]; the column's tilt in the image is half its bending angle —
-//!   the chord of a constant-curvature arc — projected on the image plane), encoded by the
-//!   virtual MLX90640, read over the simulated I2C bus at 8 Hz subpages by the firmware's own
-//!   sensing pipeline ([`thermorph::sensing`]: driver, subpage pairing, error policy, MTTS).
-//!
-//! A sensor fault with the camera off means no measurement at all (`nan` in the CSV). Outputs,
-//! written by [`write_outputs`] into one folder: `timeseries.csv` (one row a period),
-//! `summary.json` ([`Summary`]: run figures and the SPEC section 8 figures that an open-loop
-//! scene shows, beside the thesis's) and `plot.png` ([`crate::runs::plot`]).
+//! This module owns the run loop and its outputs. The scene drives one [`SimBoard`] (the plant,
+//! the camera chain, the injected faults and, closed loop, the firmware's controller stepped at
+//! the board's tick and on every frame): its timed duties and console lines go in at their
+//! times, and one [`Row`] is recorded per scene period (`period`, ≤ 0.5 s). With the camera on,
+//! the controller sees the block through the virtual MLX90640 and the firmware's sensing
+//! pipeline; camera off, the true region temperatures once per period; a sensor fault with the
+//! camera off means no measurement at all (`nan` in the CSV). Outputs, written by
+//! [`write_outputs`] into one folder: `timeseries.csv` (one row a period,
+//! [`crate::runs::series`]), `summary.json` ([`Summary`]: run figures and the SPEC section 8
+//! figures that an open-loop scene shows, beside the thesis's) and `plot.png`
+//! ([`crate::runs::plot`]).
 
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-use embassy_futures::block_on;
 use serde::Serialize;
-use thermorph::mlx90640::{Config as SensorConfig, Mlx90640};
-use thermorph::mtts::{IMG_PIXELS, REGIONS};
-use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
-
-use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
-use thermorph::outputs::Outputs;
+use thermorph::app::Line;
 use thermorph::settings::Settings;
-use thermorph::supervisor::events::EventKind;
+use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
-use thermorph::supervisor::store::{StoreOutcome, StoreRequest};
-use thermorph::supervisor::{Decision, SpringMemory, Supervisor};
-use thermorph::units::{Kelvin, Millis};
 
-use crate::plant::{Inputs, Observation, Plant, PlantConfig};
-use crate::runs::scenario::{
-    BURNING_FILM_K, CameraFault, ELSEWHERE_K, FaultSpec, Injection, Scenario,
-};
-use crate::sensing::scene::{Geometry, Layout, Temps};
-use crate::sensor::eeprom;
-use crate::sensor::sim_time::{SimClock, SimDelay};
-use crate::sensor::virtual_mlx::{HeapBuffers, VirtualBus, VirtualMlx90640};
-
-/// One control period of a run.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Row {
-    /// The inputs the plant was given (after faults).
-    pub inputs: Inputs,
-    /// Spring MOSFETs as commanded (before a stuck-MOSFET fault).
-    pub springs_cmd: [bool; 3],
-    /// The plant at the end of the period.
-    pub obs: Observation,
-    /// Region temperatures 1–5 as measured (camera on) or true (camera off), K; `None`
-    /// while the sensor has no good frame.
-    pub measured_k: Option<[f64; REGIONS]>,
-    /// True region temperatures 1–5, K.
-    pub truth_k: [f64; REGIONS],
-    /// Bit mask of the scene's faults active in this period (bit i = fault i).
-    pub faults: u32,
-    /// The supervisor in this period (closed-loop scenes only).
-    pub control: Option<ControlRow>,
-}
-
-/// What the supervisor did in one period of a closed-loop run.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ControlRow {
-    /// Its mode (as `status` names it).
-    pub mode: &'static str,
-    /// Its phase within the mode (`-` where none).
-    pub phase: &'static str,
-    /// The loop's target, K (NaN when no loop runs).
-    pub target_k: f64,
-    /// Tc as the supervisor computed it, K (NaN before the first measurement).
-    pub tc_k: f64,
-    /// The latched fault's code, if any.
-    pub fault: Option<&'static str>,
-}
+use crate::rig::camera::{Camera, camera_temps};
+use crate::rig::store::SimFlash;
+use crate::rig::{SimBoard, TICK_MS};
+use crate::runs::scenario::Scenario;
+pub use crate::runs::series::{CSV_HEADER, ControlRow, Row, write_csv};
 
 /// A console line of the scene and the supervisor's reply.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -89,346 +38,6 @@ pub struct ReplyRecord {
     pub line: String,
     /// The reply line.
     pub reply: String,
-}
-
-/// A fault the supervisor latched.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct FaultRecord {
-    /// When, s.
-    pub at_s: f64,
-    /// Its code.
-    pub code: String,
-    /// Its reason.
-    pub reason: String,
-}
-
-/// The camera chain: renderer → virtual MLX90640 → the firmware's sensing pipeline (driver,
-/// subpage pairing, MTTS) — the same policy as the board's sensor task.
-pub(crate) struct Camera {
-    clock: SimClock,
-    bus: VirtualBus,
-    pub(crate) sensor: Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>,
-    pub(crate) frames: u64,
-    errors: u64,
-    /// The latest measurement; `None` after an error until the next frame.
-    last: Option<Measurement>,
-    /// Which region each sample of the view shows, for the last geometry (the column's tilt
-    /// changes only while it bends).
-    layout: Option<Layout>,
-    /// The rendered view, K.
-    view_k: Box<[f64; IMG_PIXELS]>,
-}
-
-/// Samples per pixel side of the camera's view.
-const CAMERA_SUBGRID: usize = 4;
-
-impl Camera {
-    pub(crate) fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
-        let clock = SimClock::new();
-        let mut device =
-            VirtualMlx90640::new(eeprom::realistic(seed).encode()?, clock.clone(), seed)
-                .map_err(|e| format!("virtual sensor: {e}"))?;
-        device.noise_k = noise_k;
-        let bus = VirtualBus::new(device);
-        // The sensor has been read and set to the pipeline's rate once before the sensing
-        // task's own setup (≈ 44 ms of bus time): the timing every camera run has had.
-        let mut probe = Mlx90640::new(
-            bus.clone(),
-            SimDelay::new(clock.clone()),
-            thermorph::mlx90640::ADDRESS,
-        );
-        let mut words = [0u16; thermorph::mlx90640::EEPROM_WORDS];
-        block_on(probe.read_eeprom(&mut words)).map_err(|e| e.to_string())?;
-        block_on(probe.configure(SensorConfig::default())).map_err(|e| e.to_string())?;
-        let pipeline = Pipeline::new(PipelineConfig::default()).map_err(|e| e.to_string())?;
-        let sensor = Sensor::new(
-            bus.clone(),
-            SimDelay::new(clock.clone()),
-            clock.clone(),
-            thermorph::mlx90640::ADDRESS,
-            pipeline,
-            HeapBuffers::new(),
-        );
-        Ok(Camera {
-            clock,
-            bus,
-            sensor,
-            frames: 0,
-            errors: 0,
-            last: None,
-            layout: None,
-            view_k: Box::new([0.0; IMG_PIXELS]),
-        })
-    }
-
-    /// Show the sensor the block as it is now (or what a camera fault shows instead), run the
-    /// sensing pipeline until the sensor's clock reaches `t_s`, and return the latest region
-    /// temperatures.
-    pub(crate) fn update(
-        &mut self,
-        obs: &Observation,
-        faults: CameraFaults,
-        t_s: f64,
-        hint: SensingHint,
-    ) -> Option<Measurement> {
-        self.sensor.set_hint(hint);
-        let frames = self.frames;
-        {
-            let mut dev = self.bus.0.borrow_mut();
-            if faults.view == Some(CameraFault::Elsewhere) {
-                dev.field_k = [ELSEWHERE_K as f32; IMG_PIXELS];
-            } else {
-                let mut temps = camera_temps(obs);
-                if faults.view == Some(CameraFault::BurningFilm) {
-                    temps.heater_k = BURNING_FILM_K;
-                }
-                let plane = obs.bend_plane_deg.to_radians();
-                let geometry = Geometry {
-                    tilt_deg: 0.5 * obs.bend_deg * plane.cos(),
-                    springs: true,
-                    ..Geometry::default()
-                };
-                // The view as `scene::render` draws it (no noise: the sensor adds its own).
-                let layout = match &mut self.layout {
-                    Some(l) if *l.geometry() == geometry => l,
-                    slot => slot.insert(Layout::new(&geometry, CAMERA_SUBGRID)),
-                };
-                layout.image(&temps, &mut self.view_k);
-                for (dst, &k) in dev.field_k.iter_mut().zip(self.view_k.iter()) {
-                    *dst = k as f32;
-                }
-            }
-            dev.set_fault(faults.sensor);
-        }
-        let t_end_us = (t_s * 1e6) as u64;
-        // Every action advances the simulated clock (bus time, a pause or a timeout).
-        while self.clock.now_us() < t_end_us {
-            match block_on(self.sensor.step()) {
-                Outcome::Frame(m) => {
-                    self.frames += 1;
-                    self.last = Some(m);
-                }
-                Outcome::Error(_) => {
-                    // The supervisor sees no measurement until a good frame comes.
-                    self.errors += 1;
-                    self.last = None;
-                }
-                _ => {}
-            }
-        }
-        self.last.filter(|_| self.frames > frames)
-    }
-}
-
-/// What the scene's active faults do to the camera chain in one period.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct CameraFaults {
-    /// The sensor's own fault (with the camera off: no measurement at all).
-    pub(crate) sensor: Option<crate::sensor::virtual_mlx::Fault>,
-    /// What the camera sees instead of the block.
-    pub(crate) view: Option<CameraFault>,
-}
-
-/// Apply the faults of `faults` active at `t_s` to `inputs`; return their bit mask (bit i =
-/// fault i) and what they do to the camera chain.
-pub(crate) fn apply_faults(
-    faults: &[FaultSpec],
-    t_s: f64,
-    inputs: &mut Inputs,
-) -> (u32, CameraFaults) {
-    let mut mask = 0u32;
-    let mut camera = CameraFaults::default();
-    for (i, f) in faults.iter().enumerate().filter(|(_, f)| f.active(t_s)) {
-        mask |= 1 << i.min(31);
-        match f.kind {
-            Injection::HeaterOpen => inputs.heater_open = true,
-            Injection::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
-            Injection::Sensor(s) => camera.sensor = Some(s),
-            Injection::Camera(v) => camera.view = Some(v),
-        }
-    }
-    (mask, camera)
-}
-
-/// What an open-loop scene (no supervisor to give the mode's prior) tells the camera: the
-/// heating modes' prior, the heater area the hotter — a clear spatial verdict still wins over
-/// it (MTTS) — and Tc on the SMP surface.
-pub(crate) fn open_loop_hint() -> SensingHint {
-    SensingHint {
-        prior: thermorph::mtts::Prior::HeaterHotter,
-        ..SensingHint::default()
-    }
-}
-
-/// Measure the block at the end of a period, as the supervisor will see it: through the camera
-/// chain, or (camera off) the true temperatures — nothing while a sensor fault is injected.
-/// Returns the region temperatures to record (the latest frame's) and the measurement for the
-/// supervisor if a new frame came in this period.
-pub(crate) fn measure(
-    camera: Option<&mut Camera>,
-    obs: &Observation,
-    faults: CameraFaults,
-    t_s: f64,
-    period: u64,
-    hint: SensingHint,
-) -> (Option<[f64; REGIONS]>, Option<Measurement>) {
-    match camera {
-        Some(c) => {
-            let new = c.update(obs, faults, t_s, hint);
-            let regions = c
-                .last
-                .map(|m| core::array::from_fn(|i| m.regions[i].k() as f64));
-            (regions, new)
-        }
-        None if faults.sensor.is_some() => (None, None),
-        None => {
-            let truth_k = camera_temps(obs).regions();
-            let cyl = Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32));
-            let m = truth_measurement(&truth_k, cyl, t_s, period, &hint);
-            (Some(truth_k), Some(m))
-        }
-    }
-}
-
-/// The firmware's supervisor in the loop: console lines in, plant inputs out.
-pub struct Control {
-    /// The supervisor, exactly as the board runs it.
-    pub supervisor: Supervisor,
-    /// Every fault it latched.
-    pub faults: Vec<FaultRecord>,
-    seen_events: u32,
-    /// The settings record `save` wrote in this run.
-    stored: Option<Vec<u8>>,
-}
-
-impl Control {
-    /// Start the supervisor at `now` with the default settings. The simulated springs start at
-    /// ambient, and the simulated board knows it: its supervisor starts with
-    /// [`SpringMemory::RESTED`], as a board would whose RAM kept the springs' memory across a
-    /// reset long after they were last driven (a real power-up assumes them hot).
-    pub fn new(now: Millis) -> Self {
-        Control {
-            supervisor: Supervisor::with_memory(now, Settings::DEFAULT, SpringMemory::RESTED),
-            faults: Vec::new(),
-            seen_events: 0,
-            stored: None,
-        }
-    }
-
-    /// One control period: the new measurement (if a frame came) and the due console lines
-    /// (each a step of its own, as the board does); returns the plant's inputs.
-    pub fn step(
-        &mut self,
-        now: Millis,
-        m: Option<&Measurement>,
-        lines: &[crate::runs::scenario::CommandLine],
-        replies: &mut Vec<ReplyRecord>,
-    ) -> Inputs {
-        let mut d = self.supervisor.step(now, m, None);
-        for l in lines {
-            let c = thermorph::command::parse(&l.line);
-            d = match c {
-                Ok(c) => self.supervisor.step(now, None, Some(c)),
-                Err(e) => Decision {
-                    reply: Some(Reply::parse_error(e)),
-                    ..d
-                },
-            };
-            // A scene's `save` and `load` use a record kept for the run (the board's flash,
-            // the console's file).
-            if let Some(req) = d.store.take() {
-                let reply = match req {
-                    StoreRequest::Save(record) => {
-                        self.stored = Some(record.to_vec());
-                        self.supervisor.finish_store(now, StoreOutcome::Saved)
-                    }
-                    StoreRequest::Load => {
-                        let stored = self.stored.clone();
-                        self.supervisor
-                            .finish_store(now, StoreOutcome::Loaded(stored.as_deref()))
-                    }
-                };
-                d.reply = Some(reply);
-            }
-            replies.push(ReplyRecord {
-                at_s: l.at_s,
-                line: l.line.clone(),
-                reply: d
-                    .reply
-                    .as_ref()
-                    .map_or(String::new(), |r| r.as_str().to_string()),
-            });
-        }
-        for e in self.supervisor.events().since(self.seen_events) {
-            if let EventKind::Fault(f) = e.kind {
-                self.faults.push(FaultRecord {
-                    at_s: e.at.ms() as f64 * 1e-3,
-                    code: f.code().into(),
-                    reason: f.reason().to_string(),
-                });
-            }
-        }
-        self.seen_events = self.supervisor.events().total();
-        inputs_of(&d.outputs)
-    }
-
-    /// The supervisor's state for the time series.
-    pub fn row(&self) -> ControlRow {
-        let s = &self.supervisor;
-        ControlRow {
-            mode: s.mode().name(),
-            phase: s.mode().phase_name(),
-            target_k: s.target_k() as f64,
-            tc_k: s.tc_k() as f64,
-            fault: s.fault().map(|f| f.code()),
-        }
-    }
-}
-
-/// The plant's inputs for a decision's outputs.
-pub fn inputs_of(o: &Outputs) -> Inputs {
-    Inputs {
-        heater_duty: o.heater.fraction() as f64,
-        fan_duty: o.fan.fraction() as f64,
-        springs_on: core::array::from_fn(|i| o.springs.contains(i)),
-        ..Inputs::default()
-    }
-}
-
-/// A measurement of region temperatures taken at `t_s` (frame number `seq`).
-fn truth_measurement(
-    regions_k: &[f64; REGIONS],
-    cylinder_max: Option<Kelvin>,
-    t_s: f64,
-    seq: u64,
-    hint: &SensingHint,
-) -> Measurement {
-    let mut m = Measurement {
-        at: Millis((t_s * 1000.0).round() as u64),
-        seq: seq as u32,
-        regions: regions_k.map(|t| Kelvin(t as f32)),
-        tc: Kelvin(f32::NAN),
-        cylinder_max,
-        filled_pixels: 0,
-        quality: Quality::Resolved,
-        bound: Kelvin(0.0),
-    };
-    m.tc = controlled_temperature(&m, hint);
-    m
-}
-
-/// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):
-/// the heater film through the lattice gaps, the SMP outer surface, edges and radiation zone
-/// between it and the background (the ambient), and the springs at the hottest one's
-/// temperature (the renderer draws one spring temperature; a spring heating out of turn is
-/// what the camera must not miss).
-pub fn camera_temps(obs: &Observation) -> Temps {
-    Temps::from_surfaces(
-        obs.ambient_k,
-        obs.heater_k,
-        obs.smp_outer_k,
-        obs.springs_k.iter().copied().fold(f64::MIN, f64::max),
-    )
 }
 
 /// Everything a run produced.
@@ -526,7 +135,7 @@ pub struct Summary {
     /// Each console line of the scene with its reply (closed-loop scenes).
     pub replies: Vec<ReplyRecord>,
     /// Every fault the supervisor latched (closed-loop scenes).
-    pub faults: Vec<FaultRecord>,
+    pub faults: Vec<crate::rig::FaultRecord>,
 }
 
 /// Play `scenario`; `progress` is called after each period with the fraction done.
@@ -534,114 +143,141 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResu
     run_with(scenario, progress, &mut |_, _| None)
 }
 
-/// The plant and (if the scene has it on) the camera chain of `scenario`, at time 0.
-pub(crate) fn block_of(scenario: &Scenario) -> Result<(Plant, Option<Camera>), String> {
-    let plant = Plant::new(&PlantConfig {
-        ambient_k: scenario.ambient_k,
-        initial_k: scenario.initial_k,
-        fidelity: scenario.fidelity,
-        integrator: scenario.integrator,
-        max_step_s: scenario.max_step_s,
-    })?;
-    let camera = if scenario.camera.enabled {
-        Some(Camera::new(scenario.camera.seed, scenario.camera.noise_k)?)
-    } else {
-        None
-    };
-    Ok((plant, camera))
-}
-
 /// Decides console lines from the supervisor's state (for experiments that enter modes back to
-/// back): called each period with the time and the supervisor; a returned line is sent then.
+/// back): called at the start of each scene period with the time, s, and the supervisor, as a
+/// person polling `status` would; a returned line is sent at the next period's start.
 pub type Reactor<'a> = dyn FnMut(f64, &Supervisor) -> Option<String> + 'a;
 
 /// [`run`], with `react` able to send console lines as the supervisor's state changes (the
 /// scene must run closed loop: at least one `[[command]]`).
+///
+/// The scene drives one [`SimBoard`]: its timed duties (open loop) and console lines go in at
+/// the first tick at or after their time (lines after that instant's control period, as the
+/// board takes a line that arrives with a tick), and one [`Row`] is recorded per scene period:
+/// the plant at its end, the supervisor's state and the inputs it gave the plant at its start
+/// (after that instant's lines).
 pub fn run_with(
     scenario: &Scenario,
     progress: &mut dyn FnMut(f64),
     react: &mut Reactor<'_>,
 ) -> Result<RunResult, String> {
-    let (mut plant, mut camera) = block_of(scenario)?;
+    let closed_loop = !scenario.commands.is_empty();
+    let mut board = SimBoard::new(
+        scenario,
+        closed_loop,
+        Settings::DEFAULT,
+        SimFlash::Memory(None),
+    )?;
     let steps = (scenario.duration_s / scenario.period_s).round().max(1.0) as usize;
+    let period_us = ((scenario.period_s * 1e6).round() as u64).max(1);
+    let tick_us = TICK_MS * 1000;
     let mut rows = Vec::with_capacity(steps);
-    let mut cmd = Inputs::default();
     let mut next_action = 0;
     let mut next_command = 0;
-    let closed_loop = !scenario.commands.is_empty();
-    let mut control = closed_loop.then(|| Control::new(Millis(0)));
     let mut replies = Vec::new();
-    let mut measurement: Option<Measurement> = None;
+    let mut said = Vec::new();
     let started = Instant::now();
+    let mut row_start = None;
+    // A line `react` decided at a period's start, sent at the next one's: the reaction time of
+    // someone polling `status`, one scene period.
+    let mut reacted: Option<String> = None;
     for k in 0..steps {
-        let t0_s = k as f64 * scenario.period_s;
-        let t1_s = (k + 1) as f64 * scenario.period_s;
-        while let Some(a) = scenario
-            .actions
-            .get(next_action)
-            .filter(|a| a.at_s <= t0_s + 1e-9)
-        {
-            if let Some(d) = a.heater_duty {
-                cmd.heater_duty = d;
-            }
-            if let Some(d) = a.fan_duty {
-                cmd.fan_duty = d;
-            }
-            if let Some(s) = a.springs_on {
-                cmd.springs_on = s;
-            }
-            next_action += 1;
-        }
-        if let Some(c) = control.as_mut() {
-            let now = Millis((t0_s * 1000.0).round() as u64);
-            let mut lines = Vec::new();
-            while let Some(l) = scenario
-                .commands
-                .get(next_command)
-                .filter(|l| l.at_s <= t0_s + 1e-9)
+        let t1_us = (k as u64 + 1) * period_us;
+        loop {
+            let t_s = board.time_s();
+            let mut cmd = board.commanded();
+            let mut acted = false;
+            while let Some(a) = scenario
+                .actions
+                .get(next_action)
+                .filter(|a| a.at_s <= t_s + 1e-9)
             {
-                lines.push(l.clone());
-                next_command += 1;
+                if let Some(d) = a.heater_duty {
+                    cmd.heater_duty = d;
+                }
+                if let Some(d) = a.fan_duty {
+                    cmd.fan_duty = d;
+                }
+                if let Some(s) = a.springs_on {
+                    cmd.springs_on = s;
+                }
+                acted = true;
+                next_action += 1;
             }
-            if let Some(line) = react(t0_s, &c.supervisor) {
-                lines.push(crate::runs::scenario::CommandLine { at_s: t0_s, line });
+            if acted {
+                board.set_inputs(cmd);
             }
-            let d = c.step(now, measurement.take().as_ref(), &lines, &mut replies);
-            cmd = d;
+            if closed_loop {
+                while let Some(l) = scenario
+                    .commands
+                    .get(next_command)
+                    .filter(|l| l.at_s <= t_s + 1e-9)
+                {
+                    let reply = board.line(Line::Text(&l.line), &mut said);
+                    replies.push(record(l.at_s, &l.line, reply));
+                    next_command += 1;
+                }
+                if row_start.is_none() {
+                    if let Some(line) = reacted.take() {
+                        let reply = board.line(Line::Text(&line), &mut said);
+                        replies.push(record(t_s, &line, reply));
+                    }
+                    reacted = board.supervisor().and_then(|s| react(t_s, s));
+                }
+            }
+            said.clear();
+            if row_start.is_none() {
+                row_start = Some((
+                    board.inputs(),
+                    board.commanded().springs_on,
+                    board.supervisor().map(control_row),
+                ));
+            }
+            let now_us = board.time_us();
+            if now_us >= t1_us {
+                break;
+            }
+            let next_tick = (now_us / tick_us + 1) * tick_us;
+            board.advance_to(next_tick.min(t1_us), &mut said);
         }
-        let mut inputs = cmd;
-        let (faults, camera_faults) = apply_faults(&scenario.faults, t0_s, &mut inputs);
-        plant.step(&inputs, t1_s - t0_s);
-        let obs = plant.observe();
-        let truth_k = camera_temps(&obs).regions();
-        let hint = control
-            .as_ref()
-            .map_or_else(open_loop_hint, |c| c.supervisor.sensing_hint());
-        let (measured_k, new) = measure(
-            camera.as_mut(),
-            &obs,
-            camera_faults,
-            t1_s,
-            k as u64 + 1,
-            hint,
-        );
-        measurement = new;
+        let ((inputs, faults, _), springs_cmd, control) =
+            row_start.take().expect("set at the period's start");
+        let obs = board.observe();
         rows.push(Row {
             inputs,
-            springs_cmd: cmd.springs_on,
+            springs_cmd,
             obs,
-            measured_k,
-            truth_k,
+            measured_k: board.measured_k(),
+            truth_k: camera_temps(&obs).regions(),
             faults,
-            control: control.as_ref().map(Control::row),
+            control,
         });
         progress((k + 1) as f64 / steps as f64);
     }
     let wall_s = started.elapsed().as_secs_f64();
-    let mut summary = summarise(scenario, &rows, wall_s, camera.as_ref());
+    let mut summary = summarise(scenario, &rows, wall_s, board.camera());
     summary.replies = replies;
-    summary.faults = control.map(|c| c.faults).unwrap_or_default();
+    summary.faults = board.latched().to_vec();
     Ok(RunResult { rows, summary })
+}
+
+fn record(at_s: f64, line: &str, reply: Option<Reply>) -> ReplyRecord {
+    ReplyRecord {
+        at_s,
+        line: line.to_string(),
+        reply: reply.map_or(String::new(), |r| r.as_str().to_string()),
+    }
+}
+
+/// The supervisor's state for the time series.
+pub fn control_row(s: &Supervisor) -> ControlRow {
+    ControlRow {
+        mode: s.mode().name(),
+        phase: s.mode().phase_name(),
+        target_k: s.target_k() as f64,
+        tc_k: s.tc_k() as f64,
+        fault: s.fault().map(|f| f.code()),
+    }
 }
 
 fn summarise(scenario: &Scenario, rows: &[Row], wall_s: f64, camera: Option<&Camera>) -> Summary {
@@ -935,78 +571,6 @@ pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// The CSV header.
-pub const CSV_HEADER: &str = "time_s,heater_duty_pct,fan_duty_pct,spring_a,spring_b,spring_c,\
-heater_k,smp_inner_k,smp_outer_k,duct_air_k,spring_a_k,spring_b_k,spring_c_k,\
-austenite_a,austenite_b,austenite_c,frozen_fraction,bend_deg,bend_plane_deg,k_b_nmm_per_rad,\
-heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_k,tc_k,fault";
-
-/// Write the time series as CSV (`nan` where there is no measurement).
-pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
-    writeln!(out, "{CSV_HEADER}")?;
-    for r in rows {
-        let o = &r.obs;
-        let s = |b: bool| u8::from(b);
-        write!(
-            out,
-            "{:.3},{:.1},{:.1},{},{},{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{:.4},{:.3},{:.2},{:.1},{:.3},{:.3}",
-            o.time_s,
-            100.0 * r.inputs.heater_duty,
-            100.0 * r.inputs.fan_duty,
-            s(r.inputs.springs_on[0]),
-            s(r.inputs.springs_on[1]),
-            s(r.inputs.springs_on[2]),
-            o.heater_k,
-            o.smp_inner_k,
-            o.smp_outer_k,
-            o.duct_air_k,
-            o.springs_k[0],
-            o.springs_k[1],
-            o.springs_k[2],
-            o.austenite[0],
-            o.austenite[1],
-            o.austenite[2],
-            o.frozen_fraction,
-            o.bend_deg,
-            o.bend_plane_deg,
-            o.k_b_nmm_per_rad,
-            o.heater_power_w,
-            o.spring_power_w.iter().sum::<f64>(),
-        )?;
-        for i in 0..REGIONS {
-            match r.measured_k {
-                Some(m) => write!(out, ",{:.3}", m[i])?,
-                None => write!(out, ",nan")?,
-            }
-        }
-        write!(out, ",{}", r.faults)?;
-        // The supervisor's columns: `-`/`nan` in open-loop scenes; `fault` is `none` unless
-        // a fault is latched.
-        match &r.control {
-            Some(c) => {
-                let k = |v: f64| {
-                    if v.is_finite() {
-                        format!("{v:.3}")
-                    } else {
-                        "nan".into()
-                    }
-                };
-                writeln!(
-                    out,
-                    ",{},{},{},{},{}",
-                    c.mode,
-                    c.phase,
-                    k(c.target_k),
-                    k(c.tc_k),
-                    c.fault.unwrap_or("none")
-                )?
-            }
-            None => writeln!(out, ",-,-,nan,nan,none")?,
-        }
-    }
-    Ok(())
-}
-
 /// Print the summary for a person: the run, then the figures beside the thesis's.
 pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
     writeln!(
@@ -1183,6 +747,7 @@ pub fn cli(args: &RunArgs) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plant::{Inputs, Observation};
 
     /// A synthetic run: heat 0–20 s, springs AB 10–40 s (bend rises 3°/s to 60°), form
     /// 40–70 s (the surface falls 1 K/s from 360 K), recover from 70 s (bend falls 2°/s).

@@ -10,7 +10,7 @@
 //! duration = "240 s"             # required: "90 s", "250 ms", "1.5 min", "1:30", "0:01:30"
 //! ambient = "298.15 K"           # required: "298.15 K" or "25 °C" (or "25 C")
 //! initial = "298.15 K"           # optional (default: the ambient), every node starts here
-//! period = "0.5 s"               # optional (default 0.5 s): control and sample period
+//! period = "0.5 s"               # optional (default 0.5 s): sample period (rows; camera-off frames)
 //!
 //! [fidelity]                     # optional; every key optional (defaults: the full model)
 //! thermal = "full"               # full | lumped
@@ -61,7 +61,7 @@ pub const BUNDLED: [(&str, &str); 3] = [
     ("faults", include_str!("../../scenes/faults.toml")),
 ];
 
-/// Highest control period a scene may ask for, s (the firmware's control period).
+/// Longest sample period a scene may ask for, s (the board steps every 50 ms whatever it is).
 pub const MAX_PERIOD_S: f64 = 0.5;
 /// Longest scene, s (a simulated week).
 pub const MAX_DURATION_S: f64 = 7.0 * 86_400.0;
@@ -170,7 +170,9 @@ pub struct Scenario {
     pub ambient_k: f64,
     /// Initial temperature of every node, K.
     pub initial_k: f64,
-    /// Control and sample period, s.
+    /// Sample period, s: one time-series row each, and with the camera off one true-temperature
+    /// measurement each (the simulated board steps every [`crate::rig::TICK_MS`] and on every
+    /// frame and line, whatever this is).
     pub period_s: f64,
     /// Plant fidelity.
     pub fidelity: Fidelity,
@@ -916,32 +918,29 @@ fn springs(
             "must be a string of spring letters (\"AB\") or \"none\"",
         )
     })?;
-    let mut on = [false; 3];
     if s.trim() == "none" {
-        return Ok(on);
+        return Ok([false; 3]);
     }
-    for c in s.chars().filter(|c| !matches!(c, ' ' | ',' | '+')) {
-        let i = match c.to_ascii_uppercase() {
-            'A' => 0,
-            'B' => 1,
-            'C' => 2,
-            _ => {
-                return Err(cx.err(
-                    span_of(k, v),
-                    key,
-                    format!("`{s}`: `{c}` is not a spring (A, B, C, or \"none\")"),
-                ));
-            }
+    // The console's grammar (`SpringMask::parse`: each of A, B, C at most once, any case),
+    // with the separators a scene file may write between letters.
+    let letters: String = s
+        .chars()
+        .filter(|c| !matches!(c, ' ' | ',' | '+'))
+        .collect();
+    let mask = thermorph::outputs::SpringMask::parse(&letters).ok_or_else(|| {
+        let unknown = letters.chars().find(|c| {
+            !thermorph::outputs::SPRING_NAMES
+                .iter()
+                .any(|n| n.eq_ignore_ascii_case(c))
+        });
+        let why = match unknown {
+            Some(c) => format!("`{s}`: `{c}` is not a spring (A, B, C, or \"none\")"),
+            None if letters.is_empty() => "empty (write \"none\" for all off)".to_string(),
+            None => format!("`{s}` names a spring twice"),
         };
-        if on[i] {
-            return Err(cx.err(span_of(k, v), key, format!("`{s}` names spring {c} twice")));
-        }
-        on[i] = true;
-    }
-    if s.trim().is_empty() {
-        return Err(cx.err(span_of(k, v), key, "empty (write \"none\" for all off)"));
-    }
-    Ok(on)
+        cx.err(span_of(k, v), key, why)
+    })?;
+    Ok(core::array::from_fn(|i| mask.contains(i)))
 }
 
 #[cfg(test)]

@@ -242,6 +242,12 @@ impl VirtualMlx90640 {
         &self.cal
     }
 
+    /// When the next subpage will be measured (from the field as it is then), µs: updated as
+    /// the bus is used, so it may lie in the past.
+    pub fn next_measurement_us(&self) -> u64 {
+        self.next_measurement_us
+    }
+
     /// Show `fault` from now on (`None` heals the device).
     pub fn set_fault(&mut self, fault: Option<Fault>) {
         self.fault = fault;

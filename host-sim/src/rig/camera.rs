@@ -1,0 +1,215 @@
+//! The simulated board's camera chain: the plant's surfaces rendered into the camera's view,
+//! encoded by the virtual MLX90640, read over the simulated I2C bus by the firmware's own
+//! sensing pipeline (driver, subpage pairing, error policy, MTTS) — the board's sensor task with
+//! models in place of the peripherals. With the camera off, [`truth_measurement`] hands the
+//! controller the true region temperatures instead.
+//!
+//! The column's tilt in the image is half its bending angle (the chord of a constant-curvature
+//! arc) projected on the image plane.
+
+use embassy_futures::block_on;
+use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
+use thermorph::mlx90640::{Config as SensorConfig, Mlx90640};
+use thermorph::mtts::{IMG_PIXELS, REGIONS};
+use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
+use thermorph::units::{Kelvin, Millis};
+
+use crate::plant::Observation;
+use crate::runs::scenario::{BURNING_FILM_K, CameraFault, ELSEWHERE_K};
+use crate::sensing::scene::{Geometry, Layout, Temps};
+use crate::sensor::eeprom;
+use crate::sensor::sim_time::{SimClock, SimDelay};
+use crate::sensor::virtual_mlx::{Fault as SensorFault, HeapBuffers, VirtualBus, VirtualMlx90640};
+
+/// Samples per pixel side of the camera's view.
+const CAMERA_SUBGRID: usize = 4;
+
+/// What the active injected faults do to the camera chain.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraFaults {
+    /// The sensor's own fault (with the camera off: no measurement at all).
+    pub sensor: Option<SensorFault>,
+    /// What the camera sees instead of the block.
+    pub view: Option<CameraFault>,
+}
+
+/// The camera chain: renderer → virtual MLX90640 → the firmware's sensing pipeline.
+pub struct Camera {
+    clock: SimClock,
+    bus: VirtualBus,
+    sensor: Sensor<VirtualBus, SimDelay, SimClock, HeapBuffers>,
+    /// Whole frames published.
+    pub frames: u64,
+    /// Sensor or pipeline errors.
+    pub errors: u64,
+    /// The latest measurement; `None` after an error until the next frame.
+    last: Option<Measurement>,
+    /// Which region each sample of the view shows, for the last geometry (the column's tilt
+    /// changes only while it bends).
+    layout: Option<Layout>,
+    /// The rendered view, K.
+    view_k: Box<[f64; IMG_PIXELS]>,
+}
+
+impl Camera {
+    /// A camera whose sensor's calibration and noise come from `seed`, with `noise_k` rms.
+    pub fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
+        let clock = SimClock::new();
+        let mut device =
+            VirtualMlx90640::new(eeprom::realistic(seed).encode()?, clock.clone(), seed)
+                .map_err(|e| format!("virtual sensor: {e}"))?;
+        device.noise_k = noise_k;
+        let bus = VirtualBus::new(device);
+        // The sensor has been read and set to the pipeline's rate once before the sensing
+        // task's own setup (≈ 44 ms of bus time): the timing every camera run has had.
+        let mut probe = Mlx90640::new(
+            bus.clone(),
+            SimDelay::new(clock.clone()),
+            thermorph::mlx90640::ADDRESS,
+        );
+        let mut words = [0u16; thermorph::mlx90640::EEPROM_WORDS];
+        block_on(probe.read_eeprom(&mut words)).map_err(|e| e.to_string())?;
+        block_on(probe.configure(SensorConfig::default())).map_err(|e| e.to_string())?;
+        let pipeline = Pipeline::new(PipelineConfig::default()).map_err(|e| e.to_string())?;
+        let sensor = Sensor::new(
+            bus.clone(),
+            SimDelay::new(clock.clone()),
+            clock.clone(),
+            thermorph::mlx90640::ADDRESS,
+            pipeline,
+            HeapBuffers::new(),
+        );
+        Ok(Camera {
+            clock,
+            bus,
+            sensor,
+            frames: 0,
+            errors: 0,
+            last: None,
+            layout: None,
+            view_k: Box::new([0.0; IMG_PIXELS]),
+        })
+    }
+
+    /// The sensor's clock, µs (it runs ahead of the board's by at most one bus action).
+    pub fn clock_us(&self) -> u64 {
+        self.clock.now_us()
+    }
+
+    /// The latest frame's region temperatures, K (`None` after an error until the next frame).
+    pub fn last_regions_k(&self) -> Option<[f64; REGIONS]> {
+        self.last
+            .map(|m| core::array::from_fn(|i| m.regions[i].k() as f64))
+    }
+
+    /// Whether the sensor may measure a subpage before `until_us` (or within one bus action
+    /// after it): only then must it be shown the block anew.
+    pub fn measures_before(&self, until_us: u64) -> bool {
+        const MARGIN_US: u64 = 50_000;
+        self.bus.0.borrow().next_measurement_us() < until_us + MARGIN_US
+    }
+
+    /// Give the sensor its injected fault (or none).
+    pub fn set_fault(&mut self, faults: CameraFaults) {
+        self.bus.0.borrow_mut().set_fault(faults.sensor);
+    }
+
+    /// Show the sensor the block as `obs` has it (or what a camera fault shows instead).
+    pub fn show(&mut self, obs: &Observation, faults: CameraFaults) {
+        let mut dev = self.bus.0.borrow_mut();
+        if faults.view == Some(CameraFault::Elsewhere) {
+            dev.field_k = [ELSEWHERE_K as f32; IMG_PIXELS];
+        } else {
+            let mut temps = camera_temps(obs);
+            if faults.view == Some(CameraFault::BurningFilm) {
+                temps.heater_k = BURNING_FILM_K;
+            }
+            let plane = obs.bend_plane_deg.to_radians();
+            let geometry = Geometry {
+                tilt_deg: 0.5 * obs.bend_deg * plane.cos(),
+                springs: true,
+                ..Geometry::default()
+            };
+            // The view as `scene::render` draws it (no noise: the sensor adds its own).
+            let layout = match &mut self.layout {
+                Some(l) if *l.geometry() == geometry => l,
+                slot => slot.insert(Layout::new(&geometry, CAMERA_SUBGRID)),
+            };
+            layout.image(&temps, &mut self.view_k);
+            for (dst, &k) in dev.field_k.iter_mut().zip(self.view_k.iter()) {
+                *dst = k as f32;
+            }
+        }
+        dev.set_fault(faults.sensor);
+    }
+
+    /// Run the sensing pipeline, with `hint`, until the sensor's clock reaches `until_us` or a
+    /// whole frame is published; return that frame with the clock's time then, µs.
+    pub fn run_until(&mut self, until_us: u64, hint: SensingHint) -> Option<(u64, Measurement)> {
+        self.sensor.set_hint(hint);
+        // Every action advances the simulated clock (bus time, a pause or a timeout).
+        while self.clock.now_us() < until_us {
+            match block_on(self.sensor.step()) {
+                Outcome::Frame(m) => {
+                    self.frames += 1;
+                    self.last = Some(m);
+                    return Some((self.clock.now_us(), m));
+                }
+                Outcome::Error(_) => {
+                    // The supervisor sees no measurement until a good frame comes.
+                    self.errors += 1;
+                    self.last = None;
+                }
+                _ => {}
+            }
+        }
+        None
+    }
+}
+
+/// What an open-loop scene (no supervisor to give the mode's prior) tells the camera: the
+/// heating modes' prior, the heater area the hotter — a clear spatial verdict still wins over
+/// it (MTTS) — and Tc on the SMP surface.
+pub fn open_loop_hint() -> SensingHint {
+    SensingHint {
+        prior: thermorph::mtts::Prior::HeaterHotter,
+        ..SensingHint::default()
+    }
+}
+
+/// The camera-off measurement: the true region temperatures of `obs` at `at` (frame number
+/// `seq`), resolved, Tc as the pipeline computes it for `hint`.
+pub fn truth_measurement(
+    obs: &Observation,
+    at: Millis,
+    seq: u32,
+    hint: &SensingHint,
+) -> Measurement {
+    let regions_k = camera_temps(obs).regions();
+    let mut m = Measurement {
+        at,
+        seq,
+        regions: regions_k.map(|t| Kelvin(t as f32)),
+        tc: Kelvin(f32::NAN),
+        cylinder_max: Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32)),
+        filled_pixels: 0,
+        quality: Quality::Resolved,
+        bound: Kelvin(0.0),
+    };
+    m.tc = controlled_temperature(&m, hint);
+    m
+}
+
+/// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):
+/// the heater film through the lattice gaps, the SMP outer surface, edges and radiation zone
+/// between it and the background (the ambient), and the springs at the hottest one's
+/// temperature (the renderer draws one spring temperature; a spring heating out of turn is
+/// what the camera must not miss).
+pub fn camera_temps(obs: &Observation) -> Temps {
+    Temps::from_surfaces(
+        obs.ambient_k,
+        obs.heater_k,
+        obs.smp_outer_k,
+        obs.springs_k.iter().copied().fold(f64::MIN, f64::max),
+    )
+}

@@ -1,0 +1,388 @@
+//! The simulated board: the plant, the camera chain, injected faults and the library's
+//! [`Controller`], stepped as the board steps it.
+//!
+//! This module owns the order of simulated time. The board's control loop steps the
+//! controller every [`TICK_MS`] (the library's [`CONTROL_PERIOD_MS`]), on every frame the
+//! sensing task publishes and on every console line; so does [`SimBoard`]:
+//! [`SimBoard::advance_to`] runs the plant between those instants with the outputs of the last
+//! decision (and the active injected faults), runs the camera chain at the sensor's own 8 Hz
+//! subpage rate and steps the controller at each tick and at each frame's time;
+//! [`SimBoard::line`] is a console line at the board's present time. A fault is therefore made
+//! safe at the same simulated time as on the board. Every simulator command — `host-sim run`,
+//! `paper`, `host-sim console` and the desk's end-to-end board — drives one `SimBoard`, and
+//! `save`/`load` are carried out here ([`store::SimFlash`]) and nowhere else.
+//!
+//! With the camera off the controller gets the true region temperatures once per scene period
+//! ([`camera::truth_measurement`]); an open-loop scene has no controller, and its timed duties
+//! are set with [`SimBoard::set_inputs`].
+
+pub mod camera;
+pub mod store;
+
+use thermorph::app::{CONTROL_PERIOD_MS, Controller, Line};
+use thermorph::measurement::{Measurement, SensingHint};
+use thermorph::mtts::REGIONS;
+use thermorph::outputs::Outputs;
+use thermorph::settings::Settings;
+use thermorph::supervisor::events::EventKind;
+use thermorph::supervisor::report::Reply;
+use thermorph::supervisor::{SpringMemory, Supervisor};
+use thermorph::units::Millis;
+
+use crate::plant::{Inputs, Observation, Plant, PlantConfig};
+use crate::runs::scenario::{FaultSpec, Injection, Scenario};
+use camera::{Camera, CameraFaults, open_loop_hint, truth_measurement};
+use store::SimFlash;
+
+/// The board's control tick, ms.
+pub const TICK_MS: u64 = CONTROL_PERIOD_MS;
+const TICK_US: u64 = TICK_MS * 1000;
+
+/// What the board wrote on its console besides a reply.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Said {
+    /// A `# warning: …` line's text.
+    Warning(&'static str),
+    /// A telemetry line (with its `#` and CR LF).
+    Telemetry(String),
+}
+
+/// A fault the controller latched.
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct FaultRecord {
+    /// When, s of simulated time.
+    pub at_s: f64,
+    /// Its code.
+    pub code: String,
+    /// Its reason.
+    pub reason: String,
+}
+
+/// The plant's inputs for a decision's outputs.
+pub fn inputs_of(o: &Outputs) -> Inputs {
+    Inputs {
+        heater_duty: o.heater.fraction() as f64,
+        fan_duty: o.fan.fraction() as f64,
+        springs_on: core::array::from_fn(|i| o.springs.contains(i)),
+        ..Inputs::default()
+    }
+}
+
+/// Apply the faults of `faults` active at `t_s` to `inputs`; return their bit mask (bit i =
+/// fault i) and what they do to the camera chain.
+pub fn apply_faults(faults: &[FaultSpec], t_s: f64, inputs: &mut Inputs) -> (u32, CameraFaults) {
+    let mut mask = 0u32;
+    let mut camera = CameraFaults::default();
+    for (i, f) in faults.iter().enumerate().filter(|(_, f)| f.active(t_s)) {
+        mask |= 1 << i.min(31);
+        match f.kind {
+            Injection::HeaterOpen => inputs.heater_open = true,
+            Injection::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
+            Injection::Sensor(s) => camera.sensor = Some(s),
+            Injection::Camera(v) => camera.view = Some(v),
+        }
+    }
+    (mask, camera)
+}
+
+/// The simulated board and the block it drives.
+pub struct SimBoard {
+    plant: Plant,
+    camera: Option<Camera>,
+    faults: Vec<FaultSpec>,
+    control: Option<Controller>,
+    flash: SimFlash,
+    /// Simulated time, µs.
+    time_us: u64,
+    /// The plant has been run to this time, µs, and runs on with `held` from there.
+    plant_us: u64,
+    /// The plant's inputs since `plant_us` (the commanded actuators with the active faults).
+    held: Inputs,
+    /// When the board last booted, µs (its clock counts from there).
+    boot_us: u64,
+    /// A frame the camera chain published ahead of the board's time, with its time, µs.
+    pending: Option<(u64, Measurement)>,
+    /// The view shown to the sensor is the plant's present state, with these faults.
+    shown: bool,
+    shown_faults: CameraFaults,
+    /// Camera off: the period of the true measurements, µs, and the next one's time.
+    truth_period_us: u64,
+    next_truth_us: u64,
+    truth_frames: u32,
+    /// The actuators as the last decision (or the open-loop scene) set them, before faults.
+    commanded: Inputs,
+    latched: Vec<FaultRecord>,
+    seen_events: u32,
+}
+
+impl SimBoard {
+    /// The block of `scenario` at time 0 with its camera (if on) and injected faults. A scene
+    /// with console lines gets a board whose controller starts with `settings` and keeps its
+    /// record in `flash`; an open-loop scene gets none ([`SimBoard::set_inputs`] drives it).
+    /// The simulated springs start at ambient, and the board knows it: its supervisor starts
+    /// with [`SpringMemory::RESTED`], as a board would whose RAM kept the springs' memory
+    /// across a reset long after they were last driven (a real power-up assumes them hot).
+    pub fn new(
+        scenario: &Scenario,
+        closed_loop: bool,
+        settings: Settings,
+        flash: SimFlash,
+    ) -> Result<Self, String> {
+        let plant = Plant::new(&PlantConfig {
+            ambient_k: scenario.ambient_k,
+            initial_k: scenario.initial_k,
+            fidelity: scenario.fidelity,
+            integrator: scenario.integrator,
+            max_step_s: scenario.max_step_s,
+        })?;
+        let camera = if scenario.camera.enabled {
+            Some(Camera::new(scenario.camera.seed, scenario.camera.noise_k)?)
+        } else {
+            None
+        };
+        let truth_period_us = ((scenario.period_s * 1e6).round() as u64).max(1);
+        Ok(SimBoard {
+            plant,
+            camera,
+            faults: scenario.faults.clone(),
+            control: closed_loop.then(|| {
+                Controller::new(Supervisor::with_memory(
+                    Millis(0),
+                    settings,
+                    SpringMemory::RESTED,
+                ))
+            }),
+            flash,
+            time_us: 0,
+            plant_us: 0,
+            held: Inputs::default(),
+            boot_us: 0,
+            pending: None,
+            shown: false,
+            shown_faults: CameraFaults::default(),
+            truth_period_us,
+            next_truth_us: truth_period_us,
+            truth_frames: 0,
+            commanded: Inputs::default(),
+            latched: Vec::new(),
+            seen_events: 0,
+        })
+    }
+
+    /// Simulated time, s.
+    pub fn time_s(&self) -> f64 {
+        self.time_us as f64 * 1e-6
+    }
+
+    /// Simulated time, µs.
+    pub fn time_us(&self) -> u64 {
+        self.time_us
+    }
+
+    /// The board's clock now (from its last boot).
+    pub fn now(&self) -> Millis {
+        Millis((self.time_us - self.boot_us) / 1000)
+    }
+
+    /// The supervisor (closed loop only).
+    pub fn supervisor(&self) -> Option<&Supervisor> {
+        self.control.as_ref().map(Controller::supervisor)
+    }
+
+    /// The plant as it is now, at the board's time (the plant's own clock sums its steps and
+    /// may differ from it by round-off).
+    pub fn observe(&mut self) -> Observation {
+        self.sync();
+        Observation {
+            time_s: self.time_s(),
+            ..self.plant.observe()
+        }
+    }
+
+    /// The camera chain (camera on only).
+    pub fn camera(&self) -> Option<&Camera> {
+        self.camera.as_ref()
+    }
+
+    /// Every fault the controller latched so far.
+    pub fn latched(&self) -> &[FaultRecord] {
+        &self.latched
+    }
+
+    /// Set the actuators of an open-loop scene (a closed-loop board's next decision overrides
+    /// them).
+    pub fn set_inputs(&mut self, inputs: Inputs) {
+        self.commanded = inputs;
+        self.hold_inputs();
+    }
+
+    /// The actuators as commanded (before injected faults).
+    pub fn commanded(&self) -> Inputs {
+        self.commanded
+    }
+
+    /// The plant's inputs from now: the commanded actuators with the faults active now, and
+    /// those faults' bit mask.
+    pub fn inputs(&self) -> (Inputs, u32, CameraFaults) {
+        let mut inputs = self.commanded;
+        let (mask, camera) = apply_faults(&self.faults, self.time_s(), &mut inputs);
+        (inputs, mask, camera)
+    }
+
+    /// The region temperatures the controller was last given, K: the latest frame's (camera
+    /// on), the truth (camera off), `None` while the sensor has no good frame.
+    pub fn measured_k(&mut self) -> Option<[f64; REGIONS]> {
+        match &self.camera {
+            Some(c) => c.last_regions_k(),
+            None if self.inputs().2.sensor.is_some() => None,
+            None => Some(camera::camera_temps(&self.observe()).regions()),
+        }
+    }
+
+    /// A board reset (its RAM kept): a new controller with the springs' memory, the settings
+    /// `settings`, the clock from 0; the block keeps its heat.
+    pub fn reset(&mut self, settings: Settings) {
+        if let Some(c) = &mut self.control {
+            let memory = c.supervisor().spring_memory();
+            *c = Controller::new(Supervisor::with_memory(Millis(0), settings, memory));
+            self.boot_us = self.time_us - self.time_us % 1000;
+            self.commanded = Inputs::default();
+            self.hold_inputs();
+        }
+    }
+
+    fn hint(&self) -> SensingHint {
+        self.supervisor()
+            .map_or_else(open_loop_hint, Supervisor::sensing_hint)
+    }
+
+    /// A console line at the board's present time: one control period with it, as the board
+    /// runs one when a line arrives; returns the reply (a `save` or `load` carried out first),
+    /// and puts the period's warnings and telemetry in `said`. `None` for an open-loop board.
+    pub fn line(&mut self, line: Line<'_>, said: &mut Vec<Said>) -> Option<Reply> {
+        let reply = self.period(None, Some(line), said);
+        self.hold_inputs();
+        reply
+    }
+
+    /// One control period at the board's present time.
+    fn period(
+        &mut self,
+        frame: Option<&Measurement>,
+        line: Option<Line<'_>>,
+        said: &mut Vec<Said>,
+    ) -> Option<Reply> {
+        let now = self.now();
+        let c = self.control.as_mut()?;
+        let mut p = c.period(now, None, frame, line);
+        if let Some(req) = p.store.take() {
+            // The heater and the springs are off through the flash operation (instant here).
+            p.reply = Some(self.flash.carry_out(&req, c, now));
+        }
+        for w in p.warnings.into_iter().flatten() {
+            said.push(Said::Warning(w));
+        }
+        if p.telemetry {
+            let mut t = String::new();
+            // Writing into a String cannot fail.
+            let _ = c.write_telemetry(now, &mut t);
+            said.push(Said::Telemetry(t));
+        }
+        self.commanded = inputs_of(&p.outputs);
+        let events = c.supervisor().events();
+        for e in events.since(self.seen_events) {
+            if let EventKind::Fault(f) = e.kind {
+                self.latched.push(FaultRecord {
+                    at_s: (self.boot_us + e.at.ms() * 1000) as f64 * 1e-6,
+                    code: f.code().into(),
+                    reason: f.reason().to_string(),
+                });
+            }
+        }
+        self.seen_events = events.total();
+        Some(
+            p.reply
+                .unwrap_or_else(|| Reply::err("internal", "no reply")),
+        )
+    }
+
+    /// Run the plant to the board's time with the inputs held since it last ran.
+    fn sync(&mut self) {
+        if self.time_us > self.plant_us {
+            self.plant
+                .step(&self.held, (self.time_us - self.plant_us) as f64 * 1e-6);
+            self.plant_us = self.time_us;
+            self.shown = false;
+        }
+    }
+
+    /// The plant's inputs from now on are the commanded actuators with the faults active now:
+    /// where they change, the plant runs to now with the old ones first.
+    fn hold_inputs(&mut self) {
+        let (inputs, _, _) = self.inputs();
+        if inputs != self.held {
+            self.sync();
+            self.held = inputs;
+        }
+    }
+
+    /// Advance simulated time to `t_us`: the plant between the board's instants, the camera
+    /// chain at its own rate, and a control period at each tick (every [`TICK_MS`] of the
+    /// board's clock) and at each frame's time. Warnings and telemetry go to `said`.
+    ///
+    /// The plant runs to every tick and to every instant its inputs change (a decision, a
+    /// scene's duty, an injected fault coming or going, seen at the board's instants); a frame
+    /// that changes nothing does not split its step, so an open-loop block runs the same with
+    /// the camera on or off. The sensor is shown the plant as of its last step.
+    pub fn advance_to(&mut self, t_us: u64, said: &mut Vec<Said>) {
+        self.hold_inputs();
+        while self.time_us < t_us {
+            let since_boot = self.time_us - self.boot_us;
+            let next_tick = self.boot_us + (since_boot / TICK_US + 1) * TICK_US;
+            let mut target = next_tick.min(t_us);
+            let faults = self.inputs().2;
+            if let Some(cam) = &mut self.camera {
+                if self.pending.is_none() && cam.clock_us() < target {
+                    cam.set_fault(faults);
+                    if (!self.shown || faults != self.shown_faults) && cam.measures_before(target) {
+                        cam.show(&self.plant.observe(), faults);
+                        self.shown = true;
+                        self.shown_faults = faults;
+                    }
+                    let hint = match &self.control {
+                        Some(c) => c.supervisor().sensing_hint(),
+                        None => open_loop_hint(),
+                    };
+                    self.pending = cam.run_until(target, hint);
+                }
+            } else {
+                target = target.min(self.next_truth_us);
+            }
+            if let Some((at_us, _)) = self.pending {
+                target = target.min(at_us.max(self.time_us));
+            }
+            self.time_us = self.time_us.max(target);
+            if self.time_us == next_tick {
+                self.sync();
+            }
+            let mut frame = None;
+            if self.pending.is_some_and(|(at_us, _)| at_us <= self.time_us) {
+                frame = self.pending.take().map(|(_, m)| m);
+            }
+            if self.camera.is_none() && self.time_us >= self.next_truth_us {
+                self.next_truth_us += self.truth_period_us;
+                if faults.sensor.is_none() {
+                    self.truth_frames += 1;
+                    let hint = self.hint();
+                    let (now, seq) = (self.now(), self.truth_frames);
+                    let m = truth_measurement(&self.observe(), now, seq, &hint);
+                    frame = Some(m);
+                }
+            }
+            if frame.is_some() || self.time_us == next_tick {
+                self.period(frame.as_ref(), None, said);
+            }
+            self.hold_inputs();
+        }
+    }
+}

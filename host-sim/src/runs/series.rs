@@ -1,0 +1,116 @@
+//! A run's time series: one [`Row`] per scene period (the plant, what the controller was
+//! given and what it did) and its CSV form. Runs write it, `paper` measures it and the plots
+//! draw it; it depends on none of them.
+
+use std::io::Write;
+
+use thermorph::mtts::REGIONS;
+
+use crate::plant::{Inputs, Observation};
+
+/// One control period of a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Row {
+    /// The inputs the plant was given (after faults).
+    pub inputs: Inputs,
+    /// Spring MOSFETs as commanded (before a stuck-MOSFET fault).
+    pub springs_cmd: [bool; 3],
+    /// The plant at the end of the period.
+    pub obs: Observation,
+    /// Region temperatures 1–5 as measured (camera on) or true (camera off), K; `None`
+    /// while the sensor has no good frame.
+    pub measured_k: Option<[f64; REGIONS]>,
+    /// True region temperatures 1–5, K.
+    pub truth_k: [f64; REGIONS],
+    /// Bit mask of the scene's faults active in this period (bit i = fault i).
+    pub faults: u32,
+    /// The supervisor in this period (closed-loop scenes only).
+    pub control: Option<ControlRow>,
+}
+
+/// What the supervisor did in one period of a closed-loop run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlRow {
+    /// Its mode (as `status` names it).
+    pub mode: &'static str,
+    /// Its phase within the mode (`-` where none).
+    pub phase: &'static str,
+    /// The loop's target, K (NaN when no loop runs).
+    pub target_k: f64,
+    /// Tc as the supervisor computed it, K (NaN before the first measurement).
+    pub tc_k: f64,
+    /// The latched fault's code, if any.
+    pub fault: Option<&'static str>,
+}
+
+/// The CSV header.
+pub const CSV_HEADER: &str = "time_s,heater_duty_pct,fan_duty_pct,spring_a,spring_b,spring_c,\
+heater_k,smp_inner_k,smp_outer_k,duct_air_k,spring_a_k,spring_b_k,spring_c_k,\
+austenite_a,austenite_b,austenite_c,frozen_fraction,bend_deg,bend_plane_deg,k_b_nmm_per_rad,\
+heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_k,tc_k,fault";
+
+/// Write the time series as CSV (`nan` where there is no measurement).
+pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
+    writeln!(out, "{CSV_HEADER}")?;
+    for r in rows {
+        let o = &r.obs;
+        let s = |b: bool| u8::from(b);
+        write!(
+            out,
+            "{:.3},{:.1},{:.1},{},{},{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{:.4},{:.3},{:.2},{:.1},{:.3},{:.3}",
+            o.time_s,
+            100.0 * r.inputs.heater_duty,
+            100.0 * r.inputs.fan_duty,
+            s(r.inputs.springs_on[0]),
+            s(r.inputs.springs_on[1]),
+            s(r.inputs.springs_on[2]),
+            o.heater_k,
+            o.smp_inner_k,
+            o.smp_outer_k,
+            o.duct_air_k,
+            o.springs_k[0],
+            o.springs_k[1],
+            o.springs_k[2],
+            o.austenite[0],
+            o.austenite[1],
+            o.austenite[2],
+            o.frozen_fraction,
+            o.bend_deg,
+            o.bend_plane_deg,
+            o.k_b_nmm_per_rad,
+            o.heater_power_w,
+            o.spring_power_w.iter().sum::<f64>(),
+        )?;
+        for i in 0..REGIONS {
+            match r.measured_k {
+                Some(m) => write!(out, ",{:.3}", m[i])?,
+                None => write!(out, ",nan")?,
+            }
+        }
+        write!(out, ",{}", r.faults)?;
+        // The supervisor's columns: `-`/`nan` in open-loop scenes; `fault` is `none` unless
+        // a fault is latched.
+        match &r.control {
+            Some(c) => {
+                let k = |v: f64| {
+                    if v.is_finite() {
+                        format!("{v:.3}")
+                    } else {
+                        "nan".into()
+                    }
+                };
+                writeln!(
+                    out,
+                    ",{},{},{},{},{}",
+                    c.mode,
+                    c.phase,
+                    k(c.target_k),
+                    k(c.tc_k),
+                    c.fault.unwrap_or("none")
+                )?
+            }
+            None => writeln!(out, ",-,-,nan,nan,none")?,
+        }
+    }
+    Ok(())
+}
