@@ -114,8 +114,13 @@ impl FakeBoard {
                 "desk",
             )
             .expect("scene");
-            let mut board = SimBoard::new(&scene, true, Settings::DEFAULT, SimFlash::Memory(None))
-                .expect("board");
+            let mut board = SimBoard::new(
+                &scene.block(),
+                true,
+                Settings::DEFAULT,
+                SimFlash::Memory(None),
+            )
+            .expect("board");
             let mut reader: LineReader = LineReader::new();
             let started = Instant::now();
             let mut said = Vec::new();

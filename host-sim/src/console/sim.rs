@@ -69,7 +69,7 @@ impl Block {
         store: SettingsFile,
     ) -> Result<Self, String> {
         Ok(Block {
-            board: SimBoard::new(&scenario, true, settings, SimFlash::File(store))?,
+            board: SimBoard::new(&scenario.block(), true, settings, SimFlash::File(store))?,
         })
     }
 

@@ -15,7 +15,7 @@ use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 use thermorph::units::{Kelvin, Millis};
 
 use crate::plant::Observation;
-use crate::runs::scenario::{BURNING_FILM_K, CameraFault, ELSEWHERE_K};
+use crate::rig::faults::{BURNING_FILM_K, CameraFault, ELSEWHERE_K};
 use crate::sensing::scene::{Geometry, Layout, Temps};
 use crate::sensor::eeprom;
 use crate::sensor::sim_time::{SimClock, SimDelay};

@@ -17,6 +17,7 @@
 //! are set with [`SimBoard::set_inputs`].
 
 pub mod camera;
+pub mod faults;
 pub mod store;
 
 use thermorph::app::{CONTROL_PERIOD_MS, Controller, Line};
@@ -30,8 +31,22 @@ use thermorph::supervisor::{SpringMemory, Supervisor};
 use thermorph::units::Millis;
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
-use crate::runs::scenario::{FaultSpec, Injection, Scenario};
+
+/// What a simulated board is built from: the block's plant, its camera, the faults to inject
+/// and the sample period of camera-off measurements.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlockSpec {
+    /// The plant.
+    pub plant: PlantConfig,
+    /// The camera (off: true temperatures every `sample_period_s`).
+    pub camera: CameraSettings,
+    /// Injected faults.
+    pub faults: Vec<FaultSpec>,
+    /// The period of the camera-off measurements, s.
+    pub sample_period_s: f64,
+}
 use camera::{Camera, CameraFaults, open_loop_hint, truth_measurement};
+use faults::{CameraSettings, FaultSpec, Injection};
 use store::SimFlash;
 
 /// The board's control tick, ms.
@@ -116,35 +131,29 @@ pub struct SimBoard {
 }
 
 impl SimBoard {
-    /// The block of `scenario` at time 0 with its camera (if on) and injected faults. A scene
-    /// with console lines gets a board whose controller starts with `settings` and keeps its
-    /// record in `flash`; an open-loop scene gets none ([`SimBoard::set_inputs`] drives it).
+    /// The block of `block` at time 0 with its camera (if on) and injected faults. A
+    /// closed-loop board gets whose controller starts with `settings` and keeps its
+    /// record in `flash`; an open-loop one none ([`SimBoard::set_inputs`] drives it).
     /// The simulated springs start at ambient, and the board knows it: its supervisor starts
     /// with [`SpringMemory::RESTED`], as a board would whose RAM kept the springs' memory
     /// across a reset long after they were last driven (a real power-up assumes them hot).
     pub fn new(
-        scenario: &Scenario,
+        block: &BlockSpec,
         closed_loop: bool,
         settings: Settings,
         flash: SimFlash,
     ) -> Result<Self, String> {
-        let plant = Plant::new(&PlantConfig {
-            ambient_k: scenario.ambient_k,
-            initial_k: scenario.initial_k,
-            fidelity: scenario.fidelity,
-            integrator: scenario.integrator,
-            max_step_s: scenario.max_step_s,
-        })?;
-        let camera = if scenario.camera.enabled {
-            Some(Camera::new(scenario.camera.seed, scenario.camera.noise_k)?)
+        let plant = Plant::new(&block.plant)?;
+        let camera = if block.camera.enabled {
+            Some(Camera::new(block.camera.seed, block.camera.noise_k)?)
         } else {
             None
         };
-        let truth_period_us = ((scenario.period_s * 1e6).round() as u64).max(1);
+        let truth_period_us = ((block.sample_period_s * 1e6).round() as u64).max(1);
         Ok(SimBoard {
             plant,
             camera,
-            faults: scenario.faults.clone(),
+            faults: block.faults.clone(),
             control: closed_loop.then(|| {
                 Controller::new(Supervisor::with_memory(
                     Millis(0),

@@ -4,9 +4,11 @@
 //! - [`scenario`]: scene files (TOML) and the bundled scenes (`host-sim/scenes/`).
 //! - [`run`]: `host-sim run`: the run loop over the simulated board, JSON and PNG outputs.
 //! - [`series`]: a run's time series (one row a period) and its CSV.
+//! - [`cycle_figures`]: the thesis cycle's figures measured on a time series.
 //! - [`paper`]: `host-sim paper`, the thesis's experiments against the real supervisor.
 //! - [`plot`]: the PNG plots (of a run and of a desk recording).
 
+pub mod cycle_figures;
 pub mod paper;
 pub mod plot;
 pub mod run;

@@ -163,7 +163,7 @@ pub fn run_with(
 ) -> Result<RunResult, String> {
     let closed_loop = !scenario.commands.is_empty();
     let mut board = SimBoard::new(
-        scenario,
+        &scenario.block(),
         closed_loop,
         Settings::DEFAULT,
         SimFlash::Memory(None),
@@ -461,10 +461,10 @@ pub fn figures(rows: &[Row]) -> Vec<Figure> {
 }
 
 /// The SPEC section 8 figures a closed-loop run shows, measured as `host-sim paper` measures
-/// them ([`crate::runs::paper::measure`]: from the supervisor's modes and phases, Tc, and the
+/// them ([`crate::runs::cycle_figures::measure`]: from the supervisor's modes and phases, Tc, and the
 /// plant's bend and k_b).
 pub fn closed_loop_figures(rows: &[Row]) -> Vec<Figure> {
-    let f = crate::runs::paper::measure(rows);
+    let f = crate::runs::cycle_figures::measure(rows);
     let fig = Figure::new;
     let mean_drop = (!f.pulse_drop_deg.is_empty())
         .then(|| f.pulse_drop_deg.iter().sum::<f64>() / f.pulse_drop_deg.len() as f64);

@@ -54,6 +54,10 @@ use std::path::Path;
 use crate::plant::{Fidelity, Integrator, SmaFidelity, SmpFidelity, ThermalFidelity};
 use crate::sensor::virtual_mlx::Fault as SensorFault;
 
+pub use crate::rig::faults::{
+    BURNING_FILM_K, CameraFault, CameraSettings, ELSEWHERE_K, FaultSpec, Injection,
+};
+
 /// The bundled scenes: (name, TOML text). The first is the default of `host-sim run`.
 pub const BUNDLED: [(&str, &str); 3] = [
     ("cycle", include_str!("../../scenes/cycle.toml")),
@@ -69,17 +73,6 @@ pub const MAX_DURATION_S: f64 = 7.0 * 86_400.0;
 pub const AMBIENT_RANGE_K: (f64, f64) = (233.15, 353.15);
 /// Initial-temperature range, K.
 pub const INITIAL_RANGE_K: (f64, f64) = (233.15, 423.15);
-
-/// Camera settings of a scene.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CameraSettings {
-    /// Render the camera's view and read it through the virtual sensor and MTTS.
-    pub enabled: bool,
-    /// Sensor noise, K rms.
-    pub noise_k: f64,
-    /// Seed of the sensor's noise and calibration.
-    pub seed: u64,
-}
 
 /// One timed change of the actuators; `None` leaves that actuator as it was.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -101,60 +94,6 @@ pub struct CommandLine {
     pub at_s: f64,
     /// The line as typed (checked by the firmware's parser when the scene is loaded).
     pub line: String,
-}
-
-/// What an injected fault does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Injection {
-    /// The heater is open-circuit: no power whatever the duty.
-    HeaterOpen,
-    /// A spring's MOSFET is stuck on or off.
-    StuckSpring {
-        /// Spring index, 0 = A.
-        spring: usize,
-        /// Stuck on (true) or off.
-        on: bool,
-    },
-    /// The sensor misbehaves (with the camera off: no measurement at all).
-    Sensor(SensorFault),
-    /// The camera sees something other than the block as the plant has it (camera on only).
-    Camera(CameraFault),
-}
-
-/// What a `camera` fault shows the sensor instead of the plant's block (the sensor still adds
-/// its own noise, and everything after it — driver, pairing, MTTS — is the firmware's).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CameraFault {
-    /// The camera looks elsewhere (knocked aside, or a wrong sensor on the bus): a steady,
-    /// plausible, uniform surface at [`ELSEWHERE_K`], whatever the block does.
-    Elsewhere,
-    /// The heater film burns through where the lattice shows it: the block as the plant has it,
-    /// but region 1 at [`BURNING_FILM_K`], above the measurement's 500 K plausibility cap (the
-    /// plant does not model the fire).
-    BurningFilm,
-}
-
-/// The surface a camera that looks elsewhere sees, K.
-pub const ELSEWHERE_K: f64 = 320.0;
-/// The heater film of a [`CameraFault::BurningFilm`], K.
-pub const BURNING_FILM_K: f64 = 550.0;
-
-/// An injected fault and when it is active.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FaultSpec {
-    /// Start, s.
-    pub at_s: f64,
-    /// End, s (`None`: to the end of the run).
-    pub until_s: Option<f64>,
-    /// What it does.
-    pub kind: Injection,
-}
-
-impl FaultSpec {
-    /// Return whether the fault is active at `t_s`.
-    pub fn active(&self, t_s: f64) -> bool {
-        t_s >= self.at_s && self.until_s.is_none_or(|u| t_s < u)
-    }
 }
 
 /// A checked scene.
@@ -189,6 +128,24 @@ pub struct Scenario {
     pub commands: Vec<CommandLine>,
     /// Injected faults.
     pub faults: Vec<FaultSpec>,
+}
+
+impl Scenario {
+    /// The simulated block this scene plays on: plant, camera, injected faults, sample period.
+    pub fn block(&self) -> crate::rig::BlockSpec {
+        crate::rig::BlockSpec {
+            plant: crate::plant::PlantConfig {
+                ambient_k: self.ambient_k,
+                initial_k: self.initial_k,
+                fidelity: self.fidelity,
+                integrator: self.integrator,
+                max_step_s: self.max_step_s,
+            },
+            camera: self.camera,
+            faults: self.faults.clone(),
+            sample_period_s: self.period_s,
+        }
+    }
 }
 
 /// Load a scene: a bundled name (`cycle`, …) or a path to a TOML file.
