@@ -5,7 +5,7 @@
 //! runs at 298.15 K ambient, camera on: power-up in standby; at 120 s `mode step-large AB` (or
 //! `A`); once the stepping holds, `mode form`; once forming has handed back to standby,
 //! `mode recover` — modes entered back to back, as the console would be driven. Times come
-//! from the supervisor's mode and phase in each control period, temperatures from its Tc,
+//! from the supervisor's mode and phase in each scene period, temperatures from its Tc,
 //! angles and k_b from the plant's truth.
 
 use serde::Serialize;

@@ -43,7 +43,7 @@ pub struct ReplyRecord {
 /// Everything a run produced.
 #[derive(Clone, Debug)]
 pub struct RunResult {
-    /// One row per control period.
+    /// One row per scene period.
     pub rows: Vec<Row>,
     /// The summary.
     pub summary: Summary,

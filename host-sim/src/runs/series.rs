@@ -8,7 +8,7 @@ use thermorph::mtts::REGIONS;
 
 use crate::plant::{Inputs, Observation};
 
-/// One control period of a run.
+/// One scene period of a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Row {
     /// The inputs the plant was given (after faults).
