@@ -20,7 +20,7 @@ use host_sim::plant::{Inputs, Plant, PlantConfig};
 use host_sim::runs::plot::Table;
 use host_sim::runs::run::{camera_temps, inputs_of};
 use thermorph::console::LineReader;
-use thermorph::measurement::{Measurement, Quality, controlled_temperature};
+use thermorph::measurement::{Measurement, Quality};
 use thermorph::settings::Settings;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::{SpringMemory, Supervisor};
@@ -166,18 +166,16 @@ impl FakeBoard {
                     t_s += period_s;
                     seq += 1;
                     let obs = plant.observe();
-                    let regions = camera_temps(&obs).regions().map(|t| Kelvin(t as f32));
-                    let mut m = Measurement {
+                    let regions = camera_temps(&obs).regions().map(|t| Kelvin::new(t as f32));
+                    let m = Measurement {
                         at: now(t_s),
                         seq,
                         regions,
-                        tc: Kelvin(f32::NAN),
-                        cylinder_max: Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32)),
+                        cylinder_max: Kelvin::new(obs.heater_k.max(obs.smp_outer_k) as f32),
                         filled_pixels: 0,
                         quality: Quality::Resolved,
-                        bound: Kelvin(0.0),
+                        bound: Kelvin::lit(0.0),
                     };
-                    m.tc = controlled_temperature(&m, &sup.sensing_hint());
                     let d = sup.step(now(t_s), Some(&m), None);
                     inputs = inputs_of(&d.outputs);
                     if d.telemetry && behaviour == Behaviour::Board {

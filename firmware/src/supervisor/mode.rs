@@ -347,7 +347,7 @@ pub(super) enum Soak {
 impl Ctx<'_> {
     /// The mode has lasted past `soak_timeout_s`.
     pub fn soak_timed_out(&self) -> bool {
-        self.now.seconds_since(self.mode_since) > self.s.soak_timeout_s
+        self.now.seconds_since(self.mode_since).s() > self.s.soak_timeout_s
     }
 
     /// Ready: Tc has reached `hot_k` (with the stepping weights, the colder region: the whole
@@ -357,7 +357,7 @@ impl Ctx<'_> {
         let (s, tc, now) = (&self.s, self.tc_k, self.now);
         let (since, go) = match since {
             Some(t0) if tc >= s.hot_k - s.ready_band_k => {
-                (Some(t0), now.seconds_since(t0) >= s.ready_dwell_s)
+                (Some(t0), now.seconds_since(t0).s() >= s.ready_dwell_s)
             }
             None if tc >= s.hot_k => (Some(now), s.ready_dwell_s <= 0.0),
             _ => (None, false),
@@ -375,7 +375,7 @@ impl Ctx<'_> {
     pub fn cooled(&self, since: Millis) -> Soak {
         if self.hotter_k.is_some_and(|h| h <= self.s.form_end_k) {
             Soak::Go
-        } else if self.now.seconds_since(since) > self.s.form_timeout_s {
+        } else if self.now.seconds_since(since).s() > self.s.form_timeout_s {
             Soak::GiveUp
         } else {
             Soak::Wait

@@ -202,7 +202,7 @@ impl Stepping {
         let idle = self.paused || matches!(self.phase, StepPhase::Hold);
         if !idle {
             self.idle_since = None;
-        } else if now.seconds_since(*self.idle_since.get_or_insert(now)) > s.hold_timeout_s {
+        } else if now.seconds_since(*self.idle_since.get_or_insert(now)).s() > s.hold_timeout_s {
             next = Some(Next::GiveUp("hold"));
         }
         let on = matches!(

@@ -27,14 +27,14 @@ use thermorph::mlx90640::{Config as SensorConfig, Mlx90640};
 use thermorph::mtts::{IMG_PIXELS, REGIONS};
 use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 
-use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
+use thermorph::measurement::{Measurement, Quality, SensingHint};
 use thermorph::outputs::Outputs;
 use thermorph::settings::Settings;
 use thermorph::supervisor::events::EventKind;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::store::{StoreOutcome, StoreRequest};
 use thermorph::supervisor::{Decision, SpringMemory, Supervisor};
-use thermorph::units::{Kelvin, Millis};
+use thermorph::units::{Kelvin, Millis, k_or_nan};
 
 use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 use crate::runs::scenario::{
@@ -277,14 +277,14 @@ pub(crate) fn measure(
             let new = c.update(obs, faults, t_s, hint);
             let regions = c
                 .last
-                .map(|m| core::array::from_fn(|i| m.regions[i].k() as f64));
+                .map(|m| core::array::from_fn(|i| k_or_nan(m.regions[i]) as f64));
             (regions, new)
         }
         None if faults.sensor.is_some() => (None, None),
         None => {
             let truth_k = camera_temps(obs).regions();
-            let cyl = Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32));
-            let m = truth_measurement(&truth_k, cyl, t_s, period, &hint);
+            let cyl = Kelvin::new(obs.heater_k.max(obs.smp_outer_k) as f32);
+            let m = truth_measurement(&truth_k, cyl, t_s, period);
             (Some(truth_k), Some(m))
         }
     }
@@ -401,20 +401,16 @@ fn truth_measurement(
     cylinder_max: Option<Kelvin>,
     t_s: f64,
     seq: u64,
-    hint: &SensingHint,
 ) -> Measurement {
-    let mut m = Measurement {
+    Measurement {
         at: Millis((t_s * 1000.0).round() as u64),
         seq: seq as u32,
-        regions: regions_k.map(|t| Kelvin(t as f32)),
-        tc: Kelvin(f32::NAN),
+        regions: regions_k.map(|t| Kelvin::new(t as f32)),
         cylinder_max,
         filled_pixels: 0,
         quality: Quality::Resolved,
-        bound: Kelvin(0.0),
-    };
-    m.tc = controlled_temperature(&m, hint);
-    m
+        bound: Kelvin::lit(0.0),
+    }
 }
 
 /// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):
