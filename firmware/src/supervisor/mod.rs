@@ -111,7 +111,7 @@ use safety::{Fault, FaultKind, LoopState, Safety};
 pub use autotune::Tuning;
 pub use forming::Forming;
 pub use memory::SpringMemory;
-pub use mode::{Mode, ModeId};
+pub use mode::{Mode, ModeId, PauseError};
 pub use recovery::{RecoverPhase, Recovering};
 pub use stepping::{StepKind, StepPhase, Stepping};
 
@@ -732,7 +732,7 @@ impl Supervisor {
                         Reply::get(&self.settings, i as usize)
                     }
                     Err(SetError::OutOfRange { min, max }) => Reply::out_of_range(p, min, max),
-                    Err(SetError::Conflict(why)) => Reply::err("conflict", why),
+                    Err(SetError::Conflict(why)) => Reply::err("conflict", why.message()),
                     Err(SetError::NotANumber) => Reply::err("bad-arguments", "not a valid number"),
                     Err(SetError::UnknownName) => Reply::err("unknown-name", "no such parameter"),
                 }
@@ -780,7 +780,7 @@ impl Supervisor {
                 let pause = c == Command::Pause;
                 match self.mode.pause(pause) {
                     Ok(()) => Reply::ok(if pause { "paused" } else { "resumed" }),
-                    Err(why) => Reply::err("bad-state", why),
+                    Err(why) => Reply::err("bad-state", why.message()),
                 }
             }
             Command::Autotune => {
