@@ -9,6 +9,7 @@
 use crate::control::{OnTimer, PidGains, SpringHeat};
 use crate::mtts::Weights;
 use crate::outputs::SpringMask;
+use crate::units::Seconds;
 
 /// The PID gains the block ships with: what `autotune` (relay around 340 K, Ziegler–Nichols'
 /// classic rule) measured on the simulated block at 298 K ambient — Ku = 0.231 /K, Tu = 3.5 s.
@@ -304,7 +305,10 @@ impl Settings {
             } else {
                 SpringMask::NONE
             };
-            h.update(mask, s, self.spring_heat_s, self.spring_cool_s);
+            // A NaN span would leave the estimate as it was, as `update` does with any bad one.
+            if let Some(dt) = Seconds::new(s) {
+                h.update(mask, dt, self.spring_heat_s, self.spring_cool_s);
+            }
             peak = peak.max(h.heat(0));
         }
         peak

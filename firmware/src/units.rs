@@ -122,6 +122,12 @@ impl Seconds {
         }
     }
 
+    /// Make a span from whole milliseconds (`ms · 10⁻³` in `f32`, as [`Millis::seconds_since`]
+    /// computes it).
+    pub const fn from_ms(ms: u32) -> Seconds {
+        Seconds(ms as f32 * 1e-3)
+    }
+
     /// Return the raw value in seconds (never NaN).
     pub const fn s(self) -> f32 {
         self.0

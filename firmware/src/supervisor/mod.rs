@@ -387,7 +387,7 @@ impl Supervisor {
         let ran = self.outputs;
         self.spring_heat.update(
             ran.springs,
-            elapsed_ms as f32 * 1e-3,
+            Seconds::from_ms(elapsed_ms),
             self.settings.spring_heat_s,
             self.settings.spring_cool_s,
         );
