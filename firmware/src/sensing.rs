@@ -23,8 +23,9 @@
 //!   register); a failed setup or recovery pauses and tries again, so a missing sensor costs
 //!   a few bus transfers every 200 ms and never stops the loop. Stale data, frozen data and a control register that lost its settings (a
 //!   power-cycled sensor) also set it up again. Implausible data only drops the frame.
-//! - T1, T2 and Tc must be finite and within [`mtts::PLAUSIBLE_K`]; regions 3–5 may be NaN
-//!   (a zone no cluster was given). A uniform block has no lattice, so MTTS may give T1 or T2
+//! - T1, T2 and Tc (under the hint in force; the frame does not carry it, the supervisor
+//!   computes its own) must be within [`mtts::PLAUSIBLE_K`]; regions 3–5 may be missing
+//!   (`None`). A uniform block has no lattice, so MTTS may give T1 or T2
 //!   no cluster: the other stands for both, quality `Fallback` ([`to_measurement`]). More than
 //!   [`PipelineConfig::max_filled_pixels`] broken pixels in a frame is an error.
 //! - Every error is a [`SensingError`] with a stable [`SensingError::code`], for the logs: an

@@ -26,9 +26,6 @@ pub const ZERO_CELSIUS_K: f32 = 273.15;
 pub struct Kelvin(f32);
 
 impl Kelvin {
-    /// +∞ K: a bound that bounds nothing.
-    pub const INFINITY: Kelvin = Kelvin(f32::INFINITY);
-
     /// Make a temperature in Kelvin; `None` for NaN (infinities are accepted).
     pub const fn new(k: f32) -> Option<Kelvin> {
         if k.is_nan() { None } else { Some(Kelvin(k)) }
@@ -41,6 +38,10 @@ impl Kelvin {
     /// On NaN — a compile error where it is evaluated in a const context (`const T: Kelvin =
     /// Kelvin::lit(..)`, `const { Kelvin::lit(..) }`). For a computed value use
     /// [`Kelvin::new`].
+    ///
+    /// ```compile_fail
+    /// const T: thermorph::units::Kelvin = thermorph::units::Kelvin::lit(f32::NAN);
+    /// ```
     pub const fn lit(k: f32) -> Kelvin {
         match Kelvin::new(k) {
             Some(t) => t,
@@ -115,6 +116,10 @@ impl Seconds {
     ///
     /// On NaN — a compile error where it is evaluated in a const context. For a computed value
     /// use [`Seconds::new`].
+    ///
+    /// ```compile_fail
+    /// const T: thermorph::units::Seconds = thermorph::units::Seconds::lit(f32::NAN);
+    /// ```
     pub const fn lit(s: f32) -> Seconds {
         match Seconds::new(s) {
             Some(t) => t,
@@ -192,7 +197,10 @@ mod tests {
         assert_eq!(Kelvin::new(f32::NAN), None);
         assert_eq!(Kelvin::from_celsius(f32::NAN), None);
         assert_eq!(Seconds::new(f32::NAN), None);
-        assert_eq!(Kelvin::new(f32::INFINITY), Some(Kelvin::INFINITY));
+        assert_eq!(
+            Kelvin::new(f32::INFINITY).map(Kelvin::k),
+            Some(f32::INFINITY)
+        );
         const T: Kelvin = Kelvin::lit(298.15);
         assert_eq!(Kelvin::new(298.15), Some(T));
     }

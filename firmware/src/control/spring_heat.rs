@@ -196,7 +196,7 @@ mod tests {
         // (A NaN time cannot be passed: `Seconds` refuses it.)
         assert_eq!(Seconds::new(f32::NAN), None);
         for dt in [0.0, -1.0, f32::INFINITY] {
-            e.update(SpringMask::ALL, Seconds::lit(dt), HEAT_S, COOL_S);
+            e.update(SpringMask::ALL, Seconds::new(dt).unwrap(), HEAT_S, COOL_S);
         }
         e.update(SpringMask::ALL, Seconds::lit(1.0), 0.0, COOL_S);
         e.update(SpringMask::ALL, Seconds::lit(1.0), HEAT_S, f32::NAN);

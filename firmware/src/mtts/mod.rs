@@ -472,9 +472,10 @@ impl Mtts {
         Output {
             regions,
             quality: sep.quality,
-            // A spread of finite pixels, so never NaN; were it NaN, an infinite bound (the frame
-            // tells nothing) is the safe reading.
-            bound: Kelvin::new(sep.bound_k).unwrap_or(Kelvin::INFINITY),
+            // A spread of finite pixels, so never NaN. Were it NaN, 0 is what every use made of
+            // it before `Kelvin` refused NaN (`Measurement::hotter`/`colder` take the bound's
+            // `max(0.0)`), so nothing downstream changes.
+            bound: Kelvin::new(sep.bound_k).unwrap_or(Kelvin::lit(0.0)),
             clustered,
             cylinder_min: range.and_then(|r| Kelvin::new(r.0)),
             cylinder_max: range.and_then(|r| Kelvin::new(r.1)),

@@ -441,7 +441,9 @@ mod tests {
                 heater_duty: duty,
                 active: true,
             };
-            if let Some(f) = safety.runaway(Millis((t * 1000.0) as u64), Seconds::lit(dt), l, s) {
+            if let Some(f) =
+                safety.runaway(Millis((t * 1000.0) as u64), Seconds::new(dt).unwrap(), l, s)
+            {
                 return Some((t, f));
             }
             t += dt;
