@@ -6,6 +6,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use thermorph::mlx90640::{Calibration, DecodeParams, Image, SubpageFrame};
 use thermorph::mtts::{Config, Method, Mtts, Scratch};
+use thermorph::units::k_or_nan;
 
 mod control;
 
@@ -176,8 +177,8 @@ fn main() -> ! {
     // The result, to show the bench computed something real (truth: T1 372 K, T2 352 K).
     hprintln!(
         "result t1_k={} t2_k={} clusters={}",
-        out.t1().k(),
-        out.t2().k(),
+        k_or_nan(out.t1()),
+        k_or_nan(out.t2()),
         out.clusters.k
     );
 

@@ -2,6 +2,12 @@
 //!
 //! This module owns the data contract between sensing and control. The pipeline (sensor frames
 //! → MTTS) fills it; `Supervisor::step` reads it; nothing else flows from sensing to control.
+//!
+//! The controlled temperature Tc is not part of a measurement: the supervisor alone computes
+//! it ([`controlled_temperature`] under the hint of its mode at the step that uses the frame),
+//! so the value the loop runs on never depends on which hint the pipeline held when the frame
+//! was read. The pipeline evaluates the same formula under its hint only to drop an implausible
+//! frame (see `crate::sensing`).
 
 use crate::mtts::REGIONS;
 use crate::units::{Kelvin, Millis};
@@ -15,10 +21,9 @@ pub struct Measurement {
     pub at: Millis,
     /// Frames published since boot (a gap in `seq` is a frame that failed).
     pub seq: u32,
-    /// Region temperatures 1…5 (heater area, SMP surface, edge, radiation zone, background).
-    pub regions: [Kelvin; REGIONS],
-    /// Controlled temperature Tc = w1·T1 + w2·T2 with the weights the supervisor asked for.
-    pub tc: Kelvin,
+    /// Region temperatures 1…5 (heater area, SMP surface, edge, radiation zone, background);
+    /// `None` for a region the frame gave no temperature.
+    pub regions: [Option<Kelvin>; REGIONS],
     /// Hottest sensor pixel over the cylinder, if any pixel lies on it.
     pub cylinder_max: Option<Kelvin>,
     /// Broken pixels filled from their neighbours in this frame.
@@ -31,34 +36,35 @@ pub struct Measurement {
 }
 
 impl Measurement {
-    /// Return T1 (heater area).
-    pub fn t1(&self) -> Kelvin {
+    /// Return T1 (heater area), `None` if the frame has none.
+    pub fn t1(&self) -> Option<Kelvin> {
         self.regions[0]
     }
 
-    /// Return T2 (SMP outer surface).
-    pub fn t2(&self) -> Kelvin {
+    /// Return T2 (SMP outer surface), `None` if the frame has none.
+    pub fn t2(&self) -> Option<Kelvin> {
         self.regions[1]
     }
 
     /// Return the hotter of the two targets as far as this frame can tell: the higher of T1 and
     /// T2 when they were resolved; the mean plus the bound when they were not (the hotter
-    /// target may be that far above the mean both carry).
-    pub fn hotter(&self) -> Kelvin {
-        let (a, b) = (self.t1().k(), self.t2().k());
+    /// target may be that far above the mean both carry). `None` without T1 and T2 (or if
+    /// infinite values make the sum undefined).
+    pub fn hotter(&self) -> Option<Kelvin> {
+        let (a, b) = (self.t1()?.k(), self.t2()?.k());
         match self.quality {
-            Quality::Resolved => Kelvin(if a >= b { a } else { b }),
-            _ => Kelvin(0.5 * (a + b) + self.bound.k().max(0.0)),
+            Quality::Resolved => Kelvin::new(if a >= b { a } else { b }),
+            _ => Kelvin::new(0.5 * (a + b) + self.bound.k().max(0.0)),
         }
     }
 
     /// Return the colder of the two targets as far as this frame can tell (see
     /// [`Measurement::hotter`]).
-    pub fn colder(&self) -> Kelvin {
-        let (a, b) = (self.t1().k(), self.t2().k());
+    pub fn colder(&self) -> Option<Kelvin> {
+        let (a, b) = (self.t1()?.k(), self.t2()?.k());
         match self.quality {
-            Quality::Resolved => Kelvin(if a >= b { b } else { a }),
-            _ => Kelvin(0.5 * (a + b) - self.bound.k().max(0.0)),
+            Quality::Resolved => Kelvin::new(if a >= b { b } else { a }),
+            _ => Kelvin::new(0.5 * (a + b) - self.bound.k().max(0.0)),
         }
     }
 }
@@ -93,13 +99,16 @@ impl Default for SensingHint {
 /// cross-section is at the target before a stepping starts; weighted to the hotter one, the mean
 /// plus the bound, so standby never runs above it and forming ends only when everything the
 /// frame can hide is cool.
-pub fn controlled_temperature(m: &Measurement, hint: &SensingHint) -> Kelvin {
+///
+/// `None` when the frame lacks T1 or T2 (or the weighted sum is undefined). The supervisor is
+/// the one place whose Tc the loop uses; the pipeline calls this only to drop an implausible
+/// frame.
+pub fn controlled_temperature(m: &Measurement, hint: &SensingHint) -> Option<Kelvin> {
     use crate::mtts::Prior;
-    let (hi, lo) = (m.hotter(), m.colder());
     let (a, b) = match hint.prior {
-        Prior::Unknown => (m.t1(), m.t2()),
-        Prior::HeaterHotter => (hi, lo),
-        Prior::SurfaceHotter => (lo, hi),
+        Prior::Unknown => (m.t1()?, m.t2()?),
+        Prior::HeaterHotter => (m.hotter()?, m.colder()?),
+        Prior::SurfaceHotter => (m.colder()?, m.hotter()?),
     };
     hint.weights.apply(a, b)
 }
@@ -113,18 +122,11 @@ mod tests {
         Measurement {
             at: Millis(0),
             seq: 0,
-            regions: [
-                Kelvin(t1),
-                Kelvin(t2),
-                Kelvin(300.0),
-                Kelvin(299.0),
-                Kelvin(298.0),
-            ],
-            tc: Kelvin(t2),
+            regions: [t1, t2, 300.0, 299.0, 298.0].map(Kelvin::new),
             cylinder_max: None,
             filled_pixels: 0,
             quality,
-            bound: Kelvin(bound),
+            bound: Kelvin::new(bound).unwrap(),
         }
     }
 
@@ -143,31 +145,37 @@ mod tests {
             controlled_temperature(&frame(t1, t2, Quality::Resolved, 0.5), h)
         };
         // Heating: the colder of the two, whichever label it carries.
-        assert_eq!(tc(360.0, 350.0, &heat), Kelvin(350.0));
-        assert_eq!(tc(350.0, 360.0, &heat), Kelvin(350.0));
+        assert_eq!(tc(360.0, 350.0, &heat), Some(Kelvin::lit(350.0)));
+        assert_eq!(tc(350.0, 360.0, &heat), Some(Kelvin::lit(350.0)));
         // Forming: the hotter.
-        assert_eq!(tc(320.0, 330.0, &form), Kelvin(330.0));
-        assert_eq!(tc(330.0, 320.0, &form), Kelvin(330.0));
+        assert_eq!(tc(320.0, 330.0, &form), Some(Kelvin::lit(330.0)));
+        assert_eq!(tc(330.0, 320.0, &form), Some(Kelvin::lit(330.0)));
         let blend = SensingHint {
             prior: Prior::Unknown,
             weights: Weights { w1: 0.25, w2: 0.75 },
         };
-        assert_eq!(tc(340.0, 320.0, &blend), Kelvin(325.0));
+        assert_eq!(tc(340.0, 320.0, &blend), Some(Kelvin::lit(325.0)));
     }
 
     #[test]
     fn a_merged_frame_counts_its_bound_against_the_loop() {
         let m = frame(350.0, 350.0, Quality::Merged, 6.0);
-        assert_eq!((m.hotter(), m.colder()), (Kelvin(356.0), Kelvin(344.0)));
+        assert_eq!(
+            (m.hotter(), m.colder()),
+            (Some(Kelvin::lit(356.0)), Some(Kelvin::lit(344.0)))
+        );
         let heat = SensingHint {
             prior: Prior::HeaterHotter,
             weights: Weights { w1: 0.0, w2: 1.0 },
         };
-        assert_eq!(controlled_temperature(&m, &heat), Kelvin(344.0));
+        assert_eq!(controlled_temperature(&m, &heat), Some(Kelvin::lit(344.0)));
         let standby = SensingHint {
             prior: Prior::HeaterHotter,
             weights: Weights { w1: 1.0, w2: 0.0 },
         };
-        assert_eq!(controlled_temperature(&m, &standby), Kelvin(356.0));
+        assert_eq!(
+            controlled_temperature(&m, &standby),
+            Some(Kelvin::lit(356.0))
+        );
     }
 }

@@ -23,8 +23,9 @@
 //!   register); a failed setup or recovery pauses and tries again, so a missing sensor costs
 //!   a few bus transfers every 200 ms and never stops the loop. Stale data, frozen data and a control register that lost its settings (a
 //!   power-cycled sensor) also set it up again. Implausible data only drops the frame.
-//! - T1, T2 and Tc must be finite and within [`mtts::PLAUSIBLE_K`]; regions 3–5 may be NaN
-//!   (a zone no cluster was given). A uniform block has no lattice, so MTTS may give T1 or T2
+//! - T1, T2 and Tc (under the hint in force; the frame does not carry it, the supervisor
+//!   computes its own) must be within [`mtts::PLAUSIBLE_K`]; regions 3–5 may be missing
+//!   (`None`). A uniform block has no lattice, so MTTS may give T1 or T2
 //!   no cluster: the other stands for both, quality `Fallback` ([`to_measurement`]). More than
 //!   [`PipelineConfig::max_filled_pixels`] broken pixels in a frame is an error.
 //! - Every error is a [`SensingError`] with a stable [`SensingError::code`], for the logs: an
@@ -339,8 +340,9 @@ fn digest(words: &[u16]) -> u32 {
     })
 }
 
-/// Turn one frame's MTTS result into the supervisor's [`Measurement`] (Tc under `hint`), or
-/// `None` when T1 or T2 is not a temperature this sensor can report.
+/// Turn one frame's MTTS result into the supervisor's [`Measurement`], or `None` when T1, T2
+/// or Tc under `hint` is not a temperature this sensor can report (the measurement carries no
+/// Tc: the supervisor computes it, with the hint of its mode).
 pub fn to_measurement(
     out: &mtts::Output,
     hint: &SensingHint,
@@ -348,22 +350,23 @@ pub fn to_measurement(
     seq: u32,
 ) -> Option<Measurement> {
     let regions = out.regions.map(|r| r.temp);
-    let plausible = |t: Kelvin| t.k() >= PLAUSIBLE_K.0 && t.k() <= PLAUSIBLE_K.1;
+    let plausible =
+        |t: Option<Kelvin>| t.is_some_and(|t| t.k() >= PLAUSIBLE_K.0 && t.k() <= PLAUSIBLE_K.1);
     if !(plausible(regions[0]) && plausible(regions[1])) {
         return None;
     }
-    let mut m = Measurement {
+    let m = Measurement {
         at,
         seq,
         regions,
-        tc: Kelvin(f32::NAN),
         cylinder_max: out.cylinder_max,
         filled_pixels: out.filled_pixels,
         quality: out.quality,
         bound: out.bound,
     };
-    m.tc = controlled_temperature(&m, hint);
-    plausible(m.tc).then_some(m)
+    // Tc is the supervisor's to compute (it carries no field here); under the hint in force it
+    // only decides whether the frame is plausible enough to publish.
+    plausible(controlled_temperature(&m, hint)).then_some(m)
 }
 
 /// The sensing state machine (see the module docs).
@@ -799,11 +802,12 @@ mod tests {
         let got = to_measurement(&out, &hint, Millis(1234), 7).unwrap();
         assert_eq!((got.at, got.seq), (Millis(1234), 7));
         assert_eq!(got.quality, crate::measurement::Quality::Fallback);
-        assert!(got.t1().k().is_finite() && got.t2().k().is_finite());
+        assert!(got.t1().unwrap().k().is_finite() && got.t2().unwrap().k().is_finite());
         assert_eq!(got.bound, out.bound);
         assert_eq!(got.filled_pixels, 1);
         assert!(
-            (got.tc.k() - 300.0).abs() < 1e-3 + 0.5 * got.bound.k(),
+            (controlled_temperature(&got, &hint).unwrap().k() - 300.0).abs()
+                < 1e-3 + 0.5 * got.bound.k(),
             "{got:?}"
         );
         assert_eq!(got.cylinder_max, out.cylinder_max);

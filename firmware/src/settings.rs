@@ -9,6 +9,7 @@
 use crate::control::{OnTimer, PidGains, SpringHeat};
 use crate::mtts::Weights;
 use crate::outputs::SpringMask;
+use crate::units::Seconds;
 
 /// The PID gains the block ships with: what `autotune` (relay around 340 K, Ziegler–Nichols'
 /// classic rule) measured on the simulated block at 298 K ambient — Ku = 0.231 /K, Tu = 3.5 s.
@@ -227,55 +228,48 @@ impl Settings {
         Weights { w1, w2: 1.0 - w1 }
     }
 
-    /// Check the relations between parameters that one range cannot express.
-    pub fn check(&self) -> Result<(), &'static str> {
+    /// Check the relations between parameters that one range cannot express; the first rule
+    /// broken is the error.
+    pub fn check(&self) -> Result<(), ConflictError> {
         if self.standby_k >= self.hot_k {
-            return Err("standby_k must be below hot_k");
+            return Err(ConflictError::StandbyNotBelowHot);
         }
         if self.hot_k + 5.0 > self.t_max_k || self.standby_k + 5.0 > self.t_max_k {
-            return Err("targets must be at least 5 K below t_max_k");
+            return Err(ConflictError::TargetsNearTMax);
         }
         if self.tune_k + 5.0 > self.t_max_k {
-            return Err("tune_k must be at least 5 K below t_max_k");
+            return Err(ConflictError::TuneNearTMax);
         }
         if self.step_s > self.spring_on_max_s
             || self.recover_pulse_s > self.spring_on_max_s
             || self.prewarm_s > self.spring_on_max_s
             || self.recover_on_s > self.spring_on_max_s
         {
-            return Err(
-                "step_s, prewarm_s, recover_pulse_s and recover_on_s must not exceed spring_on_max_s",
-            );
+            return Err(ConflictError::SpringOnTooLong);
         }
         if self.heater_cap_k + 2.0 > self.t_heater_max_k {
-            return Err("heater_cap_k must be at least 2 K below t_heater_max_k");
+            return Err(ConflictError::HeaterCapNearFilmLimit);
         }
         if self.hot_k > self.heater_cap_k {
-            return Err("hot_k must not exceed heater_cap_k");
+            return Err(ConflictError::HotAboveHeaterCap);
         }
         if self.form_end_k > self.hot_k {
-            return Err("form_end_k must not exceed hot_k");
+            return Err(ConflictError::FormEndAboveHot);
         }
         if self.tune_base + self.tune_amplitude > TUNE_DUTY_MAX + 1e-6 {
-            return Err("tune_base_pct + tune_amplitude_pct must not exceed 90 %");
+            return Err(ConflictError::TuneRelayTooStrong);
         }
         if self.recover_pulse_s > self.recover_on_s {
-            return Err(
-                "recover_pulse_s must not exceed recover_on_s (the pulse runs inside a window)",
-            );
+            return Err(ConflictError::RecoverPulseOutsideWindow);
         }
         if self.spring_recover_heat + 0.1 > self.spring_heat_max {
-            return Err("spring_recover_pct must be at least 10 % below spring_heat_max_pct");
+            return Err(ConflictError::RecoverHeatNearMax);
         }
         if self.spring_plan_heat() > self.spring_heat_max {
-            return Err(
-                "the stepping's phases would heat a spring past spring_heat_max_pct (fewer or shorter phases, longer pulses)",
-            );
+            return Err(ConflictError::SteppingOverheatsSpring);
         }
         if self.spring_plan_peak_s() > self.spring_on_max_s {
-            return Err(
-                "the springs' phases add up past spring_on_max_s: a gap shorter than 1 s (or 1/8 of the on-time before it) does not end an on-time",
-            );
+            return Err(ConflictError::SteppingOnTimePastMax);
         }
         Ok(())
     }
@@ -311,7 +305,10 @@ impl Settings {
             } else {
                 SpringMask::NONE
             };
-            h.update(mask, s, self.spring_heat_s, self.spring_cool_s);
+            // A NaN span would leave the estimate as it was, as `update` does with any bad one.
+            if let Some(dt) = Seconds::new(s) {
+                h.update(mask, dt, self.spring_heat_s, self.spring_cool_s);
+            }
             peak = peak.max(h.heat(0));
         }
         peak
@@ -799,6 +796,77 @@ pub const PARAMS: &[Param] = &[
     ),
 ];
 
+/// A relation between parameters that [`Settings::check`] refuses: one variant per rule, in the
+/// order they are checked. [`fmt::Display`](core::fmt::Display) gives the console's message
+/// (`err conflict: …`); it is written by hand, as `thiserror` is not used in this `no_std`
+/// crate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum ConflictError {
+    /// `standby_k` ≥ `hot_k`.
+    StandbyNotBelowHot,
+    /// `hot_k` or `standby_k` less than 5 K below `t_max_k`.
+    TargetsNearTMax,
+    /// `tune_k` less than 5 K below `t_max_k`.
+    TuneNearTMax,
+    /// A single spring on-time (`step_s`, `prewarm_s`, `recover_pulse_s`, `recover_on_s`) past `spring_on_max_s`.
+    SpringOnTooLong,
+    /// `heater_cap_k` less than 2 K below `t_heater_max_k`.
+    HeaterCapNearFilmLimit,
+    /// `hot_k` above `heater_cap_k`.
+    HotAboveHeaterCap,
+    /// `form_end_k` above `hot_k`.
+    FormEndAboveHot,
+    /// `tune_base_pct` + `tune_amplitude_pct` above 90 %.
+    TuneRelayTooStrong,
+    /// `recover_pulse_s` longer than `recover_on_s`.
+    RecoverPulseOutsideWindow,
+    /// `spring_recover_pct` less than 10 % below `spring_heat_max_pct`.
+    RecoverHeatNearMax,
+    /// The stepping's phases would heat a spring past `spring_heat_max_pct`.
+    SteppingOverheatsSpring,
+    /// The springs' phases add up past `spring_on_max_s`.
+    SteppingOnTimePastMax,
+}
+
+impl ConflictError {
+    /// Return the message (what [`fmt::Display`](core::fmt::Display) writes).
+    pub fn message(self) -> &'static str {
+        match self {
+            Self::StandbyNotBelowHot => "standby_k must be below hot_k",
+            Self::TargetsNearTMax => "targets must be at least 5 K below t_max_k",
+            Self::TuneNearTMax => "tune_k must be at least 5 K below t_max_k",
+            Self::SpringOnTooLong => {
+                "step_s, prewarm_s, recover_pulse_s and recover_on_s must not exceed spring_on_max_s"
+            }
+            Self::HeaterCapNearFilmLimit => {
+                "heater_cap_k must be at least 2 K below t_heater_max_k"
+            }
+            Self::HotAboveHeaterCap => "hot_k must not exceed heater_cap_k",
+            Self::FormEndAboveHot => "form_end_k must not exceed hot_k",
+            Self::TuneRelayTooStrong => "tune_base_pct + tune_amplitude_pct must not exceed 90 %",
+            Self::RecoverPulseOutsideWindow => {
+                "recover_pulse_s must not exceed recover_on_s (the pulse runs inside a window)"
+            }
+            Self::RecoverHeatNearMax => {
+                "spring_recover_pct must be at least 10 % below spring_heat_max_pct"
+            }
+            Self::SteppingOverheatsSpring => {
+                "the stepping's phases would heat a spring past spring_heat_max_pct (fewer or shorter phases, longer pulses)"
+            }
+            Self::SteppingOnTimePastMax => {
+                "the springs' phases add up past spring_on_max_s: a gap shorter than 1 s (or 1/8 of the on-time before it) does not end an on-time"
+            }
+        }
+    }
+}
+
+impl core::fmt::Display for ConflictError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.message())
+    }
+}
+
 /// Why `set` refused a value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SetError {
@@ -814,7 +882,7 @@ pub enum SetError {
         max: f32,
     },
     /// The value contradicts another parameter.
-    Conflict(&'static str),
+    Conflict(ConflictError),
 }
 
 /// Return the parameter called `name` (case-insensitive).
@@ -900,7 +968,7 @@ pub enum RecordError {
     /// A value is not finite, not whole where it must be, or outside its range.
     BadValue(&'static str),
     /// The values contradict each other ([`Settings::check`]).
-    Conflict(&'static str),
+    Conflict(ConflictError),
 }
 
 impl RecordError {

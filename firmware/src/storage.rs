@@ -50,13 +50,59 @@ pub enum RangeError {
     NotTwoWholePages,
 }
 
-fn why<E>(e: &Error<E>) -> &'static str {
+/// Why the flash could not give or take the settings record. [`fmt::Display`](core::fmt::Display)
+/// gives the message the console and the boot warning show; it is written by hand, as
+/// `thiserror` is not used in this `no_std` crate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum StorageError {
+    /// The flash driver reported an error.
+    Flash,
+    /// No room left in the range (sequential-storage could not free a page).
+    Full,
+    /// sequential-storage found its own structures corrupted.
+    Corrupted,
+    /// The record does not fit the working buffer or a page.
+    DoesNotFit,
+    /// Any other sequential-storage error.
+    Other,
+    /// The range is not whole erase pages (at least two).
+    BadRange,
+    /// The record read back after a write differs from the one written.
+    ReadBackDiffers,
+    /// The range holds data but no whole record (at boot).
+    NoWholeRecord,
+}
+
+impl StorageError {
+    /// Return the message (what [`fmt::Display`](core::fmt::Display) writes).
+    pub fn message(self) -> &'static str {
+        match self {
+            Self::Flash => "flash error",
+            Self::Full => "flash full",
+            Self::Corrupted => "flash corrupted",
+            Self::DoesNotFit => "record does not fit",
+            Self::Other => "flash storage error",
+            Self::BadRange => "bad flash range",
+            Self::ReadBackDiffers => "read back differs",
+            Self::NoWholeRecord => "no whole record",
+        }
+    }
+}
+
+impl core::fmt::Display for StorageError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.message())
+    }
+}
+
+fn why<E>(e: &Error<E>) -> StorageError {
     match e {
-        Error::Storage { .. } => "flash error",
-        Error::FullStorage => "flash full",
-        Error::Corrupted { .. } => "flash corrupted",
-        Error::BufferTooSmall(_) | Error::BufferTooBig => "record does not fit",
-        _ => "flash storage error",
+        Error::Storage { .. } => StorageError::Flash,
+        Error::FullStorage => StorageError::Full,
+        Error::Corrupted { .. } => StorageError::Corrupted,
+        Error::BufferTooSmall(_) | Error::BufferTooBig => StorageError::DoesNotFit,
+        _ => StorageError::Other,
     }
 }
 
@@ -71,14 +117,14 @@ impl<F: NorFlash> FlashStore<F> {
         })
     }
 
-    fn map<'a>(flash: &'a mut F, range: &Range<u32>) -> Result<Map<'a, F>, &'static str> {
-        let config = MapConfig::try_new(range.clone()).map_err(|_| "bad flash range")?;
+    fn map<'a>(flash: &'a mut F, range: &Range<u32>) -> Result<Map<'a, F>, StorageError> {
+        let config = MapConfig::try_new(range.clone()).map_err(|_| StorageError::BadRange)?;
         Ok(MapStorage::new(flash, config, Cache::new_uncached()))
     }
 
     /// Read the stored record's bytes (`None`: nothing stored, or only a damaged record, which
     /// sequential-storage's item CRC skips).
-    pub async fn read(&mut self) -> Result<Option<&[u8]>, &'static str> {
+    pub async fn read(&mut self) -> Result<Option<&[u8]>, StorageError> {
         Self::map(&mut self.flash, &self.range)?
             .fetch_item::<&[u8]>(&mut self.buf, &SETTINGS_KEY)
             .await
@@ -86,13 +132,16 @@ impl<F: NorFlash> FlashStore<F> {
     }
 
     /// Whether the whole range is erased (nothing was ever stored).
-    async fn blank(&mut self) -> Result<bool, &'static str> {
+    async fn blank(&mut self) -> Result<bool, StorageError> {
         let mut at = self.range.start;
         let mut chunk = [0u8; 64];
         while at < self.range.end {
             let n = (self.range.end - at).min(chunk.len() as u32);
             let c = &mut chunk[..n as usize];
-            self.flash.read(at, c).await.map_err(|_| "flash error")?;
+            self.flash
+                .read(at, c)
+                .await
+                .map_err(|_| StorageError::Flash)?;
             if c.iter().any(|&b| b != 0xFF) {
                 return Ok(false);
             }
@@ -102,14 +151,14 @@ impl<F: NorFlash> FlashStore<F> {
     }
 
     /// Store `record`, then read it back and compare.
-    pub async fn write(&mut self, record: &Record) -> Result<(), &'static str> {
+    pub async fn write(&mut self, record: &Record) -> Result<(), StorageError> {
         Self::map(&mut self.flash, &self.range)?
             .store_item(&mut self.buf, &SETTINGS_KEY, &&record[..])
             .await
             .map_err(|e| why(&e))?;
         match self.read().await? {
             Some(b) if b == &record[..] => Ok(()),
-            _ => Err("read back differs"),
+            _ => Err(StorageError::ReadBackDiffers),
         }
     }
 
@@ -120,7 +169,7 @@ impl<F: NorFlash> FlashStore<F> {
             Ok(Some(stored)) => return settings_at_boot(Some(stored), console),
             Ok(None) => match self.blank().await {
                 Ok(true) => return Settings::DEFAULT,
-                Ok(false) => "no whole record",
+                Ok(false) => StorageError::NoWholeRecord,
                 Err(e) => e,
             },
             Err(e) => e,
@@ -143,11 +192,11 @@ impl<F: NorFlash> FlashStore<F> {
         match req {
             StoreRequest::Save(record) => match self.write(record).await {
                 Ok(()) => supervisor.finish_store(now(), StoreOutcome::Saved),
-                Err(e) => supervisor.finish_store(now(), StoreOutcome::Failed(e)),
+                Err(e) => supervisor.finish_store(now(), StoreOutcome::Failed(e.message())),
             },
             StoreRequest::Load => match self.read().await {
                 Ok(b) => supervisor.finish_store(now(), StoreOutcome::Loaded(b)),
-                Err(e) => supervisor.finish_store(now(), StoreOutcome::Failed(e)),
+                Err(e) => supervisor.finish_store(now(), StoreOutcome::Failed(e.message())),
             },
         }
     }

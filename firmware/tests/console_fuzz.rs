@@ -235,17 +235,10 @@ impl Console {
         let m = Measurement {
             at: Millis(self.now_ms),
             seq,
-            regions: [
-                Kelvin(t_k + 3.0),
-                Kelvin(t_k),
-                Kelvin(t_k - 1.0),
-                Kelvin(t_k - 5.0),
-                Kelvin(298.0),
-            ],
-            tc: Kelvin(t_k),
-            cylinder_max: Some(Kelvin(t_k + 3.0)),
+            regions: [t_k + 3.0, t_k, t_k - 1.0, t_k - 5.0, 298.0].map(Kelvin::new),
+            cylinder_max: Kelvin::new(t_k + 3.0),
             filled_pixels: 0,
-            bound: Kelvin(0.5),
+            bound: Kelvin::lit(0.5),
             quality: Quality::Resolved,
         };
         self.sup.period(Millis(self.now_ms), None, Some(&m), None);

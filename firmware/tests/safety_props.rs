@@ -177,18 +177,11 @@ impl Block {
         Measurement {
             at,
             seq,
-            regions: [
-                Kelvin(t1),
-                Kelvin(t2),
-                Kelvin(t2),
-                Kelvin(300.0),
-                Kelvin(298.0),
-            ],
-            tc: Kelvin(t2),
-            cylinder_max: Some(Kelvin(t1.max(t2))),
+            regions: [t1, t2, t2, 300.0, 298.0].map(Kelvin::new),
+            cylinder_max: Kelvin::new(t1.max(t2)),
             filled_pixels: 0,
             quality,
-            bound: Kelvin(bound),
+            bound: Kelvin::new(bound).unwrap(),
         }
     }
 }
@@ -355,8 +348,9 @@ fn run(events: &[(Event, u16)]) -> Result<(), TestCaseError> {
         }
         if let Some(m) = m {
             let ok = |t: f32| t.is_finite() && (VALID_K.0..=VALID_K.1).contains(&t);
-            if ok(m.t1().k()) && ok(m.t2().k()) {
-                w.last_valid = Some((m.at, m.hotter().k()));
+            let k = |t: Option<Kelvin>| t.map_or(f32::NAN, Kelvin::k);
+            if ok(k(m.t1())) && ok(k(m.t2())) {
+                w.last_valid = Some((m.at, k(m.hotter())));
             }
         }
         check(&sup, &d, &w, &s_before, k).map_err(TestCaseError::fail)?;

@@ -356,6 +356,7 @@ fn spring_heat_model_tracks_the_plant() {
     use thermorph::control::SpringHeat;
     use thermorph::outputs::SpringMask;
     use thermorph::settings::{SPRING_COOL_S, SPRING_HEAT_S, SPRING_REST};
+    use thermorph::units::Seconds;
     let config = PlantConfig {
         initial_k: AMBIENT_K,
         ..PlantConfig::default()
@@ -372,7 +373,7 @@ fn spring_heat_model_tracks_the_plant() {
         plant.step(&on, DT_S);
         est.update(
             SpringMask::from_bits(1),
-            DT_S as f32,
+            Seconds::new(DT_S as f32).unwrap(),
             SPRING_HEAT_S,
             SPRING_COOL_S,
         );
@@ -410,13 +411,23 @@ fn spring_heat_model_tracks_the_plant() {
         let n = (secs / DT_S as f32).round() as usize;
         for _ in 0..n {
             plant.step(&inputs, DT_S);
-            est.update(mask, DT_S as f32, SPRING_HEAT_S, SPRING_COOL_S);
+            est.update(
+                mask,
+                Seconds::new(DT_S as f32).unwrap(),
+                SPRING_HEAT_S,
+                SPRING_COOL_S,
+            );
         }
     }
     let (mut t, mut martensite_s, mut rested_s) = (0.0, None, None);
     while (martensite_s.is_none() || rested_s.is_none()) && t < 3000.0 {
         plant.step(&Inputs::default(), DT_S);
-        est.update(SpringMask::NONE, DT_S as f32, SPRING_HEAT_S, SPRING_COOL_S);
+        est.update(
+            SpringMask::NONE,
+            Seconds::new(DT_S as f32).unwrap(),
+            SPRING_HEAT_S,
+            SPRING_COOL_S,
+        );
         t += DT_S;
         if martensite_s.is_none() && plant.observe().austenite[0] < 0.05 {
             martensite_s = Some(t);

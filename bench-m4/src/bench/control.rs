@@ -20,18 +20,11 @@ fn frame(at_ms: u64, seq: u32, t2: f32) -> Measurement {
     Measurement {
         at: Millis(at_ms),
         seq,
-        regions: [
-            Kelvin(t1),
-            Kelvin(t2),
-            Kelvin(t2 - 3.0),
-            Kelvin(305.0),
-            Kelvin(298.0),
-        ],
-        tc: Kelvin(t2),
-        cylinder_max: Some(Kelvin(t1 + 1.0)),
+        regions: [t1, t2, t2 - 3.0, 305.0, 298.0].map(Kelvin::new),
+        cylinder_max: Kelvin::new(t1 + 1.0),
         filled_pixels: 0,
         quality: Quality::Resolved,
-        bound: Kelvin(0.5),
+        bound: Kelvin::lit(0.5),
     }
 }
 

@@ -43,6 +43,7 @@
 
 use super::pid::PidGains;
 use crate::outputs::Duty;
+use crate::units::Seconds;
 
 /// How gains follow from the ultimate gain `Ku` and period `Tu` (table in the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -274,11 +275,13 @@ impl RelayAutotune {
         &self.config
     }
 
-    /// Feed the measurement `measured_k` taken at `now_s` (a monotonic clock in seconds; pass the
-    /// time since the run started, so `f32` keeps sub-millisecond resolution however long the
-    /// board has been up) and return what to do until the next one.
+    /// Feed the measurement `measured_k` taken at `now` (a monotonic clock; pass the time since
+    /// the run started, so `f32` keeps sub-millisecond resolution however long the board has
+    /// been up) and return what to do until the next one. An infinite `now` aborts
+    /// ([`AbortReason::InvalidTime`]).
     /// After `Done` or `Aborted`, every call returns the same again.
-    pub fn step(&mut self, now_s: f32, measured_k: f32) -> AutotuneStep {
+    pub fn step(&mut self, now: Seconds, measured_k: f32) -> AutotuneStep {
+        let now_s = now.s();
         match self.state {
             State::Done(r) => return AutotuneStep::Done(r),
             State::Aborted(r) => return AutotuneStep::Aborted(r),

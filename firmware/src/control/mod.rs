@@ -21,17 +21,18 @@
 //!
 //! ```
 //! use thermorph::control::{Pid, PidConfig, PidGains, SplitRange};
+//! use thermorph::units::Seconds;
 //!
 //! let gains = PidGains { kp_per_k: 0.05, ki_per_k_s: 0.002, kd_s_per_k: 0.3 };
 //! let mut pid = Pid::new(PidConfig::split_range(gains), 358.0);
 //! let split = SplitRange::new(0.02);
 //! // One measurement (Tc = 340 K) 0.25 s after the previous one.
-//! let u = pid.update(340.0, 0.25);
+//! let u = pid.update(340.0, Seconds::lit(0.25));
 //! let duties = split.apply(u);
 //! assert!(duties.heater.fraction() > 0.0 && duties.fan.fraction() == 0.0);
 //! // A new target keeps the output continuous.
 //! pid.set_target(360.0).unwrap();
-//! assert!((pid.update(340.0, 0.25) - u).abs() < 1e-6);
+//! assert!((pid.update(340.0, Seconds::lit(0.25)) - u).abs() < 1e-6);
 //! ```
 
 mod autotune;

@@ -33,6 +33,8 @@
 //! restarts the derivative; invalid gains are refused by the setters and replaced by zeros in
 //! [`Pid::new`].
 
+use crate::units::Seconds;
+
 /// PID gains with their units. The output is a fraction of full actuator power (1.0 = 100 %).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct PidGains {
@@ -275,13 +277,14 @@ impl Pid {
         self.align_to = Some(u);
     }
 
-    /// Feed one measurement taken `dt_s` after the previous one and return the output, in
+    /// Feed one measurement taken `dt` after the previous one and return the output, in
     /// `[output_min, output_max]`.
     ///
     /// A non-finite `measured_k` (or target) returns [`Pid::safe_output`], keeps the integrator
-    /// and restarts the derivative. A `dt_s` that is NaN, ≤ 0 or above `max_dt_s` neither
-    /// integrates nor differentiates (D = 0) this sample.
-    pub fn update(&mut self, measured_k: f32, dt_s: f32) -> f32 {
+    /// and restarts the derivative. A `dt` that is ≤ 0 or above `max_dt_s` neither integrates
+    /// nor differentiates (D = 0) this sample ([`Seconds`] is never NaN).
+    pub fn update(&mut self, measured_k: f32, dt: Seconds) -> f32 {
+        let dt_s = dt.s();
         let c = self.config;
         if !measured_k.is_finite() || !self.target_k.is_finite() {
             self.prev_measured_k = None;

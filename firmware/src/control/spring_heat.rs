@@ -22,6 +22,7 @@
 //! estimate it had ([`crate::supervisor::SpringMemory`]).
 
 use crate::outputs::{SPRINGS, SpringMask};
+use crate::units::Seconds;
 
 /// Heat estimates of springs A, B and C (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,9 +77,10 @@ impl SpringHeat {
         (self.h, self.austenite)
     }
 
-    /// Account `dt_s` with `on` switched on. `heat_s` and `cool_s` are the model's constants,
+    /// Account `dt` with `on` switched on. `heat_s` and `cool_s` are the model's constants,
     /// s; a non-finite or non-positive time or constant leaves the estimate as it was.
-    pub fn update(&mut self, on: SpringMask, dt_s: f32, heat_s: f32, cool_s: f32) {
+    pub fn update(&mut self, on: SpringMask, dt: Seconds, heat_s: f32, cool_s: f32) {
+        let dt_s = dt.s();
         let valid = |x: f32| x > 0.0 && x.is_finite();
         if !(valid(dt_s) && valid(heat_s) && valid(cool_s)) {
             return;
@@ -165,7 +167,7 @@ mod tests {
     fn run(est: &mut SpringHeat, on: SpringMask, seconds: f32, dt_s: f32) {
         let n = (seconds / dt_s).round() as u32;
         for _ in 0..n {
-            est.update(on, dt_s, HEAT_S, COOL_S);
+            est.update(on, Seconds::new(dt_s).unwrap(), HEAT_S, COOL_S);
         }
     }
 
@@ -191,11 +193,13 @@ mod tests {
         let mut e = SpringHeat::COLD;
         run(&mut e, SpringMask::ALL, 10.0, 0.5);
         let before = e;
-        for dt in [0.0, -1.0, f32::NAN, f32::INFINITY] {
-            e.update(SpringMask::ALL, dt, HEAT_S, COOL_S);
+        // (A NaN time cannot be passed: `Seconds` refuses it.)
+        assert_eq!(Seconds::new(f32::NAN), None);
+        for dt in [0.0, -1.0, f32::INFINITY] {
+            e.update(SpringMask::ALL, Seconds::new(dt).unwrap(), HEAT_S, COOL_S);
         }
-        e.update(SpringMask::ALL, 1.0, 0.0, COOL_S);
-        e.update(SpringMask::ALL, 1.0, HEAT_S, f32::NAN);
+        e.update(SpringMask::ALL, Seconds::lit(1.0), 0.0, COOL_S);
+        e.update(SpringMask::ALL, Seconds::lit(1.0), HEAT_S, f32::NAN);
         assert_eq!(e, before);
         assert_eq!(e.heat(7), 0.0);
     }
@@ -213,7 +217,7 @@ mod tests {
             if joined.is_none() && on.contains(0) {
                 joined = Some(t);
             }
-            e.update(on, 0.25, HEAT_S, COOL_S);
+            e.update(on, Seconds::lit(0.25), HEAT_S, COOL_S);
             t += 0.25;
         }
         assert!(e.all_at(1.0), "{e:?}");

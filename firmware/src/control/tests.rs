@@ -3,7 +3,13 @@
 
 use super::*;
 use crate::outputs::Duty;
+use crate::units::Seconds;
 use std::collections::VecDeque;
+
+/// A span in seconds from a test's `f32` (never NaN here).
+fn sec(s: f32) -> Seconds {
+    Seconds::new(s).expect("a test span is not NaN")
+}
 
 /// First-order plus dead time, exact for a zero-order-held input:
 /// `τ·ẏ = −(y − T_amb) + K·u(t − L) − disturbance`.
@@ -93,7 +99,7 @@ fn p_only_leaves_the_analytic_steady_state_error_and_i_removes_it() {
         let mut pid = Pid::new(wide(gains), r as f32);
         let mut y = plant.y_k;
         for _ in 0..4000 {
-            let u = pid.update(y as f32, 0.25);
+            let u = pid.update(y as f32, sec(0.25));
             y = plant.step(u as f64);
         }
         r - y
@@ -125,19 +131,19 @@ fn derivative_filter_follows_the_first_order_step_response() {
         },
         400.0,
     );
-    assert_eq!(pid.update(300.0, dt), 0.0);
+    assert_eq!(pid.update(300.0, sec(dt)), 0.0);
     let mut worst = 0.0f32;
     for k in 1..=80 {
         let t = k as f32 * dt;
-        let u = pid.update(300.0 + s * t, dt);
+        let u = pid.update(300.0 + s * t, sec(dt));
         let want = -kd * s * (1.0 - (-t / tau).exp());
         worst = worst.max((u - want).abs());
     }
     assert!(worst < 1e-5, "worst deviation {worst}");
     // Unfiltered (τ = 0) the D term is the raw slope at once.
     let mut raw = Pid::new(wide(gains), 400.0);
-    raw.update(300.0, dt);
-    let u = raw.update(300.0 + s * dt, dt);
+    raw.update(300.0, sec(dt));
+    let u = raw.update(300.0 + s * dt, sec(dt));
     // f32 resolves 300 K to 3e-5 K: the raw slope to 3e-5/Δt.
     assert!((u + kd * s).abs() < kd * 2e-4, "{u}");
 }
@@ -169,7 +175,7 @@ fn anti_windup_bounds_the_overshoot_after_a_long_saturation() {
                 plant.disturbance_k = 0.0;
             }
             let u = if ours {
-                pid.update(y, dt)
+                pid.update(y, sec(dt))
             } else {
                 let e = r - y;
                 integ += e * dt;
@@ -216,7 +222,7 @@ fn settled_loop() -> (Pid, Fopdt, f32) {
     let mut pid = Pid::new(PidConfig::split_range(gains), 340.0);
     let mut y = plant.y_k as f32;
     for _ in 0..1000 {
-        let u = pid.update(y, 0.25);
+        let u = pid.update(y, sec(0.25));
         y = plant.step(u as f64) as f32;
     }
     (pid, plant, y)
@@ -237,7 +243,7 @@ fn gain_and_target_changes_are_bumpless() {
     let off = y - 1.0;
     let i_before = pid.terms().i;
     pid.set_gains(new).unwrap();
-    let u = pid.update(off, 0.25);
+    let u = pid.update(off, sec(0.25));
     assert!(
         (u - before).abs() < 1e-5,
         "gain change stepped {before} → {u}"
@@ -250,22 +256,22 @@ fn gain_and_target_changes_are_bumpless() {
         "test too weak: naive {naive}"
     );
     // Target 340 → 345: P alone would jump by 0.1·5 = 0.5; bumpless it does not.
-    let before = pid.update(y, 0.25);
+    let before = pid.update(y, sec(0.25));
     pid.set_target(345.0).unwrap();
-    let u = pid.update(y, 0.25);
+    let u = pid.update(y, sec(0.25));
     assert!(
         (u - before).abs() < 1e-5,
         "target change stepped {before} → {u}"
     );
     // And the loop still reaches the new target.
     for _ in 0..4000 {
-        let u = pid.update(y, 0.25);
+        let u = pid.update(y, sec(0.25));
         y = plant.step(u as f64) as f32;
     }
     assert!((y - 345.0).abs() < 0.01, "{y}");
     // reset_to: a mode hands over at 0.42; the first output is 0.42.
     pid.reset_to(0.42);
-    assert!((pid.update(y + 3.0, 0.25) - 0.42).abs() < 1e-6);
+    assert!((pid.update(y + 3.0, sec(0.25)) - 0.42).abs() < 1e-6);
 }
 
 #[test]
@@ -274,17 +280,19 @@ fn bad_input_gives_the_safe_documented_result() {
     let i_before = pid.terms().i;
     // NaN or infinite measurement: safe output (0: heater and fan off), integrator kept.
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-        assert_eq!(pid.update(bad, 0.25), 0.0);
+        assert_eq!(pid.update(bad, sec(0.25)), 0.0);
         assert_eq!(pid.output(), 0.0);
     }
     // Back to good data: the integrator is where it was and D restarts at 0.
-    pid.update(y, 0.25);
+    pid.update(y, sec(0.25));
     assert!((pid.terms().i - i_before).abs() < 1e-4);
     assert_eq!(pid.terms().d, 0.0);
     // Bad Δt: no integration, no derivative, finite output.
-    for dt in [0.0, -1.0, f32::NAN, 5.0, f32::INFINITY, f32::MAX] {
+    // (A NaN Δt cannot be passed: `Seconds` refuses it.)
+    assert_eq!(Seconds::new(f32::NAN), None);
+    for dt in [0.0, -1.0, 5.0, f32::INFINITY, f32::MAX] {
         let i = pid.terms().i;
-        let u = pid.update(y + 2.0, dt);
+        let u = pid.update(y + 2.0, sec(dt));
         assert!((-1.0..=1.0).contains(&u));
         assert_eq!(pid.terms().i, i, "dt {dt} integrated");
         assert_eq!(pid.terms().d, 0.0, "dt {dt} differentiated");
@@ -317,7 +325,7 @@ fn bad_input_gives_the_safe_documented_result() {
         f32::NAN,
     );
     for t in [300.0, f32::NAN, 1e30, -1e30] {
-        assert_eq!(junk.update(t, 0.25), 0.0);
+        assert_eq!(junk.update(t, sec(0.25)), 0.0);
     }
     // Extreme but finite values stay in range.
     let mut big = Pid::new(
@@ -334,7 +342,7 @@ fn bad_input_gives_the_safe_documented_result() {
         (358.0, 1e-38),
         (0.0, 1.0),
     ] {
-        let u = big.update(t, dt);
+        let u = big.update(t, sec(dt));
         assert!((-1.0..=1.0).contains(&u), "{t} {dt} → {u}");
     }
     big.reset_to(f32::NAN);
@@ -356,15 +364,15 @@ fn functional_range_is_bang_bang_outside_and_restarts_the_integrator() {
         358.0,
     );
     for _ in 0..100 {
-        assert_eq!(pid.update(340.0, 0.25), 1.0);
+        assert_eq!(pid.update(340.0, sec(0.25)), 1.0);
     }
     assert_eq!(pid.terms().i, 0.0);
-    assert_eq!(pid.update(370.0, 0.25), 0.0);
+    assert_eq!(pid.update(370.0, sec(0.25)), 0.0);
     // Inside the band: plain PID with the integrator restarted from 0 (P = 0.05, each I step
     // 0.01·5·0.25 = 0.0125).
-    let u = pid.update(353.0, 0.25);
+    let u = pid.update(353.0, sec(0.25));
     assert!((u - 0.0625).abs() < 1e-6, "{u}");
-    let u = pid.update(353.0, 0.25);
+    let u = pid.update(353.0, sec(0.25));
     assert!((u - 0.075).abs() < 1e-6, "{u}");
 }
 
@@ -395,7 +403,7 @@ fn run_relay(mut plant: Fopdt, config: AutotuneConfig) -> (AutotuneStep, f64, f6
     let mut peak = y;
     for k in 0..100_000 {
         let t = k as f64 * DT_S;
-        match tune.step(t as f32, y as f32) {
+        match tune.step(sec(t as f32), y as f32) {
             AutotuneStep::Running { heater_duty } => {
                 y = plant.step(heater_duty.fraction() as f64);
                 peak = peak.max(y);
@@ -546,7 +554,7 @@ fn tuned_step(gains: PidGains) -> (f64, f64, f64) {
     let (mut overshoot, mut dev, mut settled_s) = (f64::MIN, 0.0f64, 0.0);
     for k in 0..n {
         let measured = plant.y_k + 0.4 * (noise.uniform() - 0.5);
-        let hc = split.apply(pid.update(measured as f32, DT_S as f32));
+        let hc = split.apply(pid.update(measured as f32, sec(DT_S as f32)));
         assert!(!(hc.heater.fraction() > 0.0 && hc.fan.fraction() > 0.0));
         let y = plant.step((hc.heater.fraction() - 0.3 * hc.fan.fraction()) as f64);
         let err = y - TARGET_K as f64;
@@ -606,26 +614,28 @@ fn relay_aborts_on_overshoot_timeout_and_bad_input() {
     // A NaN measurement, then the abort sticks.
     let mut tune = RelayAutotune::new(relay_config());
     assert!(
-        matches!(tune.step(0.0, 300.0), AutotuneStep::Running { heater_duty } if heater_duty.fraction() > 0.29)
+        matches!(tune.step(sec(0.0), 300.0), AutotuneStep::Running { heater_duty } if heater_duty.fraction() > 0.29)
     );
     assert_eq!(
-        tune.step(0.25, f32::NAN),
+        tune.step(sec(0.25), f32::NAN),
         AutotuneStep::Aborted(AbortReason::InvalidMeasurement)
     );
     assert_eq!(
-        tune.step(0.5, 300.0),
+        tune.step(sec(0.5), 300.0),
         AutotuneStep::Aborted(AbortReason::InvalidMeasurement)
     );
     // Time going backwards or NaN.
     let mut tune = RelayAutotune::new(relay_config());
-    tune.step(10.0, 300.0);
+    tune.step(sec(10.0), 300.0);
     assert_eq!(
-        tune.step(9.0, 300.0),
+        tune.step(sec(9.0), 300.0),
         AutotuneStep::Aborted(AbortReason::InvalidTime)
     );
+    // (A NaN clock cannot be passed: `Seconds` refuses it. An infinite one aborts.)
+    assert_eq!(Seconds::new(f32::NAN), None);
     let mut tune = RelayAutotune::new(relay_config());
     assert_eq!(
-        tune.step(f32::NAN, 300.0),
+        tune.step(sec(f32::INFINITY), 300.0),
         AutotuneStep::Aborted(AbortReason::InvalidTime)
     );
     // Invalid settings never drive the heater.
@@ -647,7 +657,7 @@ fn relay_aborts_on_overshoot_timeout_and_bad_input() {
     ] {
         let mut tune = RelayAutotune::new(bad);
         assert_eq!(
-            tune.step(0.0, 300.0),
+            tune.step(sec(0.0), 300.0),
             AutotuneStep::Aborted(AbortReason::InvalidConfig)
         );
     }

@@ -311,14 +311,15 @@ pub fn calculate_to_with<R: Roots>(
     }
     let ta = ta_c(frame, cal, vdd);
     let ta_k = ta + ZERO_CELSIUS_K;
-    if !(ta_k >= TA_RANGE_K.0 && ta_k <= TA_RANGE_K.1) {
+    let in_range = ta_k >= TA_RANGE_K.0 && ta_k <= TA_RANGE_K.1;
+    let Some(ta_kelvin) = Kelvin::new(ta_k).filter(|_| in_range) else {
         let centi_kelvin = if ta_k.is_finite() {
             (ta_k * 100.0) as i32
         } else {
             i32::MIN
         };
         return Err(FrameError::ImplausibleTa { centi_kelvin });
-    }
+    };
 
     let tr_k = match params.reflected {
         Some(t) => t.k(),
@@ -409,7 +410,7 @@ pub fn calculate_to_with<R: Roots>(
     Ok(SubpageInfo {
         subpage,
         vdd_v: vdd,
-        ta: Kelvin(ta_k),
+        ta: ta_kelvin,
     })
 }
 
@@ -568,9 +569,9 @@ impl Image {
         self.covered[0] && self.covered[1]
     }
 
-    /// Return the temperature at `row`, `col` (NaN if not covered).
-    pub fn at(&self, row: usize, col: usize) -> Kelvin {
-        Kelvin(self.to_k[row * COLS + col])
+    /// Return the temperature at `row`, `col` (`None` if not covered).
+    pub fn at(&self, row: usize, col: usize) -> Option<Kelvin> {
+        Kelvin::new(self.to_k[row * COLS + col])
     }
 
     /// Return min, mean and max over the finite pixels, or `None` if there are none.
@@ -585,10 +586,14 @@ impl Image {
             sum += t as f64;
             n += 1;
         }
-        (n > 0).then(|| ImageStats {
-            min: Kelvin(min),
-            mean: Kelvin((sum / n as f64) as f32),
-            max: Kelvin(max),
+        if n == 0 {
+            return None;
+        }
+        // Over n > 0 finite pixels, none of the three is NaN.
+        Some(ImageStats {
+            min: Kelvin::new(min)?,
+            mean: Kelvin::new((sum / n as f64) as f32)?,
+            max: Kelvin::new(max)?,
             valid: n,
         })
     }

@@ -184,8 +184,9 @@ impl Default for Config {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub struct Region {
-    /// The region's temperature (its cluster's mean).
-    pub temp: Kelvin,
+    /// The region's temperature (its cluster's mean); `None` only if that mean is NaN, which a
+    /// processed frame (every pixel filled and finite) never gives.
+    pub temp: Option<Kelvin>,
     /// Upsampled pixels in its cluster.
     pub pixels: u32,
     /// Sensor pixels in its zone.
@@ -204,7 +205,7 @@ pub struct Output {
     /// from the area-weighted mean both carry).
     pub bound: Kelvin,
     /// T1 and T2 as the clustering alone assigns them (the thesis method, for comparison).
-    pub clustered: [Kelvin; 2],
+    pub clustered: [Option<Kelvin>; 2],
     /// Lowest sensor pixel over the cylinder (core and edges), if any pixel lies on it.
     pub cylinder_min: Option<Kelvin>,
     /// Highest sensor pixel over the cylinder, if any pixel lies on it.
@@ -221,18 +222,18 @@ pub struct Output {
 
 impl Output {
     /// Return T1 (heater area).
-    pub fn t1(&self) -> Kelvin {
+    pub fn t1(&self) -> Option<Kelvin> {
         self.regions[0].temp
     }
 
     /// Return T2 (SMP outer surface).
-    pub fn t2(&self) -> Kelvin {
+    pub fn t2(&self) -> Option<Kelvin> {
         self.regions[1].temp
     }
 
-    /// Return the controlled temperature Tc = w1·T1 + w2·T2.
-    pub fn controlled(&self, w: Weights) -> Kelvin {
-        w.apply(self.t1(), self.t2())
+    /// Return the controlled temperature Tc = w1·T1 + w2·T2 (`None` without T1 or T2).
+    pub fn controlled(&self, w: Weights) -> Option<Kelvin> {
+        w.apply(self.t1()?, self.t2()?)
     }
 }
 
@@ -253,9 +254,9 @@ impl Weights {
         (ok && libm::fabsf(w1 + w2 - 1.0) < 1e-4).then_some(Weights { w1, w2 })
     }
 
-    /// Return w1·t1 + w2·t2.
-    pub fn apply(self, t1: Kelvin, t2: Kelvin) -> Kelvin {
-        Kelvin(self.w1 * t1.k() + self.w2 * t2.k())
+    /// Return w1·t1 + w2·t2 (`None` if that is NaN: NaN weights, or 0 · ∞).
+    pub fn apply(self, t1: Kelvin, t2: Kelvin) -> Option<Kelvin> {
+        Kelvin::new(self.w1 * t1.k() + self.w2 * t2.k())
     }
 }
 
@@ -453,28 +454,31 @@ impl Mtts {
             let zone_pixels = o[z].iter().sum();
             match pick[z] {
                 Some(c) => Region {
-                    temp: Kelvin(clusters.means[c]),
+                    temp: Kelvin::new(clusters.means[c]),
                     pixels: clusters.counts[c],
                     zone_pixels,
                 },
                 // A zone without pixels: the cylinder's mean stands in (never NaN).
                 None => Region {
-                    temp: Kelvin(sep.mean_k),
+                    temp: Kelvin::new(sep.mean_k),
                     pixels: 0,
                     zone_pixels,
                 },
             }
         });
         let clustered = [regions[0].temp, regions[1].temp];
-        regions[0].temp = Kelvin(sep.t1_k);
-        regions[1].temp = Kelvin(sep.t2_k);
+        regions[0].temp = Kelvin::new(sep.t1_k);
+        regions[1].temp = Kelvin::new(sep.t2_k);
         Output {
             regions,
             quality: sep.quality,
-            bound: Kelvin(sep.bound_k),
+            // A spread of finite pixels, so never NaN. Were it NaN, 0 is what every use made of
+            // it before `Kelvin` refused NaN (`Measurement::hotter`/`colder` take the bound's
+            // `max(0.0)`), so nothing downstream changes.
+            bound: Kelvin::new(sep.bound_k).unwrap_or(Kelvin::lit(0.0)),
             clustered,
-            cylinder_min: range.map(|r| Kelvin(r.0)),
-            cylinder_max: range.map(|r| Kelvin(r.1)),
+            cylinder_min: range.and_then(|r| Kelvin::new(r.0)),
+            cylinder_max: range.and_then(|r| Kelvin::new(r.1)),
             clusters: *clusters,
             geometry: g,
             fresh,
@@ -515,7 +519,7 @@ mod tests {
     /// Every region finite and in the image's range; returns the output.
     fn finite(out: Output, lo: f32, hi: f32) -> Output {
         for (z, r) in out.regions.iter().enumerate() {
-            let t = r.temp.k();
+            let t = r.temp.expect("a temperature").k();
             assert!(t.is_finite(), "region {} is {t}", z + 1);
             assert!(t >= lo - 1e-3 && t <= hi + 1e-3, "region {}: {t}", z + 1);
         }
@@ -533,9 +537,9 @@ mod tests {
         );
         assert_eq!(out.clusters.k, 1);
         assert_eq!(out.quality, Quality::Fallback);
-        assert!((out.t1().k() - 300.0).abs() < 1e-4);
-        assert!((out.t2().k() - 300.0).abs() < 1e-4);
-        assert_eq!(out.cylinder_max, Some(Kelvin(300.0)));
+        assert!((out.t1().unwrap().k() - 300.0).abs() < 1e-4);
+        assert!((out.t2().unwrap().k() - 300.0).abs() < 1e-4);
+        assert_eq!(out.cylinder_max, Some(Kelvin::lit(300.0)));
     }
 
     #[test]
@@ -550,8 +554,16 @@ mod tests {
         let mut m = Mtts::new(Config::default()).unwrap();
         let out = finite(m.process(&img, &mut scratch()).unwrap(), 293.8, 296.2);
         assert_eq!(out.quality, Quality::Fallback);
-        assert!((out.t2().k() - 296.0).abs() < 0.1, "T2 {}", out.t2().k());
-        assert!((out.t1().k() - 296.0).abs() < 0.1, "T1 {}", out.t1().k());
+        assert!(
+            (out.t2().unwrap().k() - 296.0).abs() < 0.1,
+            "T2 {}",
+            out.t2().unwrap().k()
+        );
+        assert!(
+            (out.t1().unwrap().k() - 296.0).abs() < 0.1,
+            "T1 {}",
+            out.t1().unwrap().k()
+        );
     }
 
     #[test]
@@ -566,7 +578,11 @@ mod tests {
         });
         let mut m = Mtts::new(Config::default()).unwrap();
         let out = finite(m.process(&img, &mut scratch()).unwrap(), 233.15, 573.15);
-        assert!((out.t2().k() - 573.15).abs() < 1.0, "T2 {}", out.t2().k());
+        assert!(
+            (out.t2().unwrap().k() - 573.15).abs() < 1.0,
+            "T2 {}",
+            out.t2().unwrap().k()
+        );
     }
 
     #[test]
@@ -617,7 +633,7 @@ mod tests {
         let mut m = Mtts::new(Config::default()).unwrap();
         let out = m.process(&img, &mut scratch()).unwrap();
         assert_eq!(out.filled_pixels, 3);
-        assert!((out.t1().k() - 300.0).abs() < 1e-3);
+        assert!((out.t1().unwrap().k() - 300.0).abs() < 1e-3);
     }
 
     #[test]
@@ -656,6 +672,9 @@ mod tests {
     fn weights() {
         assert!(Weights::new(0.5, 0.6).is_none());
         let w = Weights::new(0.25, 0.75).unwrap();
-        assert_eq!(w.apply(Kelvin(300.0), Kelvin(340.0)).k(), 330.0);
+        assert_eq!(
+            w.apply(Kelvin::lit(300.0), Kelvin::lit(340.0)).unwrap().k(),
+            330.0
+        );
     }
 }

@@ -105,11 +105,17 @@ impl SpringMemory {
 mod tests {
     use super::*;
     use crate::outputs::SpringMask;
+    use crate::units::Seconds;
 
     #[test]
     fn words_round_trip_and_damage_is_refused() {
         let mut heat = SpringHeat::COLD;
-        heat.update(SpringMask::from_bits(0b101), 30.0, 27.0, 240.0);
+        heat.update(
+            SpringMask::from_bits(0b101),
+            Seconds::lit(30.0),
+            27.0,
+            240.0,
+        );
         let m = SpringMemory {
             heat,
             duty: [0.5, 0.0, 0.25],

@@ -67,7 +67,9 @@
 //! target step heats at full power instead of waiting for the integrator.
 //!
 //! Tc is [`controlled_temperature`](crate::measurement::controlled_temperature) of the mode's
-//! [`SensingHint`]: the heating modes control the colder of T1/T2, forming the hotter one.
+//! [`SensingHint`]: the heating modes control the colder of T1/T2, forming the hotter one. The
+//! supervisor is the one place Tc is computed — once per new valid measurement, with the hint
+//! of the mode at that step; a [`Measurement`] carries no Tc.
 //!
 //! The springs: nothing senses them, so the supervisor keeps a heat estimate of each from its
 //! own switching ([`SpringHeat`]). Recovery uses it to bring all three springs to austenite
@@ -101,7 +103,7 @@ use crate::control::{Pid, PidConfig, SplitRange, SpringHeat};
 use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
 use crate::outputs::{Duty, Outputs, SpringMask};
 use crate::settings::{PARAMS, SetError, Settings};
-use crate::units::{Kelvin, Millis};
+use crate::units::{Kelvin, Millis, Seconds};
 use events::{EventKind, EventLog};
 use report::Reply;
 use safety::{Fault, FaultKind, LoopState, Safety};
@@ -109,7 +111,7 @@ use safety::{Fault, FaultKind, LoopState, Safety};
 pub use autotune::Tuning;
 pub use forming::Forming;
 pub use memory::SpringMemory;
-pub use mode::{Mode, ModeId};
+pub use mode::{Mode, ModeId, PauseError};
 pub use recovery::{RecoverPhase, Recovering};
 pub use stepping::{StepKind, StepPhase, Stepping};
 
@@ -385,7 +387,7 @@ impl Supervisor {
         let ran = self.outputs;
         self.spring_heat.update(
             ran.springs,
-            elapsed_ms as f32 * 1e-3,
+            Seconds::from_ms(elapsed_ms),
             self.settings.spring_heat_s,
             self.settings.spring_cool_s,
         );
@@ -406,11 +408,17 @@ impl Supervisor {
             self.latch(now, f);
         }
         let fresh = measurement.filter(|m| self.valid(m)).copied();
-        let mut dt_s = 0.0;
+        let mut dt = Seconds::ZERO;
         if let Some(m) = fresh {
-            dt_s = self.last.map_or(0.0, |l| m.at.seconds_since(l.at));
+            dt = self
+                .last
+                .map_or(Seconds::ZERO, |l| m.at.seconds_since(l.at));
             self.track_resolution(now, &m);
-            self.tc_k = controlled_temperature(&m, &self.sensing_hint()).k();
+            // The one place Tc is computed: under the hint of the mode as it stands now (after
+            // a mode change or a film fallback it may differ from the hint the pipeline read
+            // the frame with).
+            self.tc_k =
+                controlled_temperature(&m, &self.sensing_hint()).map_or(f32::NAN, Kelvin::k);
             self.last = Some(m);
         }
 
@@ -422,7 +430,7 @@ impl Supervisor {
             .last
             .map_or(self.started, |m| m.at)
             .max(self.sensor_grace);
-        let age_s = now.seconds_since(since);
+        let age_s = now.seconds_since(since).s();
         if age_s > self.settings.sensor_timeout_s {
             self.latch(
                 now,
@@ -434,7 +442,7 @@ impl Supervisor {
         }
         if let Some(m) = fresh {
             let heater = ran.heater.fraction();
-            let film_k = m.hotter().k();
+            let film_k = m.hotter().map_or(f32::NAN, Kelvin::k);
             // A film held at its ceiling (the heater cap, or the cascade's film limit below it)
             // is visibly heated: the steady state of a long soak on a cold day.
             let s = &self.settings;
@@ -450,13 +458,13 @@ impl Supervisor {
                 heater_duty: heater,
                 active: self.loop_active(),
             };
-            if let Some(f) = self.safety.runaway(now, dt_s, l, &self.settings) {
+            if let Some(f) = self.safety.runaway(now, dt, l, &self.settings) {
                 self.latch(now, f);
             }
         }
 
         // 4. The mode.
-        let mut outputs = self.run_mode(now, elapsed_ms, fresh.as_ref(), dt_s);
+        let mut outputs = self.run_mode(now, elapsed_ms, fresh.as_ref(), dt);
 
         // 5. Spring limits on what would be applied: a spring past its limit is never on.
         if let Some(f) = self
@@ -517,7 +525,7 @@ impl Supervisor {
         let on_colder = self.loop_active() && self.sensing_hint().weights.w1 < 1.0;
         if on_colder
             && !self.film_fallback
-            && m.at.seconds_since(since) >= self.settings.unresolved_s
+            && m.at.seconds_since(since).s() >= self.settings.unresolved_s
         {
             self.film_fallback = true;
             self.events.push(now, EventKind::Warning(WARN_UNRESOLVED));
@@ -534,11 +542,13 @@ impl Supervisor {
     fn hot_or_plausible(&self, m: &Measurement) -> bool {
         [m.t1(), m.t2()]
             .iter()
-            .all(|t| t.k().is_finite() && t.k() >= VALID_K.0)
+            .all(|t| t.is_some_and(|t| t.k().is_finite() && t.k() >= VALID_K.0))
     }
 
     fn valid(&self, m: &Measurement) -> bool {
-        let ok = |t: Kelvin| t.k().is_finite() && (VALID_K.0..=VALID_K.1).contains(&t.k());
+        let ok = |t: Option<Kelvin>| {
+            t.is_some_and(|t| t.k().is_finite() && (VALID_K.0..=VALID_K.1).contains(&t.k()))
+        };
         self.newer(m) && ok(m.t1()) && ok(m.t2())
     }
 
@@ -622,10 +632,10 @@ impl Supervisor {
         now: Millis,
         elapsed_ms: u32,
         fresh: Option<&Measurement>,
-        dt_s: f32,
+        dt: Seconds,
     ) -> Outputs {
         let s = self.settings;
-        let hotter = self.last.map(|m| m.hotter().k());
+        let hotter = self.last.map(|m| m.hotter().map_or(f32::NAN, Kelvin::k));
         let mut c = Ctx {
             now,
             elapsed_ms,
@@ -656,7 +666,7 @@ impl Supervisor {
                 }
             };
             self.enter(now, mode);
-            return self.run_mode(now, 0, None, 0.0);
+            return self.run_mode(now, 0, None, Seconds::ZERO);
         }
         // The heater cap, an override on the hotter region: whatever the loop or the relay
         // wants, the film is not driven past heater_cap_k.
@@ -688,10 +698,10 @@ impl Supervisor {
                 // Cascade: the slow outer loop turns Tc's error into how far above the target
                 // the hotter region (the film) should run; the fast inner loop holds the film
                 // there. The outer output is clamped so the film stays below heater_cap_k.
-                let offset = self.outer.update(self.tc_k, dt_s);
-                self.pid.update(h - offset, dt_s)
+                let offset = self.outer.update(self.tc_k, dt);
+                self.pid.update(h - offset, dt)
             }
-            (Some(_), _) => self.pid.update(self.tc_k, dt_s),
+            (Some(_), _) => self.pid.update(self.tc_k, dt),
             _ => self.pid.output(),
         };
         let hc = self.split.apply(u);
@@ -722,7 +732,7 @@ impl Supervisor {
                         Reply::get(&self.settings, i as usize)
                     }
                     Err(SetError::OutOfRange { min, max }) => Reply::out_of_range(p, min, max),
-                    Err(SetError::Conflict(why)) => Reply::err("conflict", why),
+                    Err(SetError::Conflict(why)) => Reply::err("conflict", why.message()),
                     Err(SetError::NotANumber) => Reply::err("bad-arguments", "not a valid number"),
                     Err(SetError::UnknownName) => Reply::err("unknown-name", "no such parameter"),
                 }
@@ -770,7 +780,7 @@ impl Supervisor {
                 let pause = c == Command::Pause;
                 match self.mode.pause(pause) {
                     Ok(()) => Reply::ok(if pause { "paused" } else { "resumed" }),
-                    Err(why) => Reply::err("bad-state", why),
+                    Err(why) => Reply::err("bad-state", why.message()),
                 }
             }
             Command::Autotune => {
@@ -805,17 +815,18 @@ impl Supervisor {
         let s = &self.settings;
         let fresh = self
             .last
-            .is_some_and(|m| now.seconds_since(m.at) <= s.sensor_timeout_s);
+            .is_some_and(|m| now.seconds_since(m.at).s() <= s.sensor_timeout_s);
         let gone = match f.kind {
             FaultKind::SensorLoss => fresh,
             FaultKind::OverTemperature => {
                 fresh
                     && self.last.is_some_and(|m| {
                         let mut cooler = m;
+                        let warmer = |t: Kelvin| Kelvin::new(t.k() + 5.0);
                         for t in cooler.regions.iter_mut() {
-                            t.0 += 5.0;
+                            *t = t.and_then(warmer);
                         }
-                        cooler.cylinder_max = cooler.cylinder_max.map(|t| Kelvin(t.0 + 5.0));
+                        cooler.cylinder_max = cooler.cylinder_max.and_then(warmer);
                         Safety::over_temperature(&cooler, s).is_none()
                     })
             }

@@ -135,6 +135,40 @@ pub enum Mode {
     Faulted,
 }
 
+/// Why `pause` or `resume` was refused ([`Mode::pause`]). [`fmt::Display`](core::fmt::Display)
+/// gives the console's message (`err bad-state: …`); it is written by hand, as `thiserror` is
+/// not used in this `no_std` crate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum PauseError {
+    /// The mode is not a stepping.
+    NotStepping,
+    /// `pause` while paused.
+    AlreadyPaused,
+    /// `resume` while not paused.
+    NotPaused,
+    /// `pause` in a stepping phase without a spring timer (soak, rest, hold).
+    NotInSpringPhase,
+}
+
+impl PauseError {
+    /// Return the message (what [`fmt::Display`](core::fmt::Display) writes).
+    pub fn message(self) -> &'static str {
+        match self {
+            Self::NotStepping => "only stepping pauses",
+            Self::AlreadyPaused => "already paused",
+            Self::NotPaused => "not paused",
+            Self::NotInSpringPhase => "pause only in a spring phase (prewarm, spring, pulse)",
+        }
+    }
+}
+
+impl core::fmt::Display for PauseError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.message())
+    }
+}
+
 impl Mode {
     /// The mode `id` entered at `now` with `s`, stepping with `springs`; `None` for a mode no
     /// command enters (a fault is latched, never asked for).
@@ -164,7 +198,7 @@ impl Mode {
     }
 
     /// `pause` (`true`) or `resume`: `Err` with the reason where it means nothing.
-    pub fn pause(&mut self, pause: bool) -> Result<(), &'static str> {
+    pub fn pause(&mut self, pause: bool) -> Result<(), PauseError> {
         match self {
             Mode::Stepping(st) => st.pause(pause),
             Mode::Standby
@@ -172,7 +206,7 @@ impl Mode {
             | Mode::Recovery(_)
             | Mode::Autotune(_)
             | Mode::Stopped
-            | Mode::Faulted => Err("only stepping pauses"),
+            | Mode::Faulted => Err(PauseError::NotStepping),
         }
     }
 
@@ -347,7 +381,7 @@ pub(super) enum Soak {
 impl Ctx<'_> {
     /// The mode has lasted past `soak_timeout_s`.
     pub fn soak_timed_out(&self) -> bool {
-        self.now.seconds_since(self.mode_since) > self.s.soak_timeout_s
+        self.now.seconds_since(self.mode_since).s() > self.s.soak_timeout_s
     }
 
     /// Ready: Tc has reached `hot_k` (with the stepping weights, the colder region: the whole
@@ -357,7 +391,7 @@ impl Ctx<'_> {
         let (s, tc, now) = (&self.s, self.tc_k, self.now);
         let (since, go) = match since {
             Some(t0) if tc >= s.hot_k - s.ready_band_k => {
-                (Some(t0), now.seconds_since(t0) >= s.ready_dwell_s)
+                (Some(t0), now.seconds_since(t0).s() >= s.ready_dwell_s)
             }
             None if tc >= s.hot_k => (Some(now), s.ready_dwell_s <= 0.0),
             _ => (None, false),
@@ -375,7 +409,7 @@ impl Ctx<'_> {
     pub fn cooled(&self, since: Millis) -> Soak {
         if self.hotter_k.is_some_and(|h| h <= self.s.form_end_k) {
             Soak::Go
-        } else if self.now.seconds_since(since) > self.s.form_timeout_s {
+        } else if self.now.seconds_since(since).s() > self.s.form_timeout_s {
             Soak::GiveUp
         } else {
             Soak::Wait

@@ -12,7 +12,7 @@ use super::{Mode, Supervisor};
 use crate::command::COMMANDS;
 use crate::outputs::SpringMask;
 use crate::settings::{PARAMS, Param, Settings};
-use crate::units::Millis;
+use crate::units::{Kelvin, Millis};
 
 /// Longest reply line, bytes.
 pub const REPLY_CAP: usize = 1024;
@@ -117,14 +117,14 @@ impl Reply {
                 Some(m) => {
                     for (i, t) in m.regions.iter().enumerate() {
                         write!(r, " t{}_k=", i + 1)?;
-                        write_num(r, t.k())?;
+                        write_num(r, t.map_or(f32::NAN, Kelvin::k))?;
                     }
                     write!(
                         r,
                         " quality={} frame={} age_s={:.2} filled={}",
                         m.quality.name(),
                         m.seq,
-                        now.seconds_since(m.at),
+                        now.seconds_since(m.at).s(),
                         m.filled_pixels
                     )?;
                 }
@@ -292,9 +292,10 @@ pub fn telemetry(s: &Supervisor, now: Millis, out: &mut impl Write) -> fmt::Resu
         now.ms() as f64 * 1e-3,
         s.mode.name()
     )?;
-    let (t1, t2) = s
-        .last
-        .map_or((f32::NAN, f32::NAN), |m| (m.t1().k(), m.t2().k()));
+    let (t1, t2) = s.last.map_or((f32::NAN, f32::NAN), |m| {
+        let k = |t: Option<Kelvin>| t.map_or(f32::NAN, Kelvin::k);
+        (k(m.t1()), k(m.t2()))
+    });
     write_k(out, "t1_k", t1)?;
     write_k(out, "t2_k", t2)?;
     write_k(out, "tc_k", s.tc_k)?;

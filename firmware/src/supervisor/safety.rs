@@ -19,7 +19,7 @@ use crate::control::{OnTimer, SpringHeat};
 use crate::measurement::{Measurement, Quality};
 use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
 use crate::settings::Settings;
-use crate::units::Millis;
+use crate::units::{Kelvin, Millis, Seconds};
 
 /// How far a spring's on-time may pass `spring_on_max_s` before it trips, ms: one tick of the
 /// board's control loop (a phase ends on the first step after its time is up).
@@ -209,16 +209,17 @@ impl Safety {
     /// mean plus the bound ([`Measurement::hotter`]), never the mean less it.
     pub fn over_temperature(m: &Measurement, s: &Settings) -> Option<Fault> {
         let smp_k = match m.quality {
-            Quality::Resolved => m.colder().k(),
-            Quality::Merged | Quality::Fallback => m.hotter().k(),
-        };
+            Quality::Resolved => m.colder(),
+            Quality::Merged | Quality::Fallback => m.hotter(),
+        }
+        .map_or(f32::NAN, Kelvin::k);
         let smp = m.regions[2..]
             .iter()
-            .map(|t| t.k())
+            .map(|t| t.map_or(f32::NAN, Kelvin::k))
             .chain([smp_k])
             .filter(|t| t.is_finite())
             .fold(f32::MIN, f32::max);
-        let film = [m.hotter().k()]
+        let film = [m.hotter().map_or(f32::NAN, Kelvin::k)]
             .into_iter()
             .chain(m.cylinder_max.map(|t| t.k()))
             .filter(|t| t.is_finite())
@@ -313,8 +314,15 @@ impl Safety {
         self.spring_duty.get(i).copied().unwrap_or(0.0)
     }
 
-    /// Run the runaway checks on a new measurement taken `dt_s` after the previous one.
-    pub fn runaway(&mut self, now: Millis, dt_s: f32, l: LoopState, s: &Settings) -> Option<Fault> {
+    /// Run the runaway checks on a new measurement taken `dt` after the previous one.
+    pub fn runaway(
+        &mut self,
+        now: Millis,
+        dt: Seconds,
+        l: LoopState,
+        s: &Settings,
+    ) -> Option<Fault> {
+        let dt_s = dt.s();
         if !l.active || !l.tc_k.is_finite() || !l.film_k.is_finite() {
             self.heat_window = None;
             self.rearm(l.target_k);
@@ -331,7 +339,7 @@ impl Safety {
         if below && l.heater_duty >= s.runaway_duty && !self.hold_met {
             match self.heat_window {
                 None => self.heat_window = Some((now, l.film_k)),
-                Some((t0, film0)) if now.seconds_since(t0) >= s.runaway_window_s => {
+                Some((t0, film0)) if now.seconds_since(t0).s() >= s.runaway_window_s => {
                     let rise = l.film_k - film0;
                     if rise < s.runaway_gain_k {
                         return Some(Fault {
@@ -390,7 +398,7 @@ impl Safety {
                 let rise = film_k - film0;
                 if rise >= s.runaway_gain_k {
                     self.response_window = Some((now, film_k));
-                } else if now.seconds_since(t0) >= s.no_response_s {
+                } else if now.seconds_since(t0).s() >= s.no_response_s {
                     return Some(Fault {
                         kind: FaultKind::NoResponse,
                         value: rise,
@@ -433,7 +441,9 @@ mod tests {
                 heater_duty: duty,
                 active: true,
             };
-            if let Some(f) = safety.runaway(Millis((t * 1000.0) as u64), dt, l, s) {
+            if let Some(f) =
+                safety.runaway(Millis((t * 1000.0) as u64), Seconds::new(dt).unwrap(), l, s)
+            {
                 return Some((t, f));
             }
             t += dt;
@@ -482,7 +492,10 @@ mod tests {
                 heater_duty: 1.0,
                 active: false,
             };
-            assert_eq!(safety.runaway(Millis(i * 250), 0.25, l, &s), None);
+            assert_eq!(
+                safety.runaway(Millis(i * 250), Seconds::lit(0.25), l, &s),
+                None
+            );
         }
     }
 

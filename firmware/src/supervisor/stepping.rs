@@ -3,7 +3,7 @@
 //! between, then hold.
 
 use super::events::EventKind;
-use super::mode::{Ctx, Drive, ModeStep, Next, Soak, ms};
+use super::mode::{Ctx, Drive, ModeStep, Next, PauseError, Soak, ms};
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::settings::Settings;
 use crate::units::Millis;
@@ -101,18 +101,16 @@ impl Stepping {
     }
 
     /// Pause (springs off, timer held) or resume; `Err` with the reason where it means nothing.
-    pub fn pause(&mut self, pause: bool) -> Result<(), &'static str> {
+    pub fn pause(&mut self, pause: bool) -> Result<(), PauseError> {
         let in_spring_phase = match self.phase {
             StepPhase::Prewarm { .. } | StepPhase::Spring { .. } | StepPhase::Pulse { .. } => true,
             StepPhase::Soak { .. } | StepPhase::Rest | StepPhase::Hold => false,
         };
         match (pause, self.paused) {
-            (true, true) => Err("already paused"),
-            (false, false) => Err("not paused"),
+            (true, true) => Err(PauseError::AlreadyPaused),
+            (false, false) => Err(PauseError::NotPaused),
             // Pause holds a spring phase's timer; soak, rest and hold have none.
-            (true, false) if !in_spring_phase => {
-                Err("pause only in a spring phase (prewarm, spring, pulse)")
-            }
+            (true, false) if !in_spring_phase => Err(PauseError::NotInSpringPhase),
             (p, _) => {
                 self.paused = p;
                 Ok(())
@@ -202,7 +200,7 @@ impl Stepping {
         let idle = self.paused || matches!(self.phase, StepPhase::Hold);
         if !idle {
             self.idle_since = None;
-        } else if now.seconds_since(*self.idle_since.get_or_insert(now)) > s.hold_timeout_s {
+        } else if now.seconds_since(*self.idle_since.get_or_insert(now)).s() > s.hold_timeout_s {
             next = Some(Next::GiveUp("hold"));
         }
         let on = matches!(

@@ -42,18 +42,11 @@ impl Block {
         Measurement {
             at: Millis(at_ms),
             seq,
-            regions: [
-                Kelvin(self.t1),
-                Kelvin(self.t2),
-                Kelvin(self.t2),
-                Kelvin(300.0),
-                Kelvin(298.0),
-            ],
-            tc: Kelvin(self.t2),
-            cylinder_max: Some(Kelvin(self.t1.max(self.t2))),
+            regions: [self.t1, self.t2, self.t2, 300.0, 298.0].map(Kelvin::new),
+            cylinder_max: Kelvin::new(self.t1.max(self.t2)),
             filled_pixels: 0,
             quality: Quality::Resolved,
-            bound: Kelvin(0.5),
+            bound: Kelvin::lit(0.5),
         }
     }
 }
@@ -254,13 +247,13 @@ fn over_temperature_is_by_rank_not_label() {
     r.run(1.0);
     let mut m = r.block.measure(r.now_ms + 250, 999);
     // The hotter is the film: 390 K is below its limit whichever label it has.
-    m.regions[0] = Kelvin(330.0);
-    m.regions[1] = Kelvin(390.0);
+    m.regions[0] = Kelvin::new(330.0);
+    m.regions[1] = Kelvin::new(390.0);
     r.sup.step(Millis(r.now_ms + 250), Some(&m), None);
     assert!(r.sup.fault().is_none());
     // The colder at 375 K is the SMP above 373 K.
     m.at = Millis(r.now_ms + 500);
-    m.regions[0] = Kelvin(375.0);
+    m.regions[0] = Kelvin::new(375.0);
     r.sup.step(Millis(r.now_ms + 500), Some(&m), None);
     assert_eq!(r.sup.fault().map(|f| f.code()), Some("over-temperature"));
 }
@@ -270,7 +263,7 @@ fn bad_measurements_are_ignored_and_time_never_runs_back() {
     let mut r = Rig::new();
     r.run(5.0);
     let mut m = r.block.measure(r.now_ms, 1);
-    m.regions[1] = Kelvin(f32::NAN);
+    m.regions[1] = Kelvin::new(f32::NAN);
     for k in 1..3u64 {
         m.at = Millis(r.now_ms + 250 * k);
         r.sup.step(Millis(r.now_ms + 250 * k), Some(&m), None);
@@ -448,18 +441,11 @@ fn frame_of(t1: f32, t2: f32, quality: Quality, bound: f32) -> Measurement {
     Measurement {
         at: Millis(0),
         seq: 0,
-        regions: [
-            Kelvin(t1),
-            Kelvin(t2),
-            Kelvin(t2),
-            Kelvin(300.0),
-            Kelvin(298.0),
-        ],
-        tc: Kelvin(t2),
-        cylinder_max: Some(Kelvin(t1.max(t2))),
+        regions: [t1, t2, t2, 300.0, 298.0].map(Kelvin::new),
+        cylinder_max: Kelvin::new(t1.max(t2)),
         filled_pixels: 0,
         quality,
-        bound: Kelvin(bound),
+        bound: Kelvin::new(bound).unwrap(),
     }
 }
 

@@ -8,11 +8,11 @@
 //! arc) projected on the image plane.
 
 use embassy_futures::block_on;
-use thermorph::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
+use thermorph::measurement::{Measurement, Quality, SensingHint};
 use thermorph::mlx90640::{Config as SensorConfig, Mlx90640};
 use thermorph::mtts::{IMG_PIXELS, REGIONS};
 use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
-use thermorph::units::{Kelvin, Millis};
+use thermorph::units::{Kelvin, Millis, k_or_nan};
 
 use crate::plant::Observation;
 use crate::rig::faults::{BURNING_FILM_K, CameraFault, ELSEWHERE_K};
@@ -99,7 +99,7 @@ impl Camera {
     /// The latest frame's region temperatures, K (`None` after an error until the next frame).
     pub fn last_regions_k(&self) -> Option<[f64; REGIONS]> {
         self.last
-            .map(|m| core::array::from_fn(|i| m.regions[i].k() as f64))
+            .map(|m| core::array::from_fn(|i| k_or_nan(m.regions[i]) as f64))
     }
 
     /// Whether the sensor may measure a subpage before `until_us` (or within one bus action
@@ -178,26 +178,17 @@ pub fn open_loop_hint() -> SensingHint {
 }
 
 /// The camera-off measurement: the true region temperatures of `obs` at `at` (frame number
-/// `seq`), resolved, Tc as the pipeline computes it for `hint`.
-pub fn truth_measurement(
-    obs: &Observation,
-    at: Millis,
-    seq: u32,
-    hint: &SensingHint,
-) -> Measurement {
-    let regions_k = camera_temps(obs).regions();
-    let mut m = Measurement {
+/// `seq`), resolved (the supervisor computes Tc from them, as from a camera frame).
+pub fn truth_measurement(obs: &Observation, at: Millis, seq: u32) -> Measurement {
+    Measurement {
         at,
         seq,
-        regions: regions_k.map(|t| Kelvin(t as f32)),
-        tc: Kelvin(f32::NAN),
-        cylinder_max: Some(Kelvin(obs.heater_k.max(obs.smp_outer_k) as f32)),
+        regions: camera_temps(obs).regions().map(|t| Kelvin::new(t as f32)),
+        cylinder_max: Kelvin::new(obs.heater_k.max(obs.smp_outer_k) as f32),
         filled_pixels: 0,
         quality: Quality::Resolved,
-        bound: Kelvin(0.0),
-    };
-    m.tc = controlled_temperature(&m, hint);
-    m
+        bound: Kelvin::lit(0.0),
+    }
 }
 
 /// The five region temperatures the camera sees, from the plant ([`Temps::from_surfaces`]):

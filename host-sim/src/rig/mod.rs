@@ -350,6 +350,7 @@ impl SimBoard {
             let next_tick = self.boot_us + (since_boot / TICK_US + 1) * TICK_US;
             let mut target = next_tick.min(t_us);
             let faults = self.inputs().2;
+            let hint = self.hint();
             if let Some(cam) = &mut self.camera {
                 if self.pending.is_none() && cam.clock_us() < target {
                     cam.set_fault(faults);
@@ -358,10 +359,6 @@ impl SimBoard {
                         self.shown = true;
                         self.shown_faults = faults;
                     }
-                    let hint = match &self.control {
-                        Some(c) => c.supervisor().sensing_hint(),
-                        None => open_loop_hint(),
-                    };
                     self.pending = cam.run_until(target, hint);
                 }
             } else {
@@ -382,9 +379,8 @@ impl SimBoard {
                 self.next_truth_us += self.truth_period_us;
                 if faults.sensor.is_none() {
                     self.truth_frames += 1;
-                    let hint = self.hint();
                     let (now, seq) = (self.now(), self.truth_frames);
-                    let m = truth_measurement(&self.observe(), now, seq, &hint);
+                    let m = truth_measurement(&self.observe(), now, seq);
                     frame = Some(m);
                 }
             }

@@ -6,6 +6,7 @@ use std::path::Path;
 use thermorph::mtts::{
     self, IMG_COLS, IMG_PIXELS, IMG_ROWS, Method, Mtts, Prior, REGION_NAMES, Scratch,
 };
+use thermorph::units::k_or_nan;
 
 use crate::sensing::scene::standard_scenes;
 
@@ -132,7 +133,7 @@ pub fn run(
             "{},{},{:.3},{}\n",
             i + 1,
             REGION_NAMES[i],
-            r.temp.k(),
+            k_or_nan(r.temp),
             r.pixels
         );
     }

@@ -25,6 +25,7 @@ use std::time::Instant;
 use clap::Args;
 use thermorph::mtts::upsample::{UpsampleScratch, Upsampler};
 use thermorph::mtts::{self, Config, IMG_PIXELS, Method, Mtts, Prior, Quality, Scratch};
+use thermorph::units::k_or_nan;
 
 use crate::sensing::mtts_cli::method_name;
 use crate::sensing::scene::{Scene, standard_scenes};
@@ -268,7 +269,10 @@ pub fn measure(cfg: &WpConfig) -> Result<Vec<Row>, String> {
                     let out = m.process(img, &mut scratch).map_err(|e| e.to_string())?;
                     // The clustering's T1 and T2 (what s and the method change); the lattice
                     // fit's are in the family section.
-                    let (t1, t2) = (out.clustered[0].k() as f64, out.clustered[1].k() as f64);
+                    let (t1, t2) = (
+                        k_or_nan(out.clustered[0]) as f64,
+                        k_or_nan(out.clustered[1]) as f64,
+                    );
                     // A missing region (NaN) is an infinite error.
                     let err = |t: f64, want: f64| {
                         let d = (t - want).abs();
@@ -871,7 +875,7 @@ pub fn family_outcomes(seeds: Range<u64>, count: u64, with_prior: bool) -> Vec<F
             let out = mtts
                 .process(&r.image_k, &mut scratch)
                 .expect("a family frame is valid");
-            let (t1, t2) = (out.t1().k() as f64, out.t2().k() as f64);
+            let (t1, t2) = (k_or_nan(out.t1()) as f64, k_or_nan(out.t2()) as f64);
             let truth = [m.temps.heater_k, m.temps.surface_k];
             let est_gap = t1 - t2;
             FamilyOutcome {
@@ -879,8 +883,8 @@ pub fn family_outcomes(seeds: Range<u64>, count: u64, with_prior: bool) -> Vec<F
                 gap_k: gap,
                 err_k: [(t1 - truth[0]).abs(), (t2 - truth[1]).abs()],
                 cluster_err_k: [
-                    (out.clustered[0].k() as f64 - truth[0]).abs(),
-                    (out.clustered[1].k() as f64 - truth[1]).abs(),
+                    (k_or_nan(out.clustered[0]) as f64 - truth[0]).abs(),
+                    (k_or_nan(out.clustered[1]) as f64 - truth[1]).abs(),
                 ],
                 merged_err_k: (out.quality == Quality::Merged).then(|| (t1 - m.mean_k()).abs()),
                 quality: out.quality,
