@@ -12,7 +12,7 @@ use thermorph::console::MAX_LINE;
 use thermorph::settings::{PARAMS, Settings};
 use thermorph::supervisor::mode::ModeId;
 use thermorph::supervisor::report::TELEMETRY_FIELDS;
-use thermorph::supervisor::safety::{Fault, FaultKind};
+use thermorph::supervisor::safety::FaultKind;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -242,7 +242,7 @@ fn console_doc_lists_every_error_code_the_firmware_answers() {
     );
 }
 
-/// Every fault code, from [`Fault::code`].
+/// Every fault code, from [`FaultKind::code`].
 fn fault_codes() -> Vec<&'static str> {
     let kinds = [
         FaultKind::OverTemperature,
@@ -268,7 +268,7 @@ fn fault_codes() -> Vec<&'static str> {
                 | FaultKind::RunawayHeating
                 | FaultKind::RunawayHolding
                 | FaultKind::NoResponse
-                | FaultKind::EStop => Fault { kind, value: 0.0 }.code(),
+                | FaultKind::EStop => kind.code(),
             }
         })
         .collect()

@@ -304,13 +304,7 @@ impl Supervisor {
     pub fn button(&mut self, now: Millis, pressed: bool) {
         self.button_pressed = pressed;
         if pressed {
-            self.latch(
-                now,
-                Fault {
-                    kind: FaultKind::EStop,
-                    value: 1.0,
-                },
-            );
+            self.latch(now, Fault::EStop);
         }
     }
 
@@ -432,13 +426,7 @@ impl Supervisor {
             .max(self.sensor_grace);
         let age_s = now.seconds_since(since).s();
         if age_s > self.settings.sensor_timeout_s {
-            self.latch(
-                now,
-                Fault {
-                    kind: FaultKind::SensorLoss,
-                    value: age_s,
-                },
-            );
+            self.latch(now, Fault::SensorLoss { for_s: age_s });
         }
         if let Some(m) = fresh {
             let heater = ran.heater.fraction();
@@ -573,8 +561,8 @@ impl Supervisor {
     /// released).
     fn latch(&mut self, now: Millis, f: Fault) {
         match self.fault {
-            Some(cur) if cur.kind == FaultKind::EStop => return,
-            Some(_) if f.kind != FaultKind::EStop => return,
+            Some(Fault::EStop) => return,
+            Some(_) if f != Fault::EStop => return,
             _ => {}
         }
         self.fault = Some(f);
@@ -753,13 +741,7 @@ impl Supervisor {
                 Reply::stream_on(hz)
             }
             Command::EStop => {
-                self.latch(
-                    now,
-                    Fault {
-                        kind: FaultKind::EStop,
-                        value: 0.0,
-                    },
-                );
+                self.latch(now, Fault::EStop);
                 Reply::ok("emergency stop latched")
             }
             Command::Reset => self.reset(now),
@@ -807,16 +789,13 @@ impl Supervisor {
             return Reply::ok("no fault latched");
         };
         if self.button_pressed {
-            return Reply::cause_present(Fault {
-                kind: FaultKind::EStop,
-                value: 1.0,
-            });
+            return Reply::cause_present(Fault::EStop);
         }
         let s = &self.settings;
         let fresh = self
             .last
             .is_some_and(|m| now.seconds_since(m.at).s() <= s.sensor_timeout_s);
-        let gone = match f.kind {
+        let gone = match f.kind() {
             FaultKind::SensorLoss => fresh,
             FaultKind::OverTemperature => {
                 fresh

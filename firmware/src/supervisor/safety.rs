@@ -25,7 +25,8 @@ use crate::units::{Kelvin, Millis, Seconds};
 /// board's control loop (a phase ends on the first step after its time is up).
 pub const ON_TIME_SLACK_MS: u32 = 50;
 
-/// Why the supervisor latched a fault.
+/// Which check latched a fault (with the spring, where one did), without what tripped it: for
+/// matching and comparing ([`Fault::kind`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FaultKind {
     /// A region (or the hottest cylinder pixel) is above `t_max_k`.
@@ -49,19 +50,63 @@ pub enum FaultKind {
     EStop,
 }
 
-/// A latched fault with the value that tripped it.
+/// A latched fault, with what tripped it in that check's own unit.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Fault {
-    /// What tripped.
-    pub kind: FaultKind,
-    /// The value that tripped it (K, s, a fraction, K·s, or K of rise; see [`Fault::reason`]).
-    pub value: f32,
+pub enum Fault {
+    /// A region (or the hottest cylinder pixel) reached `reached_k` above its limit.
+    OverTemperature {
+        /// The temperature that tripped it, K.
+        reached_k: f32,
+    },
+    /// A spring was on for `on_s` past `spring_on_max_s`.
+    SpringOnTime {
+        /// Spring index, 0 = A.
+        spring: u8,
+        /// Its on-time, s.
+        on_s: f32,
+    },
+    /// A spring's duty over the window passed `spring_duty_max_pct`.
+    SpringDuty {
+        /// Spring index, 0 = A.
+        spring: u8,
+        /// Its duty, a fraction.
+        duty: f32,
+    },
+    /// A spring's heat estimate passed `spring_heat_max_pct`.
+    SpringHeat {
+        /// Spring index, 0 = A.
+        spring: u8,
+        /// Its heat estimate, a fraction of the heat to austenite.
+        heat: f32,
+    },
+    /// No valid measurement for `for_s`.
+    SensorLoss {
+        /// Since the last valid measurement, s.
+        for_s: f32,
+    },
+    /// The heater ran hard and the film rose only `rise_k` in the window.
+    RunawayHeating {
+        /// The film's rise over the window, K.
+        rise_k: f32,
+    },
+    /// Tc stayed away from its target: `error_k_s` accumulated beyond the band.
+    RunawayHolding {
+        /// The accumulated error, K·s.
+        error_k_s: f32,
+    },
+    /// The heater ran hard for `no_response_s` and the film changed by `change_k`.
+    NoResponse {
+        /// The film's change over the window, K.
+        change_k: f32,
+    },
+    /// The emergency stop (button or console).
+    EStop,
 }
 
-impl Fault {
+impl FaultKind {
     /// Return the stable code shown on the console and in files.
-    pub fn code(&self) -> &'static str {
-        match self.kind {
+    pub fn code(self) -> &'static str {
+        match self {
             FaultKind::OverTemperature => "over-temperature",
             FaultKind::SpringOnTime(_) => "spring-on-time",
             FaultKind::SpringDuty(_) => "spring-duty",
@@ -73,11 +118,33 @@ impl Fault {
             FaultKind::EStop => "estop",
         }
     }
+}
+
+impl Fault {
+    /// Return which check tripped (with the spring, where one did).
+    pub fn kind(&self) -> FaultKind {
+        match *self {
+            Fault::OverTemperature { .. } => FaultKind::OverTemperature,
+            Fault::SpringOnTime { spring, .. } => FaultKind::SpringOnTime(spring),
+            Fault::SpringDuty { spring, .. } => FaultKind::SpringDuty(spring),
+            Fault::SpringHeat { spring, .. } => FaultKind::SpringHeat(spring),
+            Fault::SensorLoss { .. } => FaultKind::SensorLoss,
+            Fault::RunawayHeating { .. } => FaultKind::RunawayHeating,
+            Fault::RunawayHolding { .. } => FaultKind::RunawayHolding,
+            Fault::NoResponse { .. } => FaultKind::NoResponse,
+            Fault::EStop => FaultKind::EStop,
+        }
+    }
+
+    /// Return the stable code shown on the console and in files.
+    pub fn code(&self) -> &'static str {
+        self.kind().code()
+    }
 
     /// Return whether the fan should run while this fault is latched (cooling helps unless a
     /// person stopped everything).
     pub fn fan_helps(&self) -> bool {
-        !matches!(self.kind, FaultKind::EStop)
+        !matches!(self, Fault::EStop)
     }
 
     /// Return a one-line human reason (no line breaks).
@@ -91,41 +158,37 @@ pub struct Reason(Fault);
 
 impl fmt::Display for Reason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let v = self.0.value;
-        match self.0.kind {
-            FaultKind::OverTemperature => write!(f, "a region reached {v:.1} K"),
-            FaultKind::SpringOnTime(i) => {
-                write!(
-                    f,
-                    "spring {} on for {v:.1} s",
-                    SPRING_NAMES[i as usize % SPRINGS]
-                )
+        let name = |i: u8| SPRING_NAMES[i as usize % SPRINGS];
+        match self.0 {
+            Fault::OverTemperature { reached_k } => write!(f, "a region reached {reached_k:.1} K"),
+            Fault::SpringOnTime { spring, on_s } => {
+                write!(f, "spring {} on for {on_s:.1} s", name(spring))
             }
-            FaultKind::SpringDuty(i) => write!(
+            Fault::SpringDuty { spring, duty } => write!(
                 f,
                 "spring {} duty {:.0} % over its window",
-                SPRING_NAMES[i as usize % SPRINGS],
-                v * 100.0
+                name(spring),
+                duty * 100.0
             ),
-            FaultKind::SpringHeat(i) => write!(
+            Fault::SpringHeat { spring, heat } => write!(
                 f,
                 "spring {} heat estimate {:.0} % of the heat to austenite",
-                SPRING_NAMES[i as usize % SPRINGS],
-                v * 100.0
+                name(spring),
+                heat * 100.0
             ),
-            FaultKind::SensorLoss => write!(f, "no valid measurement for {v:.2} s"),
-            FaultKind::RunawayHeating => {
-                write!(
-                    f,
-                    "heater at high duty but the film rose only {v:.2} K in the window"
-                )
-            }
-            FaultKind::RunawayHolding => write!(f, "Tc away from target for {v:.0} K*s"),
-            FaultKind::NoResponse => write!(
+            Fault::SensorLoss { for_s } => write!(f, "no valid measurement for {for_s:.2} s"),
+            Fault::RunawayHeating { rise_k } => write!(
                 f,
-                "heater at high duty for no_response_s but the film changed by {v:+.2} K"
+                "heater at high duty but the film rose only {rise_k:.2} K in the window"
             ),
-            FaultKind::EStop => f.write_str("emergency stop"),
+            Fault::RunawayHolding { error_k_s } => {
+                write!(f, "Tc away from target for {error_k_s:.0} K*s")
+            }
+            Fault::NoResponse { change_k } => write!(
+                f,
+                "heater at high duty for no_response_s but the film changed by {change_k:+.2} K"
+            ),
+            Fault::EStop => f.write_str("emergency stop"),
         }
     }
 }
@@ -225,15 +288,9 @@ impl Safety {
             .filter(|t| t.is_finite())
             .fold(f32::MIN, f32::max);
         if smp > s.t_max_k {
-            Some(Fault {
-                kind: FaultKind::OverTemperature,
-                value: smp,
-            })
+            Some(Fault::OverTemperature { reached_k: smp })
         } else if film > s.t_heater_max_k {
-            Some(Fault {
-                kind: FaultKind::OverTemperature,
-                value: film,
-            })
+            Some(Fault::OverTemperature { reached_k: film })
         } else {
             None
         }
@@ -266,14 +323,14 @@ impl Safety {
         (0..SPRINGS).filter(|&i| springs.contains(i)).find_map(|i| {
             let on_ms = self.spring_on[i].on_ms();
             if on_ms as f32 > on_max_ms {
-                Some(Fault {
-                    kind: FaultKind::SpringOnTime(i as u8),
-                    value: on_ms as f32 * 1e-3,
+                Some(Fault::SpringOnTime {
+                    spring: i as u8,
+                    on_s: on_ms as f32 * 1e-3,
                 })
             } else if self.spring_duty[i] > s.spring_duty_max {
-                Some(Fault {
-                    kind: FaultKind::SpringDuty(i as u8),
-                    value: self.spring_duty[i],
+                Some(Fault::SpringDuty {
+                    spring: i as u8,
+                    duty: self.spring_duty[i],
                 })
             } else {
                 None
@@ -292,9 +349,9 @@ impl Safety {
         (0..SPRINGS)
             .filter(|&i| springs.contains(i))
             .find(|&i| heat.heat(i) > s.spring_heat_max)
-            .map(|i| Fault {
-                kind: FaultKind::SpringHeat(i as u8),
-                value: heat.heat(i),
+            .map(|i| Fault::SpringHeat {
+                spring: i as u8,
+                heat: heat.heat(i),
             })
     }
 
@@ -342,10 +399,7 @@ impl Safety {
                 Some((t0, film0)) if now.seconds_since(t0).s() >= s.runaway_window_s => {
                     let rise = l.film_k - film0;
                     if rise < s.runaway_gain_k {
-                        return Some(Fault {
-                            kind: FaultKind::RunawayHeating,
-                            value: rise,
-                        });
+                        return Some(Fault::RunawayHeating { rise_k: rise });
                     }
                     self.heat_window = Some((now, l.film_k));
                 }
@@ -362,9 +416,8 @@ impl Safety {
         } else if self.hold_met {
             self.hold_error_ks += excess * dt_s;
             if self.hold_error_ks > s.hold_max_error_ks {
-                return Some(Fault {
-                    kind: FaultKind::RunawayHolding,
-                    value: self.hold_error_ks,
+                return Some(Fault::RunawayHolding {
+                    error_k_s: self.hold_error_ks,
                 });
             }
         }
@@ -399,10 +452,7 @@ impl Safety {
                 if rise >= s.runaway_gain_k {
                     self.response_window = Some((now, film_k));
                 } else if now.seconds_since(t0).s() >= s.no_response_s {
-                    return Some(Fault {
-                        kind: FaultKind::NoResponse,
-                        value: rise,
-                    });
+                    return Some(Fault::NoResponse { change_k: rise });
                 }
             }
         }
@@ -456,7 +506,7 @@ mod tests {
         let s = Settings::DEFAULT;
         let mut safety = Safety::new();
         let (t, f) = run(&mut safety, &s, 60.0, |_| 298.0, 1.0, 323.0).unwrap();
-        assert_eq!(f.kind, FaultKind::RunawayHeating);
+        assert_eq!(f.kind(), FaultKind::RunawayHeating);
         assert!((t - s.runaway_window_s).abs() < 0.3, "tripped at {t}");
     }
 
@@ -476,7 +526,7 @@ mod tests {
         // At target for 10 s, then 10 K below: 5 K beyond the band → 120 K·s after 24 s.
         let tc = |t: f32| if t < 10.0 { 323.0 } else { 313.0 };
         let (t, f) = run(&mut safety, &s, 100.0, tc, 0.5, 323.0).unwrap();
-        assert_eq!(f.kind, FaultKind::RunawayHolding);
+        assert_eq!(f.kind(), FaultKind::RunawayHolding);
         assert!((t - 34.0).abs() < 0.6, "tripped at {t}");
     }
 
@@ -508,7 +558,7 @@ mod tests {
             assert_eq!(safety.credit_springs(a, 250, &s), None);
         }
         let f = safety.credit_springs(a, 250, &s).unwrap();
-        assert_eq!(f.kind, FaultKind::SpringOnTime(0));
+        assert_eq!(f.kind(), FaultKind::SpringOnTime(0));
         // Duty: 6 s on, 1 s off, repeated, is 86 % — above the 60 % limit eventually.
         let mut safety = Safety::new();
         let mut tripped = None;
@@ -520,6 +570,6 @@ mod tests {
                 break;
             }
         }
-        assert_eq!(tripped.map(|f| f.kind), Some(FaultKind::SpringDuty(0)));
+        assert_eq!(tripped.map(|f| f.kind()), Some(FaultKind::SpringDuty(0)));
     }
 }

@@ -627,7 +627,7 @@ fn a_short_gap_does_not_end_a_springs_on_time() {
         }
     }
     let (k, f) = tripped.expect("trips");
-    assert_eq!(f.kind, FaultKind::SpringOnTime(0));
+    assert_eq!(f.kind(), FaultKind::SpringOnTime(0));
     assert_eq!(k, 8, "6 s + 2.25 s of on-time");
 }
 
