@@ -88,8 +88,8 @@ pub fn mode_names() -> impl Iterator<Item = (&'static str, ModeId)> {
 /// A parsed command.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Command {
-    /// List the commands.
-    Help,
+    /// List the commands, or (with an index into [`COMMANDS`]) say what one does.
+    Help(Option<u8>),
     /// Show the firmware version.
     Version,
     /// Show mode, temperatures, outputs and faults.
@@ -138,8 +138,8 @@ pub struct CommandSpec {
 pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "help",
-        args: "",
-        help: "list the commands",
+        args: "[COMMAND]",
+        help: "list the commands, or show one's arguments and what it does",
     },
     CommandSpec {
         name: "version",
@@ -247,7 +247,15 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
         _ => Err(ParseError::BadArguments),
     };
     match spec.name {
-        "help" => none(Command::Help),
+        "help" => match (a, b) {
+            (None, None) => Ok(Command::Help(None)),
+            (Some(word), None) => COMMANDS
+                .iter()
+                .position(|c| c.name.eq_ignore_ascii_case(word))
+                .map(|i| Command::Help(Some(i as u8)))
+                .ok_or(ParseError::UnknownCommand),
+            _ => Err(bad),
+        },
         "version" => none(Command::Version),
         "status" => none(Command::Status),
         "pause" => none(Command::Pause),

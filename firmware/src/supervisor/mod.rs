@@ -703,7 +703,7 @@ impl Supervisor {
     /// Carry out a command; return its reply.
     fn command(&mut self, now: Millis, c: Command) -> Reply {
         match c {
-            Command::Help => Reply::help(),
+            Command::Help(topic) => Reply::help(topic),
             Command::Version => Reply::version(),
             Command::Status => Reply::status(self, now),
             Command::Log => Reply::log(&self.events),

@@ -89,7 +89,18 @@ impl Reply {
         Reply::err(e.code(), e.message())
     }
 
-    pub(super) fn help() -> Reply {
+    /// `help`: every command with its arguments; `help COMMAND` (`topic`, an index into
+    /// [`COMMANDS`]): that command's arguments and what it does.
+    pub(super) fn help(topic: Option<u8>) -> Reply {
+        if let Some(c) = topic.and_then(|i| COMMANDS.get(i as usize)) {
+            return Reply::with(|r| {
+                if c.args.is_empty() {
+                    write!(r, "ok {}: {}", c.name, c.help)
+                } else {
+                    write!(r, "ok {} {}: {}", c.name, c.args, c.help)
+                }
+            });
+        }
         Reply::with(|r| {
             r.write_str("ok commands:")?;
             for (i, c) in COMMANDS.iter().enumerate() {

@@ -2,7 +2,7 @@
 //! console lines, sensor gaps and faults.
 
 use super::*;
-use crate::command::parse;
+use crate::command::{ParseError, parse};
 use crate::measurement::Quality;
 use std::vec::Vec;
 
@@ -286,7 +286,18 @@ fn set_get_and_spring_limits() {
         r.line("set hot_k 400")
             .starts_with("err out-of-range: hot_k must be in [338, 368] K")
     );
-    assert!(r.line("help").starts_with("ok commands: help;"));
+    assert!(r.line("help").starts_with("ok commands: help [COMMAND];"));
+    assert_eq!(
+        r.line("help mode"),
+        "ok mode standby|step-small|step-large|form|recover [SPRINGS]: enter a mode; SPRINGS: \
+         letters of A, B, C for stepping"
+    );
+    assert_eq!(
+        r.line("HELP save"),
+        "ok save: store every parameter (survives a reset)"
+    );
+    assert_eq!(parse("help fly"), Err(ParseError::UnknownCommand));
+    assert_eq!(parse("help mode set"), Err(ParseError::BadArguments));
     assert!(r.line("log").starts_with("ok events=0"));
     assert!(r.line("status").starts_with("ok mode=standby"));
     assert!(r.line("stream on 50").starts_with("err out-of-range"));
