@@ -117,7 +117,9 @@ pub use stepping::{StepKind, StepPhase, Stepping};
 
 use mode::{Ctx, Drive, Next};
 
-/// Plausible region temperatures for a measurement to count as valid, K.
+/// Region temperatures the block can really show, for a measurement to count as valid, K (a
+/// finite frame above it is an over-temperature at once). Not [`crate::mtts::PLAUSIBLE_K`],
+/// the wider range of values a working sensor's pixel can report (outside it: a broken pixel).
 pub const VALID_K: (f32, f32) = (200.0, 500.0);
 
 /// Within this of its ceiling (`heater_cap_k − heater_cap_band_k`, where the cascade holds the
