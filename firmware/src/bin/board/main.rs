@@ -6,11 +6,11 @@
 //! The board: clocks, tasks and shared state.
 //!
 //! - `main` (the control loop): wakes on every new measurement, every console line (while a
-//!   reply slot is free), every e-stop press and at least every 50 ms (`TICK`), and each time
-//!   runs one control step: it hands the supervisor the e-stop button's level
-//!   (`Supervisor::button`; a press seen since the last step counts as pressed), steps it with
-//!   the newest measurement, then with the line, and applies the last decision's `Outputs`
-//!   through `pins::Gates::apply` (the only path that drives a load). A `save` or `load`
+//!   reply slot is free), every e-stop press and at least every 50 ms (`TICK`, the library's
+//!   `app::CONTROL_PERIOD_MS`), and each time runs one control period of the library's
+//!   `app::Controller` (which orders it: the e-stop button's level — a press seen since the
+//!   last period counts as pressed —, the newest measurement, then the line), and applies the
+//!   period's `Outputs` through `pins::Gates::apply` (the only path that drives a load). A `save` or `load`
 //!   applies that decision's outputs (heater and springs off) *before* the flash operation and
 //!   holds them through it. It writes the springs' memory to RAM kept across a reset
 //!   (`board/retained.rs`), queues the reply, a `# warning: …` line for a decision's warning
