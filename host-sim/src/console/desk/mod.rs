@@ -117,24 +117,8 @@ pub enum DeskError {
         value: String,
     },
     /// A `wait` condition did not hold in time.
-    #[error(
-        "timeout: {cond} did not hold within {within_s:.1} s (last {field} = {value}, mode = \
-         {mode}, fault = {fault})"
-    )]
-    WaitTimeout {
-        /// The condition.
-        cond: String,
-        /// How long it was waited for, s.
-        within_s: f64,
-        /// Its field.
-        field: String,
-        /// The field's last value.
-        value: String,
-        /// The last mode.
-        mode: String,
-        /// The last fault.
-        fault: String,
-    },
+    #[error(transparent)]
+    WaitTimeout(Box<WaitTimeout>),
     /// Nothing answered the first command: not a Thermorph console.
     #[error("{0}: is this a Thermorph console?")]
     NoConsole(String),
@@ -172,4 +156,25 @@ pub enum DeskError {
     /// The serial ports cannot be listed.
     #[error("listing ports: {0}")]
     Ports(serialport::Error),
+}
+
+/// A `wait` whose condition did not hold in time, with the last `status` seen.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "timeout: {cond} did not hold within {within_s:.1} s (last {field} = {value}, mode = {mode}, \
+     fault = {fault})"
+)]
+pub struct WaitTimeout {
+    /// The condition.
+    pub cond: String,
+    /// How long it was waited for, s.
+    pub within_s: f64,
+    /// Its field.
+    pub field: String,
+    /// The field's last value.
+    pub value: String,
+    /// The last mode.
+    pub mode: String,
+    /// The last fault.
+    pub fault: String,
 }

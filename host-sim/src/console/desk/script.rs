@@ -21,10 +21,10 @@
 
 use std::time::{Duration, Instant};
 
-use super::DeskError;
 use super::link::{Line, Link};
 use super::record::CsvSink;
 use super::telemetry::{Fields, fields, get};
+use super::{DeskError, WaitTimeout};
 
 /// Default `wait` timeout.
 pub const DEFAULT_WAIT: Duration = Duration::from_secs(60);
@@ -341,14 +341,14 @@ pub fn run(
                         break;
                     }
                     if Instant::now() >= until {
-                        return Err(fail(DeskError::WaitTimeout {
+                        return Err(fail(DeskError::WaitTimeout(Box::new(WaitTimeout {
                             cond: cond.to_string(),
                             within_s: within.as_secs_f64(),
                             field: cond.field.clone(),
                             value: get(&f, &cond.field).unwrap_or("?").to_string(),
                             mode: get(&f, "mode").unwrap_or("?").to_string(),
                             fault: get(&f, "fault").unwrap_or("?").to_string(),
-                        }));
+                        }))));
                     }
                     let next =
                         Instant::now() + POLL.min(until.saturating_duration_since(Instant::now()));
