@@ -3,6 +3,9 @@
 //! One 16-bit word per token, hexadecimal, whitespace separated, `#` starts a comment. An
 //! EEPROM file holds 832 words (0x2400–0x273F); a frame file 834 words (RAM 0x0400–0x073F, the
 //! control register, the subpage number), the layout of the library's `MLX90640_GetFrameData`.
+//!
+//! This module owns the error types of dump files: [`DumpError`] (a refused file, named) and
+//! [`BadWord`] (a token that is not a 16-bit word).
 
 use std::fmt;
 use std::path::Path;
