@@ -12,6 +12,17 @@
 //!   thesis's experiments, plots.
 //! - [`console`]: the console — the block behind the board's console, and the researcher's
 //!   desk that drives it (or the board).
+//!
+//! Errors are typed, one `thiserror` enum per layer, each in the module that owns it:
+//! [`runs::scenario::ScenarioError`], [`plant::PlantError`], [`sensor::eeprom::EepromError`]
+//! and [`sensor::SensorError`], [`rig::RigError`] (wrapping the plant's and the sensor's),
+//! [`runs::plot::PlotError`], [`runs::run::RunError`] (runs and `paper`),
+//! [`sensing::SensingError`] (with [`sensing::dump::DumpError`]) and
+//! [`console::desk::DeskError`]. Each error's `Display` is the whole message a person reads, its
+//! causes' text included; a wrapper adds no text of its own (`#[error(transparent)]`). Only the
+//! command entries (`cli`, the `run` of `sensor`, `plant-wp` and `mtts-wp`, `mtts_cli::run` and
+//! `scene`) and the binaries' `main`s use `anyhow`, adding a file name or step as context; the
+//! binaries print `error: {:#}`.
 
 pub mod console;
 pub mod plant;

@@ -109,8 +109,20 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // `{:#}`: the error and its context, `a: b` (the typed errors carry their causes'
+            // text themselves, so nothing shows twice).
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Run the command.
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli
         .command
         .unwrap_or(Command::Run(host_sim::runs::run::RunArgs {
             scene: "cycle".into(),
@@ -127,11 +139,11 @@ fn main() -> ExitCode {
                 reflected: None,
                 ta_shift_k: ta_shift,
             };
-            host_sim::sensing::decode::decode_files(&eeprom, &frames, &params).and_then(|img| {
-                let stdout = std::io::stdout();
-                let mut out = std::io::BufWriter::new(stdout.lock());
-                host_sim::sensing::decode::write_csv(&img, &mut out).map_err(|e| e.to_string())
-            })
+            let img = host_sim::sensing::decode::decode_files(&eeprom, &frames, &params)?;
+            let stdout = std::io::stdout();
+            let mut out = std::io::BufWriter::new(stdout.lock());
+            host_sim::sensing::decode::write_csv(&img, &mut out)?;
+            Ok(())
         }
         Command::Run(args) => host_sim::runs::run::cli(&args),
         Command::Console(args) => host_sim::console::sim::cli(&args),
@@ -143,7 +155,8 @@ fn main() -> ExitCode {
             method,
             seed,
             prior,
-        } => host_sim::sensing::mtts_cli::parse_method(&method).and_then(|method| {
+        } => {
+            let method = host_sim::sensing::mtts_cli::parse_method(&method)?;
             let config = thermorph::mtts::Config {
                 scale,
                 k,
@@ -153,7 +166,7 @@ fn main() -> ExitCode {
             };
             let prior = host_sim::sensing::mtts_cli::parse_prior(&prior)?;
             host_sim::sensing::mtts_cli::run(&image, config, prior, &mut std::io::stdout().lock())
-        }),
+        }
         Command::Scene { name, seed } => {
             host_sim::sensing::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
         }
@@ -164,12 +177,5 @@ fn main() -> ExitCode {
             no_camera,
             out,
         } => host_sim::runs::paper::cli(json, !no_camera, out.as_deref()),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
     }
 }

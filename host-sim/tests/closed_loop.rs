@@ -51,13 +51,17 @@ fn safe(r: &Row) -> bool {
 fn a_scene_with_commands_may_not_set_duties() {
     let text = "name = \"x\"\nduration = \"10 s\"\nambient = \"298 K\"\n[[action]]\nat = \"0 s\"\nheater = \"50 %\"\n\
                 [[command]]\nat = \"1 s\"\nline = \"mode standby\"\n";
-    let e = scenario::parse(text, "x.toml", "x").unwrap_err();
+    let e = scenario::parse(text, "x.toml", "x")
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("x.toml") && e.contains("may not set duties"),
         "{e}"
     );
     let text = "name = \"x\"\nduration = \"10 s\"\nambient = \"298 K\"\n[[command]]\nat = \"1 s\"\nline = \"mode fly\"\n";
-    let e = scenario::parse(text, "x.toml", "x").unwrap_err();
+    let e = scenario::parse(text, "x.toml", "x")
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("x.toml:6") && e.contains("command[1].line"),
         "{e}"

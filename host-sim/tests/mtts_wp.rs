@@ -114,6 +114,7 @@ fn m4_counts_parse_and_fill() {
     assert!(
         M4Counts::parse("wp_mtts scale=x method=exact insns=1\n")
             .unwrap_err()
+            .to_string()
             .contains("line 1: malformed")
     );
     // A row without its count is an error naming the line it needs.
@@ -126,7 +127,7 @@ fn m4_counts_parse_and_fill() {
         timing_repeats: 0,
     };
     let mut rows = mtts_wp::measure(&cfg).unwrap();
-    let err = c.fill(&mut rows, &mut []).unwrap_err();
+    let err = c.fill(&mut rows, &mut []).unwrap_err().to_string();
     assert!(err.contains("wp_mtts scale=2 method=exact"), "{err}");
 }
 

@@ -289,7 +289,7 @@ fn a_simulated_day_neither_drifts_nor_blows_up() {
 
 #[test]
 fn a_bad_config_names_its_field() {
-    let bad = |c: PlantConfig| Plant::new(&c).err().expect("rejected");
+    let bad = |c: PlantConfig| Plant::new(&c).err().expect("rejected").to_string();
     let d = PlantConfig::default();
     assert!(
         bad(PlantConfig {

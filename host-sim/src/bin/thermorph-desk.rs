@@ -26,14 +26,6 @@ struct Cli {
     command: Command,
 }
 
-fn secs(s: &str) -> Result<Duration, String> {
-    s.parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite() && *v >= 0.0 && *v < 1e7)
-        .map(Duration::from_secs_f64)
-        .ok_or_else(|| format!("`{s}` is not a number of seconds"))
-}
-
 #[derive(Subcommand)]
 enum Command {
     /// Interactive console: line editing, history, Tab completion; telemetry as a status line.
@@ -44,7 +36,7 @@ enum Command {
         #[arg(long, default_value_t = DEFAULT_BAUD)]
         baud: u32,
         /// Print the telemetry status line at most every S seconds (0: never).
-        #[arg(long, default_value = "5", value_parser = secs)]
+        #[arg(long, default_value = "5", value_parser = script::seconds)]
         status_every: Duration,
         /// History file (default: ~/.thermorph-desk-history).
         #[arg(long)]
@@ -58,7 +50,7 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
         /// Stop after S seconds (default: until Ctrl-C or the port is lost for good).
-        #[arg(long, value_parser = secs)]
+        #[arg(long, value_parser = script::seconds)]
         duration: Option<Duration>,
         /// Telemetry rate, Hz (default: the board's).
         #[arg(long)]
@@ -67,10 +59,10 @@ enum Command {
         #[arg(long, default_value_t = DEFAULT_BAUD)]
         baud: u32,
         /// Keep trying to reopen a lost port for S seconds.
-        #[arg(long, default_value = "30", value_parser = secs)]
+        #[arg(long, default_value = "30", value_parser = script::seconds)]
         reconnect: Duration,
         /// No telemetry for S seconds: ask for the stream again (a reset board starts silent).
-        #[arg(long, default_value = "3", value_parser = secs)]
+        #[arg(long, default_value = "3", value_parser = script::seconds)]
         silence: Duration,
     },
     /// Run an experiment script (see `host_sim::console::desk::script`); exit 1 at the first failure.
@@ -83,7 +75,7 @@ enum Command {
         #[arg(long, default_value_t = DEFAULT_BAUD)]
         baud: u32,
         /// How long a command may wait for its reply, s.
-        #[arg(long, default_value = "2", value_parser = secs)]
+        #[arg(long, default_value = "2", value_parser = script::seconds)]
         reply_timeout: Duration,
         /// Also record the telemetry received during the run to this CSV.
         #[arg(long)]
@@ -105,7 +97,20 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // `{:#}`: the error and its context, `a: b` (the typed errors carry their causes'
+            // text themselves, so nothing shows twice).
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Run the command.
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
         Command::Connect {
             port,
             baud,
@@ -122,7 +127,7 @@ fn main() -> ExitCode {
                 }),
                 drain: Duration::from_secs(2),
             },
-        ),
+        )?,
         Command::Record {
             port,
             out,
@@ -156,15 +161,14 @@ fn main() -> ExitCode {
                 bar.set_message(format!("{} rows  {}", s.rows, t.summary()));
             });
             bar.finish_and_clear();
-            result.map(|s| {
-                eprintln!(
-                    "wrote {} rows to {} ({} gaps, {} garbage lines)",
-                    s.rows,
-                    out.display(),
-                    s.gaps,
-                    s.garbage
-                )
-            })
+            let s = result?;
+            eprintln!(
+                "wrote {} rows to {} ({} gaps, {} garbage lines)",
+                s.rows,
+                out.display(),
+                s.gaps,
+                s.garbage
+            );
         }
         Command::Run {
             port,
@@ -172,40 +176,36 @@ fn main() -> ExitCode {
             baud,
             reply_timeout,
             record,
-        } => script::run_file(
-            &port,
-            baud,
-            &script,
-            reply_timeout,
-            record.as_deref(),
-            &mut |l| println!("{l}"),
-        )
-        .map(|()| println!("script passed")),
-        Command::Plot { csv, out, title } => {
-            host_sim::runs::plot::plot_csv(&csv, &out, title.as_deref()).map(|i| {
-                println!(
-                    "wrote {} ({}x{} px: {})",
-                    out.display(),
-                    i.size_px.0,
-                    i.size_px.1,
-                    i.panels.join(", ")
-                )
-            })
+        } => {
+            script::run_file(
+                &port,
+                baud,
+                &script,
+                reply_timeout,
+                record.as_deref(),
+                &mut |l| println!("{l}"),
+            )?;
+            println!("script passed");
         }
-        Command::Ports => ports::list().map(|l| {
+        Command::Plot { csv, out, title } => {
+            let i = host_sim::runs::plot::plot_csv(&csv, &out, title.as_deref())?;
+            println!(
+                "wrote {} ({}x{} px: {})",
+                out.display(),
+                i.size_px.0,
+                i.size_px.1,
+                i.panels.join(", ")
+            );
+        }
+        Command::Ports => {
+            let l = ports::list()?;
             if l.is_empty() {
                 println!("no serial ports found");
             }
             for p in l {
                 println!("{p}");
             }
-        }),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
         }
     }
+    Ok(())
 }

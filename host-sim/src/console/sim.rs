@@ -33,8 +33,10 @@ use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::store::settings_at_boot;
 use thermorph::units::Millis;
 
+use anyhow::{Context as _, bail};
+
 use crate::rig::store::{SettingsFile, SimFlash};
-use crate::rig::{Said, SimBoard, TICK_MS};
+use crate::rig::{RigError, Said, SimBoard, TICK_MS};
 use crate::runs::scenario::Scenario;
 
 /// Arguments of `host-sim console`.
@@ -67,7 +69,7 @@ impl Block {
         scenario: Scenario,
         settings: Settings,
         store: SettingsFile,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, RigError> {
         Ok(Block {
             board: SimBoard::new(&scenario.block(), true, settings, SimFlash::File(store))?,
         })
@@ -215,19 +217,17 @@ struct Pty {
     path: PathBuf,
 }
 
-fn open_pty() -> Result<Pty, String> {
+fn open_pty() -> anyhow::Result<Pty> {
     use nix::sys::termios;
-    let p = nix::pty::openpty(None, None).map_err(|e| format!("openpty: {e}"))?;
-    let mut t = termios::tcgetattr(p.slave.as_fd()).map_err(|e| format!("tcgetattr: {e}"))?;
+    let p = nix::pty::openpty(None, None).context("openpty")?;
+    let mut t = termios::tcgetattr(p.slave.as_fd()).context("tcgetattr")?;
     termios::cfmakeraw(&mut t);
-    termios::tcsetattr(p.slave.as_fd(), termios::SetArg::TCSANOW, &t)
-        .map_err(|e| format!("tcsetattr: {e}"))?;
-    let path = nix::unistd::ttyname(p.slave.as_fd()).map_err(|e| format!("ttyname: {e}"))?;
-    let flags = nix::fcntl::fcntl(p.master.as_fd(), nix::fcntl::FcntlArg::F_GETFL)
-        .map_err(|e| format!("fcntl: {e}"))?;
+    termios::tcsetattr(p.slave.as_fd(), termios::SetArg::TCSANOW, &t).context("tcsetattr")?;
+    let path = nix::unistd::ttyname(p.slave.as_fd()).context("ttyname")?;
+    let flags =
+        nix::fcntl::fcntl(p.master.as_fd(), nix::fcntl::FcntlArg::F_GETFL).context("fcntl")?;
     let flags = nix::fcntl::OFlag::from_bits_truncate(flags) | nix::fcntl::OFlag::O_NONBLOCK;
-    nix::fcntl::fcntl(p.master.as_fd(), nix::fcntl::FcntlArg::F_SETFL(flags))
-        .map_err(|e| format!("fcntl: {e}"))?;
+    nix::fcntl::fcntl(p.master.as_fd(), nix::fcntl::FcntlArg::F_SETFL(flags)).context("fcntl")?;
     Ok(Pty {
         master: p.master,
         _slave: p.slave,
@@ -286,9 +286,9 @@ pub fn settings_path(args: &ConsoleArgs) -> PathBuf {
 }
 
 /// `host-sim console`: run the block behind the console until Ctrl-C or the end of input.
-pub fn cli(args: &ConsoleArgs) -> Result<(), String> {
+pub fn cli(args: &ConsoleArgs) -> anyhow::Result<()> {
     if !(args.speed.is_finite() && args.speed > 0.0) {
-        return Err(format!("--speed {}: must be a positive number", args.speed));
+        bail!("--speed {}: must be a positive number", args.speed);
     }
     let scenario = crate::runs::scenario::load(&args.scene)?;
     let store = SettingsFile::new(settings_path(args));
@@ -296,13 +296,13 @@ pub fn cli(args: &ConsoleArgs) -> Result<(), String> {
     {
         let stop = stop.clone();
         ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst))
-            .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+            .context("cannot catch Ctrl-C")?;
     }
     let (tx, rx) = mpsc::channel();
     let mut out = if args.pty {
         let pty = open_pty()?;
-        let master = std::fs::File::from(pty.master.try_clone().map_err(|e| e.to_string())?);
-        let reader = std::fs::File::from(pty.master.try_clone().map_err(|e| e.to_string())?);
+        let master = std::fs::File::from(pty.master.try_clone()?);
+        let reader = std::fs::File::from(pty.master.try_clone()?);
         std::thread::spawn(move || read_pty(reader, tx));
         println!("{}", pty.path.display());
         let _ = std::io::stdout().flush();
@@ -331,7 +331,7 @@ pub fn cli(args: &ConsoleArgs) -> Result<(), String> {
         None
     });
     let settings = settings_at_boot(stored.as_deref(), &mut boot);
-    out.write_all(boot.as_bytes()).map_err(|e| e.to_string())?;
+    out.write_all(boot.as_bytes())?;
     let mut session = Session::new(Block::new(scenario, settings, store)?);
 
     let started = Instant::now();
@@ -341,21 +341,21 @@ pub fn cli(args: &ConsoleArgs) -> Result<(), String> {
         let due_s = started.elapsed().as_secs_f64() * args.speed;
         let mut n = 0;
         while session.block.next_tick_s() <= due_s && n < 200 {
-            session.block.tick(&mut out).map_err(|e| e.to_string())?;
+            session.block.tick(&mut out)?;
             n += 1;
         }
-        out.flush().map_err(|e| e.to_string())?;
+        out.flush()?;
         let next_wall_s = session.block.next_tick_s() / args.speed;
         let wait = (next_wall_s - started.elapsed().as_secs_f64()).clamp(0.0, 0.1);
         let mut msg = rx.recv_timeout(Duration::from_secs_f64(wait)).ok();
         while let Some(m) = msg {
             match m {
-                Input::Bytes(b) => session.feed(&b, &mut out).map_err(|e| e.to_string())?,
+                Input::Bytes(b) => session.feed(&b, &mut out)?,
                 Input::End => ended = true,
             }
             msg = rx.try_recv().ok();
         }
-        out.flush().map_err(|e| e.to_string())?;
+        out.flush()?;
     }
     eprintln!(
         "host-sim console: ended at t = {:.1} s after {} lines",

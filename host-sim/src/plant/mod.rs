@@ -14,6 +14,8 @@
 //! transformation temperatures shifted by their last force, the SMP's frozen fraction moves
 //! (storing or releasing bend), and the column's moment balance is solved with the Maxwell
 //! branch updated exactly and the PI film yielding past its yield bend. See `docs/PLANT-API.md`.
+//!
+//! This module owns the plant's error type, [`PlantError`] (a configuration the model refuses).
 
 pub mod linalg;
 pub mod mechanics;
@@ -221,13 +223,29 @@ pub struct Plant {
     zoh_cache: Option<ZohCache>,
 }
 
-fn check_k(name: &str, v: f64) -> Result<(), String> {
-    if !v.is_finite() || !(params::MIN_CONFIG_K..=params::MAX_CONFIG_K).contains(&v) {
-        return Err(format!(
-            "{name}: {v} K is outside {}–{} K",
-            params::MIN_CONFIG_K,
-            params::MAX_CONFIG_K
-        ));
+/// A plant configuration the model refuses; `Display` names the field.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum PlantError {
+    /// A temperature is not finite or outside the model's range.
+    #[error(
+        "{field}: {value_k} K is outside {}–{} K",
+        params::MIN_CONFIG_K,
+        params::MAX_CONFIG_K
+    )]
+    Temperature {
+        /// The field (`ambient_k`, `initial_k`).
+        field: &'static str,
+        /// Its value, K.
+        value_k: f64,
+    },
+    /// The largest internal step is not positive and finite.
+    #[error("max_step_s: {0} s must be positive and finite")]
+    MaxStep(f64),
+}
+
+fn check_k(field: &'static str, value_k: f64) -> Result<(), PlantError> {
+    if !value_k.is_finite() || !(params::MIN_CONFIG_K..=params::MAX_CONFIG_K).contains(&value_k) {
+        return Err(PlantError::Temperature { field, value_k });
     }
     Ok(())
 }
@@ -239,19 +257,16 @@ fn duty(v: f64) -> f64 {
 impl Plant {
     /// Build a plant in its initial state; a bad config (non-finite or out-of-range
     /// temperature, non-positive step) is an error naming the field.
-    pub fn new(config: &PlantConfig) -> Result<Plant, String> {
+    pub fn new(config: &PlantConfig) -> Result<Plant, PlantError> {
         Plant::with_options(config, ModelOptions::default())
     }
 
     /// [`Plant::new`] with model options.
-    pub fn with_options(config: &PlantConfig, options: ModelOptions) -> Result<Plant, String> {
+    pub fn with_options(config: &PlantConfig, options: ModelOptions) -> Result<Plant, PlantError> {
         check_k("ambient_k", config.ambient_k)?;
         check_k("initial_k", config.initial_k)?;
         if !config.max_step_s.is_finite() || config.max_step_s <= 0.0 {
-            return Err(format!(
-                "max_step_s: {} s must be positive and finite",
-                config.max_step_s
-            ));
+            return Err(PlantError::MaxStep(config.max_step_s));
         }
         let plates = options.pmma_plates && config.fidelity.thermal == ThermalFidelity::Full;
         let net = Network::new(config.fidelity.thermal, 0.0, plates, options.adiabatic);

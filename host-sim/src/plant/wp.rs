@@ -6,8 +6,11 @@
 use std::fmt::Write as _;
 use std::time::Instant;
 
+use anyhow::Context as _;
+
 use super::{
-    Fidelity, Inputs, Integrator, Plant, PlantConfig, SmaFidelity, SmpFidelity, ThermalFidelity,
+    Fidelity, Inputs, Integrator, Plant, PlantConfig, PlantError, SmaFidelity, SmpFidelity,
+    ThermalFidelity,
 };
 
 /// Length of the reference scene, s.
@@ -42,7 +45,7 @@ pub fn scene_inputs(t_s: f64) -> Inputs {
 pub const SCENE_INITIAL_K: f64 = 338.0;
 
 /// Run the reference scene, returning (heater, SMP outer, bend) at every sample.
-pub fn run_scene(config: &PlantConfig) -> Result<Vec<[f64; 3]>, String> {
+pub fn run_scene(config: &PlantConfig) -> Result<Vec<[f64; 3]>, PlantError> {
     let mut plant = Plant::new(config)?;
     let n = (SCENE_S / SAMPLE_S).round() as usize;
     let mut out = Vec::with_capacity(n);
@@ -127,7 +130,7 @@ pub fn levels() -> [(&'static str, Fidelity); 5] {
 pub const STEPS_S: [f64; 4] = [0.05, 0.1, 0.25, 0.5];
 
 /// Compute the table (`repeats` timed runs per row, the fastest kept).
-pub fn table(repeats: usize) -> Result<Vec<Row>, String> {
+pub fn table(repeats: usize) -> Result<Vec<Row>, PlantError> {
     let reference = run_scene(&scene_config(
         Integrator::ExponentialZoh,
         REFERENCE_STEP_S,
@@ -238,15 +241,15 @@ pub fn markdown(rows: &[Row]) -> String {
 }
 
 /// Compute the table and write it to `out`.
-pub fn run(out: &std::path::Path, repeats: usize) -> Result<(), String> {
+pub fn run(out: &std::path::Path, repeats: usize) -> anyhow::Result<()> {
     let rows = table(repeats)?;
     let md = markdown(&rows);
     if let Some(dir) = out.parent() {
         if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
         }
     }
-    std::fs::write(out, &md).map_err(|e| format!("{}: {e}", out.display()))?;
+    std::fs::write(out, &md).with_context(|| out.display().to_string())?;
     print!("{md}");
     Ok(())
 }

@@ -15,11 +15,12 @@ use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 use thermorph::units::{Kelvin, Millis, k_or_nan};
 
 use crate::plant::Observation;
+use crate::rig::RigError;
 use crate::rig::faults::{BURNING_FILM_K, CameraFault, ELSEWHERE_K};
 use crate::sensing::scene::{Geometry, Layout, Temps};
-use crate::sensor::eeprom;
 use crate::sensor::sim_time::{SimClock, SimDelay};
 use crate::sensor::virtual_mlx::{Fault as SensorFault, HeapBuffers, VirtualBus, VirtualMlx90640};
+use crate::sensor::{SensorError, eeprom};
 
 /// Samples per pixel side of the camera's view.
 const CAMERA_SUBGRID: usize = 4;
@@ -53,11 +54,13 @@ pub struct Camera {
 
 impl Camera {
     /// A camera whose sensor's calibration and noise come from `seed`, with `noise_k` rms.
-    pub fn new(seed: u64, noise_k: f64) -> Result<Self, String> {
+    pub fn new(seed: u64, noise_k: f64) -> Result<Self, RigError> {
         let clock = SimClock::new();
+        let words = eeprom::realistic(seed)
+            .encode()
+            .map_err(SensorError::from)?;
         let mut device =
-            VirtualMlx90640::new(eeprom::realistic(seed).encode()?, clock.clone(), seed)
-                .map_err(|e| format!("virtual sensor: {e}"))?;
+            VirtualMlx90640::new(words, clock.clone(), seed).map_err(SensorError::VirtualSensor)?;
         device.noise_k = noise_k;
         let bus = VirtualBus::new(device);
         // The sensor has been read and set to the pipeline's rate once before the sensing
@@ -68,9 +71,9 @@ impl Camera {
             thermorph::mlx90640::ADDRESS,
         );
         let mut words = [0u16; thermorph::mlx90640::EEPROM_WORDS];
-        block_on(probe.read_eeprom(&mut words)).map_err(|e| e.to_string())?;
-        block_on(probe.configure(SensorConfig::default())).map_err(|e| e.to_string())?;
-        let pipeline = Pipeline::new(PipelineConfig::default()).map_err(|e| e.to_string())?;
+        block_on(probe.read_eeprom(&mut words)).map_err(SensorError::Driver)?;
+        block_on(probe.configure(SensorConfig::default())).map_err(SensorError::Driver)?;
+        let pipeline = Pipeline::new(PipelineConfig::default()).map_err(RigError::Pipeline)?;
         let sensor = Sensor::new(
             bus.clone(),
             SimDelay::new(clock.clone()),

@@ -15,10 +15,42 @@
 //! With the camera off the controller gets the true region temperatures once per scene period
 //! ([`camera::truth_measurement`]); an open-loop scene has no controller, and its timed duties
 //! are set with [`SimBoard::set_inputs`].
+//!
+//! This module owns the simulated board's error type, [`RigError`] (a plant, sensor or
+//! pipeline that cannot be built, a settings file that cannot be read or written).
 
 pub mod camera;
 pub mod faults;
 pub mod store;
+
+use std::path::PathBuf;
+
+use thermorph::mtts::MttsError;
+
+use crate::plant::PlantError;
+use crate::sensor::SensorError;
+
+/// Why the simulated board could not be built, or its settings file not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum RigError {
+    /// The plant's configuration is refused.
+    #[error(transparent)]
+    Plant(#[from] PlantError),
+    /// The camera's virtual sensor or its driver failed.
+    #[error(transparent)]
+    Sensor(#[from] SensorError),
+    /// The firmware's sensing pipeline refuses its configuration.
+    #[error("{0}")]
+    Pipeline(MttsError),
+    /// The settings file (or its folder) cannot be read or written.
+    #[error("{}: {err}", path.display())]
+    SettingsFile {
+        /// The file or folder.
+        path: PathBuf,
+        /// Why.
+        err: std::io::Error,
+    },
+}
 
 use thermorph::app::{CONTROL_PERIOD_MS, Controller, Line};
 use thermorph::measurement::{Measurement, SensingHint};
@@ -142,7 +174,7 @@ impl SimBoard {
         closed_loop: bool,
         settings: Settings,
         flash: SimFlash,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, RigError> {
         let plant = Plant::new(&block.plant)?;
         let camera = if block.camera.enabled {
             Some(Camera::new(block.camera.seed, block.camera.noise_k)?)

@@ -10,6 +10,8 @@ use thermorph::units::Millis;
 
 use thermorph::app::Controller;
 
+use crate::rig::RigError;
+
 /// The settings file: the record's bytes, written whole (a temporary file renamed over it).
 #[derive(Clone, Debug)]
 pub struct SettingsFile {
@@ -28,23 +30,32 @@ impl SettingsFile {
     }
 
     /// Read the stored record: `Ok(None)` when there is no file.
-    pub fn read(&self) -> Result<Option<Vec<u8>>, String> {
+    pub fn read(&self) -> Result<Option<Vec<u8>>, RigError> {
         match std::fs::read(&self.path) {
             Ok(b) => Ok(Some(b)),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(format!("{}: {e}", self.path.display())),
+            Err(err) => Err(RigError::SettingsFile {
+                path: self.path.clone(),
+                err,
+            }),
         }
     }
 
     /// Write a record.
-    pub fn write(&self, record: &[u8]) -> Result<(), String> {
+    pub fn write(&self, record: &[u8]) -> Result<(), RigError> {
         if let Some(dir) = self.path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|err| RigError::SettingsFile {
+                path: dir.to_path_buf(),
+                err,
+            })?;
         }
         let tmp = self.path.with_extension("tmp");
         std::fs::write(&tmp, record)
             .and_then(|()| std::fs::rename(&tmp, &self.path))
-            .map_err(|e| format!("{}: {e}", self.path.display()))
+            .map_err(|err| RigError::SettingsFile {
+                path: self.path.clone(),
+                err,
+            })
     }
 }
 

@@ -13,7 +13,7 @@ use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::events::EventKind;
 
 pub use crate::runs::cycle_figures::{CycleFigures, measure};
-use crate::runs::run::run_with;
+use crate::runs::run::{RunError, run_with};
 use crate::runs::scenario;
 use crate::runs::series::Row;
 
@@ -56,7 +56,11 @@ pub const STEP_AT_S: f64 = 120.0;
 
 /// The experiments' scene: `duration_s` at `ambient_k`, the camera on or off, power-up in
 /// standby (a closed-loop scene whose only line is `mode standby` at 0 s).
-pub fn scene(duration_s: f64, ambient_k: f64, camera: bool) -> Result<scenario::Scenario, String> {
+pub fn scene(
+    duration_s: f64,
+    ambient_k: f64,
+    camera: bool,
+) -> Result<scenario::Scenario, scenario::ScenarioError> {
     let text = format!(
         "name = \"paper\"\n\
          description = \"the thesis's experiments, real supervisor\"\n\
@@ -72,7 +76,7 @@ pub fn scene(duration_s: f64, ambient_k: f64, camera: bool) -> Result<scenario::
 }
 
 /// Run the full cycle with `springs` at 298.15 K, the camera on or off; returns the rows.
-pub fn cycle(springs: &str, duration_s: f64, camera: bool) -> Result<Vec<Row>, String> {
+pub fn cycle(springs: &str, duration_s: f64, camera: bool) -> Result<Vec<Row>, RunError> {
     cycle_in(&scene(duration_s, 298.15, camera)?, springs)
 }
 
@@ -80,7 +84,7 @@ pub fn cycle(springs: &str, duration_s: f64, camera: bool) -> Result<Vec<Row>, S
 /// `mode step-large SPRINGS` at [`STEP_AT_S`], `mode form` once the stepping holds, `mode
 /// recover` once forming has handed back to standby. A mode that ends otherwise (a timeout, a
 /// fault) ends the script there.
-pub fn cycle_in(sc: &scenario::Scenario, springs: &str) -> Result<Vec<Row>, String> {
+pub fn cycle_in(sc: &scenario::Scenario, springs: &str) -> Result<Vec<Row>, RunError> {
     let mut stage = 0;
     let mut react = |t: f64, s: &Supervisor| -> Option<String> {
         let (mode, phase) = (s.mode().name(), s.mode().phase_name());
@@ -124,19 +128,22 @@ fn within(v: Option<f64>, lo: f64, hi: f64) -> bool {
 pub fn figures(
     camera: bool,
     out: Option<&std::path::Path>,
-) -> Result<Vec<(&'static str, Figure)>, String> {
+) -> Result<Vec<(&'static str, Figure)>, RunError> {
     let two_rows = cycle("AB", 700.0, camera)?;
     let one_rows = cycle("A", 400.0, camera)?;
     if let Some(dir) = out {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|err| RunError::Write {
+            path: dir.to_path_buf(),
+            err,
+        })?;
         for (name, rows) in [
             ("two-springs.csv", &two_rows),
             ("one-spring.csv", &one_rows),
         ] {
             let path = dir.join(name);
             let mut buf = Vec::new();
-            crate::runs::series::write_csv(rows, &mut buf).map_err(|e| e.to_string())?;
-            std::fs::write(&path, buf).map_err(|e| format!("{}: {e}", path.display()))?;
+            crate::runs::series::write_csv(rows, &mut buf).map_err(RunError::Csv)?;
+            std::fs::write(&path, buf).map_err(|err| RunError::Write { path, err })?;
         }
     }
     let two = measure(&two_rows);
@@ -221,7 +228,7 @@ pub fn figures(
 /// `host-sim paper [--json] [--no-camera] [--out DIR]`: print the table (or the JSON object),
 /// and with `--out` write both experiments' time series (`two-springs.csv`, `one-spring.csv`);
 /// exit status 0 either way (the tests assert the passes).
-pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> Result<(), String> {
+pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> anyhow::Result<()> {
     let table = figures(camera, out)?;
     if json {
         let map: serde_json::Map<String, serde_json::Value> = table
@@ -233,10 +240,7 @@ pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> Result<()
                 )
             })
             .collect();
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&map).map_err(|e| e.to_string())?
-        );
+        println!("{}", serde_json::to_string_pretty(&map)?);
         return Ok(());
     }
     println!(

@@ -8,10 +8,12 @@
 //! record`): a column that a CSV lacks (or that holds no number) is skipped, and a panel with no
 //! column left is left out. Text is real text: DejaVu Sans from the `dejavu` crate's embedded
 //! bytes, rasterised by ab_glyph, so nothing depends on system fonts or fontconfig.
+//!
+//! This module owns the plots' error type, [`PlotError`].
 
 use std::collections::HashMap;
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Once;
 
 use plotters::coord::Shift;
@@ -29,6 +31,43 @@ const SPRING_H: u32 = 150;
 const FONT: &str = "sans-serif";
 const RIGHT_PX: u32 = 90;
 
+/// Why a CSV could not be read or plotted.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The CSV text has no header line.
+    #[error("empty CSV: no header")]
+    Empty,
+    /// The CSV file has no header line.
+    #[error("{}: empty CSV: no header", path.display())]
+    EmptyFile {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The file cannot be read.
+    #[error("{}: {err}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        err: std::io::Error,
+    },
+    /// No time column with numbers.
+    #[error("the CSV has no time column (time_s or t_s) with numbers")]
+    NoTime,
+    /// None of the plotted columns.
+    #[error("the CSV has none of the plotted columns")]
+    NoColumns,
+    /// Drawing or encoding the PNG failed (plotters' message).
+    #[error("plot: {0}")]
+    Draw(String),
+    /// A run's rows could not be written as CSV.
+    #[error("{0}")]
+    Rows(std::io::Error),
+    /// A run's CSV is not UTF-8.
+    #[error("{0}")]
+    Utf8(std::string::FromUtf8Error),
+}
+
 /// A CSV read as columns: every cell kept as text, numbers parsed on demand.
 #[derive(Clone, Debug, Default)]
 pub struct Table {
@@ -40,9 +79,9 @@ pub struct Table {
 impl Table {
     /// Parse CSV text: a header line, then rows (short rows are padded with empty cells).
     /// No quoting: neither CSV this reads ever quotes.
-    pub fn parse(text: &str) -> Result<Table, String> {
+    pub fn parse(text: &str) -> Result<Table, PlotError> {
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-        let header = lines.next().ok_or("empty CSV: no header")?;
+        let header = lines.next().ok_or(PlotError::Empty)?;
         let names: Vec<String> = header.split(',').map(|s| s.trim().to_string()).collect();
         let index = names
             .iter()
@@ -60,9 +99,14 @@ impl Table {
     }
 
     /// Read and parse a CSV file.
-    pub fn read(path: &Path) -> Result<Table, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        Table::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    pub fn read(path: &Path) -> Result<Table, PlotError> {
+        let text = std::fs::read_to_string(path).map_err(|err| PlotError::Read {
+            path: path.to_path_buf(),
+            err,
+        })?;
+        Table::parse(&text).map_err(|_| PlotError::EmptyFile {
+            path: path.to_path_buf(),
+        })
     }
 
     /// Return the column names.
@@ -204,8 +248,8 @@ fn range_of<'a>(
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
-fn err(e: impl std::fmt::Display) -> String {
-    format!("plot: {e}")
+fn err(e: impl std::fmt::Display) -> PlotError {
+    PlotError::Draw(e.to_string())
 }
 
 /// A line series to draw: its label, values, colour, width and whether it is dashed.
@@ -230,7 +274,7 @@ fn line_panel(
     modes: Option<&[Band]>,
     gaps: &[f64],
     x_desc: Option<&str>,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let mut chart = ChartBuilder::on(area)
         .margin_left(10)
         .margin_right(10 + RIGHT_PX)
@@ -301,7 +345,7 @@ fn draw_bands<DB: DrawingBackend>(
     bands: &[Band],
     x: &Range<f64>,
     y: &Range<f64>,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let top = y.end;
     chart
         .draw_series(bands.iter().map(|b| {
@@ -334,7 +378,7 @@ fn draw_gaps<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
     gaps: &[f64],
     y: &Range<f64>,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let style = ShapeStyle::from(&RGBColor(200, 0, 0)).stroke_width(2);
     for &g in gaps {
         chart
@@ -357,7 +401,7 @@ fn spring_panel(
     springs: &[(char, Vec<f64>)],
     gaps: &[f64],
     x_desc: Option<&str>,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let lanes = springs.len() as f64;
     let mut chart = ChartBuilder::on(area)
         .margin_left(10)
@@ -449,7 +493,7 @@ fn bending_panel(
     bend: Option<&[f64]>,
     k_b: Option<&[f64]>,
     x_desc: Option<&str>,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let y = range_of(bend, 0.05, 5.0);
     let y2 = range_of(k_b, 0.05, 50.0);
     let mut chart = ChartBuilder::on(area)
@@ -536,7 +580,7 @@ enum Panel {
 /// `fan_duty_pct`/`fan_pct`; springs `spring_a`…`spring_c` (0/1) or `springs` (letters, `-`
 /// for none); `bend_deg`, `k_b_nmm_per_rad`; `gap` (on the first row after a recording gap, why — any
 /// value but empty, `-` or `0` — drawn as a red dashed line).
-pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, String> {
+pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, PlotError> {
     fonts();
     // The board's clock where it runs steadily (a recording of the simulator at --speed X
     // shows simulated seconds); the host's where the board restarted.
@@ -551,7 +595,7 @@ pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, String
         (None, Some(h)) => (h, "time, s"),
         (Some(b), None) => (b, "board time, s"),
         (None, None) => {
-            return Err("the CSV has no time column (time_s or t_s) with numbers".into());
+            return Err(PlotError::NoTime);
         }
     };
     let x = {
@@ -597,7 +641,7 @@ pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, String
         panels.push((Panel::Bending, PANEL_H + 40));
     }
     if panels.is_empty() {
-        return Err("the CSV has none of the plotted columns".into());
+        return Err(PlotError::NoColumns);
     }
     let height = TITLE_H + panels.iter().map(|p| p.1).sum::<u32>() + 20;
     let root = BitMapBackend::new(out, (WIDTH_PX, height)).into_drawing_area();
@@ -777,7 +821,7 @@ fn spring_columns(table: &Table) -> Vec<(char, Vec<f64>)> {
 }
 
 /// Plot a CSV file (host-sim's `timeseries.csv` or a desk recording) as a PNG.
-pub fn plot_csv(csv: &Path, out: &Path, title: Option<&str>) -> Result<PlotInfo, String> {
+pub fn plot_csv(csv: &Path, out: &Path, title: Option<&str>) -> Result<PlotInfo, PlotError> {
     let table = Table::read(csv)?;
     let name = csv.file_name().map_or_else(
         || "time series".into(),
@@ -787,10 +831,10 @@ pub fn plot_csv(csv: &Path, out: &Path, title: Option<&str>) -> Result<PlotInfo,
 }
 
 /// Write the PNG plot of a run's `rows` (through the same CSV columns `timeseries.csv` has).
-pub fn write_png(rows: &[Row], scene: &str, path: &Path) -> Result<(), String> {
+pub fn write_png(rows: &[Row], scene: &str, path: &Path) -> Result<(), PlotError> {
     let mut buf = Vec::with_capacity(rows.len() * 300);
-    crate::runs::series::write_csv(rows, &mut buf).map_err(|e| e.to_string())?;
-    let text = String::from_utf8(buf).map_err(|e| e.to_string())?;
+    crate::runs::series::write_csv(rows, &mut buf).map_err(PlotError::Rows)?;
+    let text = String::from_utf8(buf).map_err(PlotError::Utf8)?;
     let table = Table::parse(&text)?;
     render(&table, &format!("host-sim run: scene {scene}"), path).map(|_| ())
 }
@@ -887,8 +931,18 @@ mod tests {
         let dir = std::env::temp_dir();
         let png = dir.join(format!("thermorph-plot-none-{}.png", std::process::id()));
         let t = Table::parse("a,b\n1,2\n").unwrap();
-        assert!(render(&t, "x", &png).unwrap_err().contains("time"));
+        assert!(
+            render(&t, "x", &png)
+                .unwrap_err()
+                .to_string()
+                .contains("time")
+        );
         let t = Table::parse("time_s,b\n1,2\n").unwrap();
-        assert!(render(&t, "x", &png).unwrap_err().contains("none of"));
+        assert!(
+            render(&t, "x", &png)
+                .unwrap_err()
+                .to_string()
+                .contains("none of")
+        );
     }
 }

@@ -12,9 +12,12 @@
 //! [`crate::runs::series`]), `summary.json` ([`Summary`]: run figures and the SPEC section 8
 //! figures that an open-loop scene shows, beside the thesis's) and `plot.png`
 //! ([`crate::runs::plot`]).
+//!
+//! This module owns the error type of runs and of the experiments built on them
+//! ([`crate::runs::paper`]), [`RunError`].
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -23,10 +26,12 @@ use thermorph::settings::Settings;
 use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
 
+use crate::rig::RigError;
 use crate::rig::camera::{Camera, camera_temps};
 use crate::rig::store::SimFlash;
 use crate::rig::{SimBoard, TICK_MS};
-use crate::runs::scenario::Scenario;
+use crate::runs::plot::PlotError;
+use crate::runs::scenario::{Scenario, ScenarioError};
 pub use crate::runs::series::{CSV_HEADER, ControlRow, Row, write_csv};
 
 /// A console line of the scene and the supervisor's reply.
@@ -138,8 +143,44 @@ pub struct Summary {
     pub faults: Vec<crate::rig::FaultRecord>,
 }
 
+/// Why a run (or an experiment of runs) failed or could not write its outputs.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The scene is refused.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// The simulated board could not be built.
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    /// The plot could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// An output folder cannot be created.
+    #[error("{}: cannot create: {err}", path.display())]
+    CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// Why.
+        err: std::io::Error,
+    },
+    /// A folder or file cannot be written.
+    #[error("{}: {err}", path.display())]
+    Write {
+        /// The folder or file.
+        path: PathBuf,
+        /// Why.
+        err: std::io::Error,
+    },
+    /// The rows could not be written as CSV.
+    #[error("{0}")]
+    Csv(std::io::Error),
+    /// The summary could not be written as JSON.
+    #[error("{0}")]
+    Json(serde_json::Error),
+}
+
 /// Play `scenario`; `progress` is called after each period with the fraction done.
-pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResult, String> {
+pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResult, RunError> {
     run_with(scenario, progress, &mut |_, _| None)
 }
 
@@ -160,7 +201,7 @@ pub fn run_with(
     scenario: &Scenario,
     progress: &mut dyn FnMut(f64),
     react: &mut Reactor<'_>,
-) -> Result<RunResult, String> {
+) -> Result<RunResult, RunError> {
     let closed_loop = !scenario.commands.is_empty();
     let mut board = SimBoard::new(
         &scenario.block(),
@@ -557,15 +598,18 @@ pub fn closed_loop_figures(rows: &[Row]) -> Vec<Figure> {
 }
 
 /// Write `timeseries.csv`, `summary.json` and `plot.png` into `dir` (created if missing).
-pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
+pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), RunError> {
+    std::fs::create_dir_all(dir).map_err(|err| RunError::CreateDir {
+        path: dir.to_path_buf(),
+        err,
+    })?;
     let csv = dir.join("timeseries.csv");
     let mut buf = Vec::with_capacity(result.rows.len() * 300);
-    write_csv(&result.rows, &mut buf).map_err(|e| e.to_string())?;
-    std::fs::write(&csv, buf).map_err(|e| format!("{}: {e}", csv.display()))?;
+    write_csv(&result.rows, &mut buf).map_err(RunError::Csv)?;
+    std::fs::write(&csv, buf).map_err(|err| RunError::Write { path: csv, err })?;
     let json = dir.join("summary.json");
-    let text = serde_json::to_string_pretty(&result.summary).map_err(|e| e.to_string())?;
-    std::fs::write(&json, text + "\n").map_err(|e| format!("{}: {e}", json.display()))?;
+    let text = serde_json::to_string_pretty(&result.summary).map_err(RunError::Json)?;
+    std::fs::write(&json, text + "\n").map_err(|err| RunError::Write { path: json, err })?;
     let png = dir.join("plot.png");
     crate::runs::plot::write_png(&result.rows, &result.summary.scene, &png)?;
     Ok(())
@@ -719,7 +763,7 @@ impl Progress {
 
 /// `host-sim run`: load the scene, run it with a progress bar, write the outputs, print the
 /// summary.
-pub fn cli(args: &RunArgs) -> Result<(), String> {
+pub fn cli(args: &RunArgs) -> anyhow::Result<()> {
     let scenario = crate::runs::scenario::load(&args.scene)?;
     let dir = args
         .out
@@ -733,13 +777,12 @@ pub fn cli(args: &RunArgs) -> Result<(), String> {
     if !args.quiet {
         let stdout = std::io::stdout();
         let mut out = stdout.lock();
-        print_summary(&result.summary, &mut out).map_err(|e| e.to_string())?;
+        print_summary(&result.summary, &mut out)?;
         writeln!(
             out,
             "wrote {0}/timeseries.csv, {0}/summary.json, {0}/plot.png",
             dir.display()
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
     }
     Ok(())
 }

@@ -47,9 +47,11 @@
 //! Quantities carry their unit in the string, so `ambient = 298` or `duration = "90"` is an
 //! error, as is an unknown key, a value out of range, a malformed time or an action after the
 //! end. Every error names the file, the line and the key.
+//!
+//! This module owns the error type of scene files, [`ScenarioError`].
 
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::plant::{Fidelity, Integrator, SmaFidelity, SmpFidelity, ThermalFidelity};
 use crate::sensor::virtual_mlx::Fault as SensorFault;
@@ -148,21 +150,67 @@ impl Scenario {
     }
 }
 
+/// Why a scene could not be loaded: the file cannot be read, is not TOML, or a key is wrong.
+/// `Display` names the file, and for a key its line and name.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// Neither a file nor a bundled scene.
+    #[error("no scene `{name}`: not a file, and the bundled scenes are {bundled}")]
+    Unknown {
+        /// The name given.
+        name: String,
+        /// The bundled scenes' names, comma separated.
+        bundled: String,
+    },
+    /// The file cannot be read.
+    #[error("{}: cannot read: {err}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        err: std::io::Error,
+    },
+    /// The text is not TOML.
+    #[error("{file}:{line}: not valid TOML: {message}")]
+    Toml {
+        /// The file's name.
+        file: String,
+        /// The line, 1-based.
+        line: usize,
+        /// The parser's message, on one line.
+        message: String,
+    },
+    /// A key is unknown, missing, of the wrong type or out of range.
+    #[error("{file}:{line}: `{key}`: {message}")]
+    Key {
+        /// The file's name.
+        file: String,
+        /// The line, 1-based.
+        line: usize,
+        /// The key's full name (`action[1].at`).
+        key: String,
+        /// What is wrong with it.
+        message: String,
+    },
+}
+
 /// Load a scene: a bundled name (`cycle`, …) or a path to a TOML file.
-pub fn load(name_or_path: &str) -> Result<Scenario, String> {
+pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
     if let Some((name, text)) = BUNDLED.iter().find(|(n, _)| *n == name_or_path) {
         return parse(text, &format!("<bundled {name}>"), name);
     }
     let path = Path::new(name_or_path);
     if !path.exists() && !name_or_path.contains(['/', '.']) {
         let names: Vec<&str> = BUNDLED.iter().map(|(n, _)| *n).collect();
-        return Err(format!(
-            "no scene `{name_or_path}`: not a file, and the bundled scenes are {}",
-            names.join(", ")
-        ));
+        return Err(ScenarioError::Unknown {
+            name: name_or_path.to_string(),
+            bundled: names.join(", "),
+        });
     }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(|err| ScenarioError::Read {
+        path: path.to_path_buf(),
+        err,
+    })?;
     let stem = path
         .file_stem()
         .and_then(|s| s.to_str())
@@ -183,21 +231,29 @@ impl Ctx<'_> {
         self.text[..at].bytes().filter(|b| *b == b'\n').count() + 1
     }
 
-    fn err(&self, span: Option<Range<usize>>, key: &str, msg: impl std::fmt::Display) -> String {
-        format!("{}:{}: `{key}`: {msg}", self.file, self.line(span))
+    fn err(
+        &self,
+        span: Option<Range<usize>>,
+        key: &str,
+        msg: impl std::fmt::Display,
+    ) -> ScenarioError {
+        ScenarioError::Key {
+            file: self.file.to_string(),
+            line: self.line(span),
+            key: key.to_string(),
+            message: msg.to_string(),
+        }
     }
 }
 
 /// Parse and check a scene's TOML text; `file` names it in errors, `default_name` is used
 /// when the file has no `name`.
-pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, String> {
+pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, ScenarioError> {
     let cx = Ctx { file, text };
-    let doc = toml_edit::Document::parse(text).map_err(|e| {
-        let line = cx.line(e.span());
-        format!(
-            "{file}:{line}: not valid TOML: {}",
-            e.message().trim_end().replace('\n', " ")
-        )
+    let doc = toml_edit::Document::parse(text).map_err(|e| ScenarioError::Toml {
+        file: file.to_string(),
+        line: cx.line(e.span()),
+        message: e.message().trim_end().replace('\n', " "),
     })?;
     let root = doc.as_table();
     check_keys(
@@ -245,17 +301,13 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
     let duration_s = match root.get_key_value("duration") {
         Some((k, v)) => time(&cx, k, v, "duration", (1e-3, MAX_DURATION_S))?,
         None => {
-            return Err(format!(
-                "{file}:1: `duration`: missing (e.g. `duration = \"110 s\"`)"
-            ));
+            return Err(cx.err(None, "duration", "missing (e.g. `duration = \"110 s\"`)"));
         }
     };
     let ambient_k = match root.get_key_value("ambient") {
         Some((k, v)) => temperature(&cx, k, v, "ambient", AMBIENT_RANGE_K)?,
         None => {
-            return Err(format!(
-                "{file}:1: `ambient`: missing (e.g. `ambient = \"298.15 K\"`)"
-            ));
+            return Err(cx.err(None, "ambient", "missing (e.g. `ambient = \"298.15 K\"`)"));
         }
     };
     let initial_k = match root.get_key_value("initial") {
@@ -583,7 +635,12 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Str
     })
 }
 
-fn check_keys(cx: &Ctx, t: &toml_edit::Table, prefix: &str, known: &[&str]) -> Result<(), String> {
+fn check_keys(
+    cx: &Ctx,
+    t: &toml_edit::Table,
+    prefix: &str,
+    known: &[&str],
+) -> Result<(), ScenarioError> {
     for (key, _) in t.iter() {
         if !known.contains(&key) {
             let span = t.key(key).and_then(|k| k.span());
@@ -606,7 +663,7 @@ fn table<'a>(
     k: &toml_edit::Key,
     v: &'a toml_edit::Item,
     key: &str,
-) -> Result<&'a toml_edit::Table, String> {
+) -> Result<&'a toml_edit::Table, ScenarioError> {
     v.as_table()
         .ok_or_else(|| cx.err(span_of(k, v), key, format!("must be a table (`[{key}]`)")))
 }
@@ -616,7 +673,7 @@ fn tables<'a>(
     k: &toml_edit::Key,
     v: &'a toml_edit::Item,
     key: &str,
-) -> Result<Vec<&'a toml_edit::Table>, String> {
+) -> Result<Vec<&'a toml_edit::Table>, ScenarioError> {
     v.as_array_of_tables()
         .map(|a| a.iter().collect())
         .ok_or_else(|| {
@@ -633,17 +690,27 @@ fn string<'a>(
     k: &toml_edit::Key,
     v: &'a toml_edit::Item,
     key: &str,
-) -> Result<&'a str, String> {
+) -> Result<&'a str, ScenarioError> {
     v.as_str()
         .ok_or_else(|| cx.err(span_of(k, v), key, "must be a string"))
 }
 
-fn boolean(cx: &Ctx, k: &toml_edit::Key, v: &toml_edit::Item, key: &str) -> Result<bool, String> {
+fn boolean(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+) -> Result<bool, ScenarioError> {
     v.as_bool()
         .ok_or_else(|| cx.err(span_of(k, v), key, "must be true or false"))
 }
 
-fn integer(cx: &Ctx, k: &toml_edit::Key, v: &toml_edit::Item, key: &str) -> Result<i64, String> {
+fn integer(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+) -> Result<i64, ScenarioError> {
     v.as_integer()
         .ok_or_else(|| cx.err(span_of(k, v), key, "must be an integer"))
 }
@@ -654,7 +721,7 @@ fn choice<T: Copy>(
     v: &toml_edit::Item,
     key: &str,
     options: &[(&str, T)],
-) -> Result<T, String> {
+) -> Result<T, ScenarioError> {
     let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
     let s = v.as_str().ok_or_else(|| {
         cx.err(
@@ -699,7 +766,7 @@ fn quantity_str<'a>(
     v: &'a toml_edit::Item,
     key: &str,
     example: &str,
-) -> Result<&'a str, String> {
+) -> Result<&'a str, ScenarioError> {
     if v.is_integer() || v.is_float() {
         return Err(cx.err(
             span_of(k, v),
@@ -723,7 +790,7 @@ fn in_range(
     v: f64,
     range: (f64, f64),
     unit: &str,
-) -> Result<f64, String> {
+) -> Result<f64, ScenarioError> {
     if v < range.0 || v > range.1 {
         let hi = if range.1 == f64::MAX {
             "…".to_string()
@@ -781,7 +848,7 @@ fn time(
     v: &toml_edit::Item,
     key: &str,
     range: (f64, f64),
-) -> Result<f64, String> {
+) -> Result<f64, ScenarioError> {
     let s = quantity_str(cx, k, v, key, "90 s")?;
     let t = parse_time_s(s).ok_or_else(|| {
         cx.err(
@@ -811,7 +878,7 @@ fn temperature(
     v: &toml_edit::Item,
     key: &str,
     range_k: (f64, f64),
-) -> Result<f64, String> {
+) -> Result<f64, ScenarioError> {
     let s = quantity_str(cx, k, v, key, "298.15 K")?;
     let t = parse_temperature_k(s).ok_or_else(|| {
         cx.err(
@@ -832,7 +899,7 @@ fn temperature_step(
     v: &toml_edit::Item,
     key: &str,
     range_k: (f64, f64),
-) -> Result<f64, String> {
+) -> Result<f64, ScenarioError> {
     let s = quantity_str(cx, k, v, key, "0.1 K")?;
     let t = split_quantity(s)
         .filter(|(_, u)| matches!(*u, "K" | "°C" | "C"))
@@ -847,7 +914,12 @@ fn temperature_step(
     in_range(cx, span_of(k, v), key, t, range_k, "K")
 }
 
-fn percent(cx: &Ctx, k: &toml_edit::Key, v: &toml_edit::Item, key: &str) -> Result<f64, String> {
+fn percent(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+) -> Result<f64, ScenarioError> {
     let s = quantity_str(cx, k, v, key, "50 %")?;
     let p = split_quantity(s)
         .filter(|(_, u)| *u == "%")
@@ -867,7 +939,7 @@ fn springs(
     k: &toml_edit::Key,
     v: &toml_edit::Item,
     key: &str,
-) -> Result<[bool; 3], String> {
+) -> Result<[bool; 3], ScenarioError> {
     let s = v.as_str().ok_or_else(|| {
         cx.err(
             span_of(k, v),
@@ -907,7 +979,7 @@ mod tests {
     const MINIMAL: &str = "duration = \"10 s\"\nambient = \"25 °C\"\n";
 
     fn err(text: &str) -> String {
-        parse(text, "t.toml", "t").unwrap_err()
+        parse(text, "t.toml", "t").unwrap_err().to_string()
     }
 
     #[test]
@@ -924,6 +996,7 @@ mod tests {
         assert!(
             load("no-such-scene")
                 .unwrap_err()
+                .to_string()
                 .contains("bundled scenes are cycle")
         );
     }

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use thermorph::mlx90640::{Calibration, DecodeParams, Image, PIXELS};
 
+use crate::sensing::SensingError;
 use crate::sensing::dump::{read_eeprom, read_frame};
 
 /// Decode `frames` (in order, merged into one image) with the calibration in `eeprom` and
@@ -13,24 +14,27 @@ pub fn decode_files(
     eeprom: &Path,
     frames: &[PathBuf],
     params: &DecodeParams,
-) -> Result<Image, String> {
+) -> Result<Image, SensingError> {
     if !(params.emissivity > 0.0 && params.emissivity <= 1.0) {
-        return Err(format!(
-            "emissivity {} is outside (0, 1]",
-            params.emissivity
-        ));
+        return Err(SensingError::Emissivity(params.emissivity));
     }
     if !params.ta_shift_k.is_finite() {
-        return Err("the Ta shift must be a finite number of kelvin".into());
+        return Err(SensingError::TaShift);
     }
-    let words = read_eeprom(eeprom).map_err(|e| e.to_string())?;
-    let cal = Calibration::from_eeprom(&words).map_err(|e| format!("{}: {e}", eeprom.display()))?;
+    let words = read_eeprom(eeprom)?;
+    let cal = Calibration::from_eeprom(&words).map_err(|err| SensingError::Calibration {
+        file: eeprom.display().to_string(),
+        err,
+    })?;
     let mut image = Image::new();
     for f in frames {
-        let frame = read_frame(f).map_err(|e| e.to_string())?;
+        let frame = read_frame(f)?;
         image
             .update(&frame, &cal, params)
-            .map_err(|e| format!("{}: {e}", f.display()))?;
+            .map_err(|err| SensingError::Frame {
+                file: f.display().to_string(),
+                err,
+            })?;
     }
     Ok(image)
 }

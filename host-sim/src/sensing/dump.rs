@@ -3,6 +3,9 @@
 //! One 16-bit word per token, hexadecimal, whitespace separated, `#` starts a comment. An
 //! EEPROM file holds 832 words (0x2400–0x273F); a frame file 834 words (RAM 0x0400–0x073F, the
 //! control register, the subpage number), the layout of the library's `MLX90640_GetFrameData`.
+//!
+//! This module owns the error types of dump files: [`DumpError`] (a refused file, named) and
+//! [`BadWord`] (a token that is not a 16-bit word).
 
 use std::fmt;
 use std::path::Path;
@@ -26,8 +29,18 @@ impl fmt::Display for DumpError {
 
 impl std::error::Error for DumpError {}
 
-/// Parse the words of a dump text; `Err` says which token or count is wrong.
-pub fn parse_words(text: &str) -> Result<Vec<u16>, String> {
+/// A token of a dump text that is not a 16-bit hex word.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("line {line}: `{token}` is not a 16-bit hex word")]
+pub struct BadWord {
+    /// The line, 1-based.
+    pub line: usize,
+    /// The token.
+    pub token: String,
+}
+
+/// Parse the words of a dump text; `Err` says which token is wrong.
+pub fn parse_words(text: &str) -> Result<Vec<u16>, BadWord> {
     let mut words = Vec::new();
     for (n, line) in text.lines().enumerate() {
         let content = line.split('#').next().unwrap_or("");
@@ -36,11 +49,14 @@ pub fn parse_words(text: &str) -> Result<Vec<u16>, String> {
                 .strip_prefix("0x")
                 .or_else(|| tok.strip_prefix("0X"))
                 .unwrap_or(tok);
+            let bad = || BadWord {
+                line: n + 1,
+                token: tok.to_string(),
+            };
             if digits.is_empty() || digits.len() > 4 {
-                return Err(format!("line {}: `{tok}` is not a 16-bit hex word", n + 1));
+                return Err(bad());
             }
-            let w = u16::from_str_radix(digits, 16)
-                .map_err(|_| format!("line {}: `{tok}` is not a 16-bit hex word", n + 1))?;
+            let w = u16::from_str_radix(digits, 16).map_err(|_| bad())?;
             words.push(w);
         }
     }
@@ -53,7 +69,7 @@ fn read_exact(path: &Path, expected: usize, what: &str) -> Result<Vec<u16>, Dump
         reason,
     };
     let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
-    let words = parse_words(&text).map_err(err)?;
+    let words = parse_words(&text).map_err(|e| err(e.to_string()))?;
     if words.len() != expected {
         return Err(err(format!(
             "{what} needs {expected} words, the file has {}",
@@ -98,8 +114,18 @@ mod tests {
             parse_words("# head\n00AE 0x499a\n  FFFF # tail\n").unwrap(),
             vec![0x00AE, 0x499A, 0xFFFF]
         );
-        assert!(parse_words("12345").unwrap_err().contains("line 1"));
-        assert!(parse_words("00AE\nzz").unwrap_err().contains("line 2"));
+        assert!(
+            parse_words("12345")
+                .unwrap_err()
+                .to_string()
+                .contains("line 1")
+        );
+        assert!(
+            parse_words("00AE\nzz")
+                .unwrap_err()
+                .to_string()
+                .contains("line 2")
+        );
         assert!(parse_words("0x").is_err());
     }
 }

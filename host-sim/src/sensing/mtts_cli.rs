@@ -8,11 +8,14 @@ use thermorph::mtts::{
 };
 use thermorph::units::k_or_nan;
 
+use anyhow::{Context as _, bail};
+
+use crate::sensing::SensingError;
 use crate::sensing::scene::standard_scenes;
 
 /// Parse an image CSV: 24 lines of 32 comma-separated Kelvin values (`nan` for a broken pixel);
 /// blank lines and lines starting with `#` are skipped. Errors name the line and column.
-pub fn parse_image(text: &str) -> Result<[f32; IMG_PIXELS], String> {
+pub fn parse_image(text: &str) -> Result<[f32; IMG_PIXELS], SensingError> {
     let mut img = [0f32; IMG_PIXELS];
     let mut row = 0;
     for (n, line) in text.lines().enumerate() {
@@ -21,15 +24,14 @@ pub fn parse_image(text: &str) -> Result<[f32; IMG_PIXELS], String> {
             continue;
         }
         if row == IMG_ROWS {
-            return Err(format!("line {}: more than {IMG_ROWS} rows", n + 1));
+            return Err(SensingError::TooManyRows { line: n + 1 });
         }
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         if cells.len() != IMG_COLS {
-            return Err(format!(
-                "line {}: {} values, a row needs {IMG_COLS}",
-                n + 1,
-                cells.len()
-            ));
+            return Err(SensingError::RowLength {
+                line: n + 1,
+                values: cells.len(),
+            });
         }
         for (c, cell) in cells.iter().enumerate() {
             let v = if cell.eq_ignore_ascii_case("nan") {
@@ -38,8 +40,10 @@ pub fn parse_image(text: &str) -> Result<[f32; IMG_PIXELS], String> {
                 cell.parse::<f32>()
                     .ok()
                     .filter(|v| v.is_finite())
-                    .ok_or_else(|| {
-                        format!("line {}, column {}: `{cell}` is not a number", n + 1, c + 1)
+                    .ok_or_else(|| SensingError::NotANumber {
+                        line: n + 1,
+                        column: c + 1,
+                        cell: cell.to_string(),
                     })?
             };
             img[row * IMG_COLS + c] = v;
@@ -47,7 +51,7 @@ pub fn parse_image(text: &str) -> Result<[f32; IMG_PIXELS], String> {
         row += 1;
     }
     if row != IMG_ROWS {
-        return Err(format!("{row} rows, an image needs {IMG_ROWS}"));
+        return Err(SensingError::RowCount { rows: row });
     }
     Ok(img)
 }
@@ -78,12 +82,12 @@ pub const METHODS: [(&str, Method); 3] = [
 ];
 
 /// Parse a method name.
-pub fn parse_method(s: &str) -> Result<Method, String> {
+pub fn parse_method(s: &str) -> Result<Method, SensingError> {
     METHODS
         .iter()
         .find(|(n, _)| *n == s)
         .map(|(_, m)| *m)
-        .ok_or_else(|| format!("method `{s}` is not exact, lloyd or kmeanspp"))
+        .ok_or_else(|| SensingError::UnknownMethod(s.to_string()))
 }
 
 /// The name of a method, as [`parse_method`] reads it.
@@ -102,12 +106,12 @@ pub const PRIORS: [(&str, Prior); 3] = [
 ];
 
 /// Parse a prior name.
-pub fn parse_prior(s: &str) -> Result<Prior, String> {
+pub fn parse_prior(s: &str) -> Result<Prior, SensingError> {
     PRIORS
         .iter()
         .find(|(n, _)| *n == s)
         .map(|(_, p)| *p)
-        .ok_or_else(|| format!("prior `{s}` is not unknown, heater-hotter or surface-hotter"))
+        .ok_or_else(|| SensingError::UnknownPrior(s.to_string()))
 }
 
 /// Run MTTS on an image file with a prior and write `region,name,temp_k,pixels` (pixels:
@@ -117,16 +121,17 @@ pub fn run(
     config: mtts::Config,
     prior: Prior,
     out: &mut impl Write,
-) -> Result<(), String> {
+) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    let img = parse_image(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut m = Mtts::new(config).map_err(|e| e.to_string())?;
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let img = parse_image(&text).with_context(|| path.display().to_string())?;
+    let mut m = Mtts::new(config).map_err(SensingError::Mtts)?;
     m.set_prior(prior);
     let mut scratch = Box::new(Scratch::new());
     let res = m
         .process(&img, &mut scratch)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .map_err(SensingError::Mtts)
+        .with_context(|| path.display().to_string())?;
     let mut s = String::from("region,name,temp_k,pixels\n");
     for (i, r) in res.regions.iter().enumerate() {
         s += &format!(
@@ -142,31 +147,32 @@ pub fn run(
         res.quality.name(),
         res.bound.k()
     );
-    out.write_all(s.as_bytes()).map_err(|e| e.to_string())
+    out.write_all(s.as_bytes())?;
+    Ok(())
 }
 
 /// Write standard scene `name` (rendered with `seed`) as an image CSV, with its truth as
 /// `#` comment lines.
-pub fn scene(name: &str, seed: u64, out: &mut impl Write) -> Result<(), String> {
+pub fn scene(name: &str, seed: u64, out: &mut impl Write) -> anyhow::Result<()> {
     let scenes = standard_scenes();
     let Some(s) = scenes.iter().find(|s| s.name == name) else {
         let names: Vec<&str> = scenes.iter().map(|s| s.name).collect();
-        return Err(format!("no scene `{name}`; scenes: {}", names.join(", ")));
+        bail!("no scene `{name}`; scenes: {}", names.join(", "));
     };
     let r = s.render(seed);
     let mut buf = Vec::new();
-    writeln!(buf, "# scene {name}, noise seed {seed}").map_err(|e| e.to_string())?;
+    writeln!(buf, "# scene {name}, noise seed {seed}")?;
     for (i, t) in r.truth_k.iter().enumerate() {
         writeln!(
             buf,
             "# truth region {} {}: {t:.3} K",
             i + 1,
             REGION_NAMES[i]
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
     }
-    write_image(&r.image_k, &mut buf).map_err(|e| e.to_string())?;
-    out.write_all(&buf).map_err(|e| e.to_string())
+    write_image(&r.image_k, &mut buf)?;
+    out.write_all(&buf)?;
+    Ok(())
 }
 
 #[cfg(test)]
@@ -185,19 +191,25 @@ mod tests {
         assert!(
             parse_image("1,2,3\n")
                 .unwrap_err()
+                .to_string()
                 .contains("line 1: 3 values")
         );
         let bad = std::str::from_utf8(&buf)
             .unwrap()
             .replacen("300.500", "hot", 1);
-        assert!(parse_image(&bad).unwrap_err().contains("`hot`"));
+        assert!(parse_image(&bad).unwrap_err().to_string().contains("`hot`"));
         let short: String = std::str::from_utf8(&buf)
             .unwrap()
             .lines()
             .take(5)
             .collect::<Vec<_>>()
             .join("\n");
-        assert!(parse_image(&short).unwrap_err().contains("5 rows"));
+        assert!(
+            parse_image(&short)
+                .unwrap_err()
+                .to_string()
+                .contains("5 rows")
+        );
         assert!(parse_image(&"1.0,".repeat(32)).is_err());
         assert!(parse_method("kmeans").is_err());
     }

@@ -27,6 +27,9 @@ use thermorph::mtts::upsample::{UpsampleScratch, Upsampler};
 use thermorph::mtts::{self, Config, IMG_PIXELS, Method, Mtts, Prior, Quality, Scratch};
 use thermorph::units::k_or_nan;
 
+use anyhow::{Context as _, bail};
+
+use crate::sensing::SensingError;
 use crate::sensing::mtts_cli::method_name;
 use crate::sensing::scene::{Scene, standard_scenes};
 use crate::sensing::scene_family::Member;
@@ -131,8 +134,8 @@ impl Row {
 
 /// The upsampled values the pipeline clusters for `filled` (an inpainted image) at `scale`:
 /// the bicubic output clamped to the image's range, sorted ascending.
-pub fn upsampled_sorted(filled: &[f32; IMG_PIXELS], scale: u8) -> Result<Vec<f64>, String> {
-    let up = Upsampler::new(scale).map_err(|e| e.to_string())?;
+pub fn upsampled_sorted(filled: &[f32; IMG_PIXELS], scale: u8) -> Result<Vec<f64>, SensingError> {
+    let up = Upsampler::new(scale).map_err(SensingError::Mtts)?;
     let (lo, hi) = filled
         .iter()
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
@@ -224,7 +227,7 @@ pub fn partition_sse(sorted: &[f64], clusters: &mtts::cluster::Clusters) -> f64 
 }
 
 /// Run the measurement of `cfg` (M4 columns empty: see [`M4Counts::fill`]).
-pub fn measure(cfg: &WpConfig) -> Result<Vec<Row>, String> {
+pub fn measure(cfg: &WpConfig) -> Result<Vec<Row>, SensingError> {
     let k = Config::default().k as usize;
     let mut scratch = Box::new(Scratch::new());
     // Render each image once; keep it with its inpainted copy and truth.
@@ -233,7 +236,8 @@ pub fn measure(cfg: &WpConfig) -> Result<Vec<Row>, String> {
         for seed in 1..=cfg.noise_seeds {
             let r = s.render(seed);
             let mut filled = r.image_k;
-            mtts::inpaint(&mut filled).map_err(|e| format!("{}: {e}", s.name))?;
+            mtts::inpaint(&mut filled)
+                .map_err(|err| SensingError::Inpaint { scene: s.name, err })?;
             images.push((r.image_k, filled, r.truth_k));
         }
     }
@@ -259,14 +263,14 @@ pub fn measure(cfg: &WpConfig) -> Result<Vec<Row>, String> {
                         seed: mseed,
                         ..Config::default()
                     })
-                    .map_err(|e| e.to_string())?;
+                    .map_err(SensingError::Mtts)?;
                     // The mode's prior (heating: heater hotter; forming: surface hotter).
                     m.set_prior(if truth[0] >= truth[1] {
                         Prior::HeaterHotter
                     } else {
                         Prior::SurfaceHotter
                     });
-                    let out = m.process(img, &mut scratch).map_err(|e| e.to_string())?;
+                    let out = m.process(img, &mut scratch).map_err(SensingError::Mtts)?;
                     // The clustering's T1 and T2 (what s and the method change); the lattice
                     // fit's are in the family section.
                     let (t1, t2) = (
@@ -331,21 +335,21 @@ fn time_per_frame_ns(
     scale: u8,
     method: Method,
     scratch: &mut Scratch,
-) -> Result<f64, String> {
+) -> Result<f64, SensingError> {
     let imgs: Vec<[f32; IMG_PIXELS]> = cfg.scenes.iter().map(|s| s.render(1).image_k).collect();
     let mut m = Mtts::new(Config {
         scale,
         method,
         ..Config::default()
     })
-    .map_err(|e| e.to_string())?;
-    let mut pass = |m: &mut Mtts| -> Result<f64, String> {
+    .map_err(SensingError::Mtts)?;
+    let mut pass = |m: &mut Mtts| -> Result<f64, SensingError> {
         let t0 = Instant::now();
         for img in &imgs {
             m.reset();
             let out = m
                 .process(std::hint::black_box(img), scratch)
-                .map_err(|e| e.to_string())?;
+                .map_err(SensingError::Mtts)?;
             std::hint::black_box(out);
         }
         Ok(t0.elapsed().as_nanos() as f64 / imgs.len() as f64)
@@ -370,11 +374,14 @@ pub struct M4Counts {
 impl M4Counts {
     /// Parse a bench-m4 output; other lines are ignored. Errors: malformed `wp_` lines (with
     /// their line number), or no `wp_mtts` line at all (not a bench-m4 output).
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, SensingError> {
         let mut c = M4Counts::default();
         for (n, line) in text.lines().enumerate() {
             let line = line.trim();
-            let bad = || format!("line {}: malformed `{line}`", n + 1);
+            let bad = || SensingError::M4Line {
+                line: n + 1,
+                text: line.to_string(),
+            };
             let fields = |line: &str| -> HashMap<String, String> {
                 line.split_whitespace()
                     .skip(1)
@@ -405,35 +412,40 @@ impl M4Counts {
             }
         }
         if c.mtts.is_empty() {
-            return Err("no `wp_mtts` lines: not a scripts/bench-m4 output".into());
+            return Err(SensingError::NotM4);
         }
         Ok(c)
     }
 
     /// Read and parse `path`; errors name the file.
-    pub fn read(path: &Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        Self::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    pub fn read(path: &Path) -> Result<Self, SensingError> {
+        let text = std::fs::read_to_string(path).map_err(|err| SensingError::Read {
+            path: path.to_path_buf(),
+            err,
+        })?;
+        Self::parse(&text).map_err(|e| SensingError::InFile {
+            path: path.to_path_buf(),
+            err: Box::new(e),
+        })
     }
 
     /// Put the counts into `rows`; every row and every roots variant must have one.
-    pub fn fill(&self, rows: &mut [Row], roots: &mut [RootsRow]) -> Result<(), String> {
+    pub fn fill(&self, rows: &mut [Row], roots: &mut [RootsRow]) -> Result<(), SensingError> {
         for r in rows.iter_mut() {
             let name = method_name(r.method);
-            r.m4_insns = Some(
-                *self
-                    .mtts
-                    .get(&(r.scale, name.to_string()))
-                    .ok_or_else(|| format!("no `wp_mtts scale={} method={name}` line", r.scale))?,
-            );
+            r.m4_insns = Some(*self.mtts.get(&(r.scale, name.to_string())).ok_or(
+                SensingError::NoMttsCount {
+                    scale: r.scale,
+                    method: name,
+                },
+            )?);
         }
         for r in roots.iter_mut() {
             r.to768_insns = Some(
                 *self
                     .roots
                     .get(&r.variant)
-                    .ok_or_else(|| format!("no `wp_roots variant={}` line", r.variant))?,
+                    .ok_or_else(|| SensingError::NoRootsCount(r.variant.clone()))?,
             );
         }
         Ok(())
@@ -790,12 +802,12 @@ fn default_verdict(rows: &[Row], front: &[bool], cost_name: &str) -> String {
 }
 
 /// Run `host-sim mtts-wp`.
-pub fn run(args: &WpArgs) -> Result<(), String> {
+pub fn run(args: &WpArgs) -> anyhow::Result<()> {
     if args.family_only {
         let md = family_section(args.family);
         return match &args.out {
             Some(p) => {
-                std::fs::write(p, md).map_err(|e| format!("{}: cannot write: {e}", p.display()))
+                std::fs::write(p, md).with_context(|| format!("{}: cannot write", p.display()))
             }
             None => {
                 print!("{md}");
@@ -804,7 +816,7 @@ pub fn run(args: &WpArgs) -> Result<(), String> {
         };
     }
     if args.seeds < 2 {
-        return Err("--seeds must be at least 2 (the spread needs two method seeds)".into());
+        bail!("--seeds must be at least 2 (the spread needs two method seeds)");
     }
     // Read the M4 counts first: a bad file fails before the long measurement.
     let m4 = args.m4.as_deref().map(M4Counts::read).transpose()?;
@@ -812,21 +824,21 @@ pub fn run(args: &WpArgs) -> Result<(), String> {
     let mut rows = measure(&cfg)?;
     let dir = crate::sensing::data::mlx90640_dir();
     if !dir.is_dir() {
-        return Err(format!(
+        bail!(
             "sensor data folder {} is missing (the roots table reads the real dumps; set {})",
             dir.display(),
             crate::sensing::data::DATA_DIR_ENV
-        ));
+        );
     }
     let cases = to_roots::cases(Some(&dir))?;
     let mut roots = roots_table(&cases);
     if let Some(m4) = &m4 {
         m4.fill(&mut rows, &mut roots)
-            .map_err(|e| format!("{}: {e}", args.m4.as_ref().unwrap().display()))?;
+            .with_context(|| args.m4.as_ref().unwrap().display().to_string())?;
     }
     let md = markdown(&cfg, &rows, &roots) + "\n" + &family_section(args.family);
     match &args.out {
-        Some(p) => std::fs::write(p, md).map_err(|e| format!("{}: cannot write: {e}", p.display())),
+        Some(p) => std::fs::write(p, md).with_context(|| format!("{}: cannot write", p.display())),
         None => {
             print!("{md}");
             Ok(())

@@ -25,7 +25,9 @@ use thermorph::mlx90640::{
     RefreshRate, Resolution, Roots, SubpageFrame, SubpageInfo, calculate_to_with,
 };
 
+use crate::sensing::SensingError;
 use crate::sensing::dump::{read_eeprom, read_frame};
+use crate::sensor::SensorError;
 use crate::sensor::sim_time::SimClock;
 use crate::sensor::virtual_mlx::{Rng, VirtualMlx90640};
 
@@ -241,14 +243,19 @@ const REAL_DUMPS: [(&str, &[&str]); 4] = [
 ];
 
 /// Read the real dumps in `dir` (errors name the file).
-pub fn real_cases(dir: &Path) -> Result<Vec<Case>, String> {
+pub fn real_cases(dir: &Path) -> Result<Vec<Case>, SensingError> {
     let mut out = Vec::new();
     for (ee, frames) in REAL_DUMPS {
-        let words = read_eeprom(&dir.join(ee)).map_err(|e| e.to_string())?;
-        let cal = Box::new(Calibration::from_eeprom(&words).map_err(|e| format!("{ee}: {e}"))?);
+        let words = read_eeprom(&dir.join(ee))?;
+        let cal = Box::new(Calibration::from_eeprom(&words).map_err(|err| {
+            SensingError::Calibration {
+                file: ee.to_string(),
+                err,
+            }
+        })?);
         let frames = frames
             .iter()
-            .map(|f| read_frame(&dir.join(f)).map_err(|e| e.to_string()))
+            .map(|f| read_frame(&dir.join(f)))
             .collect::<Result<Vec<_>, _>>()?;
         out.push(Case {
             name: ee.trim_end_matches("_eeprom.hex").to_string(),
@@ -263,13 +270,15 @@ pub fn real_cases(dir: &Path) -> Result<Vec<Case>, String> {
 /// looking at the twelve standard scenes and at `random_fields` uniform random fields of
 /// 263–573 K (through every extended range), both subpages, 18-bit chess plus one 16-bit and
 /// one 19-bit interleaved pair of the first scene.
-pub fn synthetic_cases(sensors: u64, random_fields: usize) -> Result<Vec<Case>, String> {
+pub fn synthetic_cases(sensors: u64, random_fields: usize) -> Result<Vec<Case>, SensingError> {
     let scenes = crate::sensing::scene::standard_scenes();
     let mut out = Vec::new();
     for seed in 1..=sensors {
-        let eeprom = crate::sensor::eeprom::realistic(seed).encode()?;
-        let mut dev =
-            VirtualMlx90640::new(eeprom, SimClock::new(), seed).map_err(|e| e.to_string())?;
+        let eeprom = crate::sensor::eeprom::realistic(seed)
+            .encode()
+            .map_err(SensorError::from)?;
+        let mut dev = VirtualMlx90640::new(eeprom, SimClock::new(), seed)
+            .map_err(SensorError::VirtualSensor)?;
         let cal = Box::new(dev.calibration().clone());
         let mut frames = Vec::new();
         let mut shoot = |dev: &mut VirtualMlx90640, res, pattern, field: [f32; PIXELS]| {
@@ -311,7 +320,7 @@ pub fn synthetic_cases(sensors: u64, random_fields: usize) -> Result<Vec<Case>, 
 }
 
 /// The measurement set: the real dumps in `dir` (if given) and the synthetic subpages.
-pub fn cases(dir: Option<&Path>) -> Result<Vec<Case>, String> {
+pub fn cases(dir: Option<&Path>) -> Result<Vec<Case>, SensingError> {
     let mut c = match dir {
         Some(d) => real_cases(d)?,
         None => Vec::new(),

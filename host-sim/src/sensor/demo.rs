@@ -13,9 +13,11 @@ use thermorph::mlx90640::{
     Resolution, SubpageFrame,
 };
 
-use crate::sensor::eeprom;
+use anyhow::{Context as _, anyhow, bail};
+
 use crate::sensor::sim_time::{SimClock, SimDelay};
 use crate::sensor::virtual_mlx::{Rng, VirtualBus, VirtualMlx90640};
+use crate::sensor::{SensorError, eeprom};
 
 /// A virtual sensor and the firmware driver reading it.
 pub struct Rig {
@@ -34,10 +36,10 @@ pub struct Rig {
 
 impl Rig {
     /// Build a rig around EEPROM words, calibrate and configure the driver.
-    pub fn new(eeprom: [u16; 832], seed: u64, config: Config) -> Result<Self, String> {
+    pub fn new(eeprom: [u16; 832], seed: u64, config: Config) -> Result<Self, SensorError> {
         let clock = SimClock::new();
         let device = VirtualMlx90640::new(eeprom, clock.clone(), seed)
-            .map_err(|e| format!("virtual sensor: {e}"))?;
+            .map_err(SensorError::VirtualSensor)?;
         let bus = VirtualBus::new(device);
         let mut driver = Mlx90640::new(
             bus.clone(),
@@ -45,8 +47,8 @@ impl Rig {
             thermorph::mlx90640::ADDRESS,
         );
         let mut cal = Box::new(Calibration::new());
-        block_on(driver.calibrate(&mut cal)).map_err(|e| e.to_string())?;
-        block_on(driver.configure(config)).map_err(|e| e.to_string())?;
+        block_on(driver.calibrate(&mut cal)).map_err(SensorError::Driver)?;
+        block_on(driver.configure(config)).map_err(SensorError::Driver)?;
         Ok(Rig {
             clock,
             bus,
@@ -58,7 +60,7 @@ impl Rig {
     }
 
     /// Build a rig on the default realistic EEPROM of `seed`.
-    pub fn realistic(seed: u64, config: Config) -> Result<Self, String> {
+    pub fn realistic(seed: u64, config: Config) -> Result<Self, SensorError> {
         Self::new(eeprom::realistic(seed).encode()?, seed, config)
     }
 
@@ -83,9 +85,10 @@ impl Rig {
 /// The benches' input: the realistic sensor of seed 1 (its EEPROM words) and two raw
 /// subpages (8 Hz, 18 bit, chess) of the rendered standard scene `scene` — what the driver
 /// would read from a sensor looking at it.
-pub fn bench_input(scene: &str) -> Result<([u16; 832], [SubpageFrame; 2]), String> {
+pub fn bench_input(scene: &str) -> Result<([u16; 832], [SubpageFrame; 2]), SensorError> {
     let eeprom = eeprom::realistic(1).encode()?;
-    let mut dev = VirtualMlx90640::new(eeprom, SimClock::new(), 7).map_err(|e| e.to_string())?;
+    let mut dev =
+        VirtualMlx90640::new(eeprom, SimClock::new(), 7).map_err(SensorError::VirtualSensor)?;
     dev.set_control(thermorph::mlx90640::Control(0).with(
         RefreshRate::Hz8,
         Resolution::Bits18,
@@ -94,7 +97,7 @@ pub fn bench_input(scene: &str) -> Result<([u16; 832], [SubpageFrame; 2]), Strin
     let s = crate::sensing::scene::standard_scenes()
         .into_iter()
         .find(|s| s.name == scene)
-        .ok_or_else(|| format!("no scene `{scene}`"))?;
+        .ok_or_else(|| SensorError::UnknownScene(scene.to_string()))?;
     dev.field_k = s.render(1).image_k;
     Ok((eeprom, [dev.raw_subpage(0), dev.raw_subpage(1)]))
 }
@@ -117,7 +120,7 @@ pub fn round_trip(
     fields: usize,
     lo_k: f64,
     hi_k: f64,
-) -> Result<f64, String> {
+) -> Result<f64, SensorError> {
     // 8 Hz: the bus keeps pace (a subpage read takes ≈ 40 ms), so every read is a new subpage.
     let config = Config {
         refresh: RefreshRate::Hz8,
@@ -139,7 +142,7 @@ pub fn round_trip(
         let start = rig.bus.0.borrow().measurements();
         let mut seen = [false; 2];
         while !(seen[0] && seen[1]) {
-            let sp = rig.step(&params).map_err(|e| e.to_string())?;
+            let sp = rig.step(&params).map_err(SensorError::Driver)?;
             if rig.bus.0.borrow().measurements() > start + 1 {
                 seen[sp as usize] = true;
             } else {
@@ -201,20 +204,20 @@ pub fn demo_scene() -> [f32; PIXELS] {
 }
 
 /// Run `host-sim sensor`.
-pub fn run(args: &SensorArgs) -> Result<(), String> {
+pub fn run(args: &SensorArgs) -> anyhow::Result<()> {
     let refresh = RefreshRate::from_hz(args.refresh_hz).ok_or_else(|| {
-        format!(
+        anyhow!(
             "refresh rate {} Hz is not one of 0.5, 1, 2, …, 64",
             args.refresh_hz
         )
     })?;
     let resolution = Resolution::from_bits(args.resolution)
-        .ok_or_else(|| format!("resolution {} is not 16–19 bits", args.resolution))?;
+        .ok_or_else(|| anyhow!("resolution {} is not 16–19 bits", args.resolution))?;
     if !(args.noise_k >= 0.0 && args.noise_k.is_finite()) {
-        return Err("noise must be ≥ 0 K".into());
+        bail!("noise must be ≥ 0 K");
     }
     if !(args.seconds > 0.0 && args.seconds <= 86_400.0) {
-        return Err("seconds must be in (0, 86400]".into());
+        bail!("seconds must be in (0, 86400]");
     }
     let config = Config {
         refresh,
@@ -242,7 +245,7 @@ pub fn run(args: &SensorArgs) -> Result<(), String> {
             Ok(sp) => {
                 frames += 1;
                 if sp == 1 && rig.image.complete() {
-                    let s = rig.image.stats().ok_or("empty image")?;
+                    let s = rig.image.stats().context("empty image")?;
                     let (mut se, mut me) = (0f64, 0f64);
                     for (got, want) in rig.image.to_k.iter().zip(scene.iter()) {
                         let d = (got - want) as f64;

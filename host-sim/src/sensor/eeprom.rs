@@ -15,6 +15,8 @@
 //!   spread of offset, sensitivity, Kta and Kv.
 //!
 //! Word offsets below count from 0x2400 (`ee[16]` is 0x2410); "row" and "column" are 0-based.
+//!
+//! This module owns the error type of fields that do not encode, [`EepromError`].
 
 use thermorph::mlx90640::{COLS, EEPROM_WORDS, PIXELS, ROWS};
 
@@ -168,8 +170,49 @@ fn used_mask(i: usize) -> u16 {
     }
 }
 
+/// EEPROM fields that do not encode; `Display` names the first offending field.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum EepromError {
+    /// A field's value does not fit its bit width.
+    #[error("EEPROM field {field} = {value} does not fit {bits} bits ({lo}..={hi})")]
+    Width {
+        /// The field (`kv_t[2]`).
+        field: String,
+        /// Its value.
+        value: i64,
+        /// Its width, bits.
+        bits: u32,
+        /// The smallest value that fits.
+        lo: i64,
+        /// The largest value that fits.
+        hi: i64,
+    },
+    /// A reserved word's bits overlap the coded bits of that word.
+    #[error("EEPROM field reserved[{index}] = 0x{value:04X} overlaps coded bits 0x{coded:04X}")]
+    Reserved {
+        /// The word's index.
+        index: usize,
+        /// The reserved bits given.
+        value: u16,
+        /// The word's coded bits.
+        coded: u16,
+    },
+    /// A broken pixel (word 0) with deltas or an outlier flag.
+    #[error(
+        "EEPROM field broken[{0}] is set (pixel word 0) but the pixel's deltas or outlier flag \
+         are not zero"
+    )]
+    BrokenNotZero(usize),
+    /// A pixel not marked broken whose word would be 0.
+    #[error(
+        "EEPROM field broken[{0}] is clear but the pixel word would be 0 (a broken pixel): set a \
+         delta or the outlier flag"
+    )]
+    ZeroWord(usize),
+}
+
 /// Check that `v` fits a `bits`-bit signed (or unsigned) field called `name`.
-fn check(name: &str, v: i64, bits: u32, signed: bool) -> Result<(), String> {
+fn check(name: &str, v: i64, bits: u32, signed: bool) -> Result<(), EepromError> {
     let (lo, hi) = if signed {
         (-(1i64 << (bits - 1)), (1i64 << (bits - 1)) - 1)
     } else {
@@ -178,9 +221,13 @@ fn check(name: &str, v: i64, bits: u32, signed: bool) -> Result<(), String> {
     if (lo..=hi).contains(&v) {
         Ok(())
     } else {
-        Err(format!(
-            "EEPROM field {name} = {v} does not fit {bits} bits ({lo}..={hi})"
-        ))
+        Err(EepromError::Width {
+            field: name.to_string(),
+            value: v,
+            bits,
+            lo,
+            hi,
+        })
     }
 }
 
@@ -260,13 +307,14 @@ impl EepromFields {
 
     /// Check every field against its bit width, the reserved bits against the coded ones and
     /// the broken flags against the pixel words; the error names the first offending field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), EepromError> {
         for (i, &r) in self.reserved.iter().enumerate() {
             if r & used_mask(i) != 0 {
-                return Err(format!(
-                    "EEPROM field reserved[{i}] = 0x{r:04X} overlaps coded bits 0x{:04X}",
-                    used_mask(i)
-                ));
+                return Err(EepromError::Reserved {
+                    index: i,
+                    value: r,
+                    coded: used_mask(i),
+                });
             }
         }
         for (name, v, bits) in [
@@ -320,10 +368,7 @@ impl EepromFields {
                     || self.kta_delta[p] != 0
                     || self.outlier[p]
                 {
-                    return Err(format!(
-                        "EEPROM field broken[{p}] is set (pixel word 0) but the pixel's \
-                         deltas or outlier flag are not zero"
-                    ));
+                    return Err(EepromError::BrokenNotZero(p));
                 }
                 continue;
             }
@@ -346,10 +391,7 @@ impl EepromFields {
                 true,
             )?;
             if self.pixel_word(p) == 0 {
-                return Err(format!(
-                    "EEPROM field broken[{p}] is clear but the pixel word would be 0 (a broken \
-                     pixel): set a delta or the outlier flag"
-                ));
+                return Err(EepromError::ZeroWord(p));
             }
         }
         Ok(())
@@ -377,7 +419,7 @@ impl EepromFields {
 
     /// Join the fields into 832 EEPROM words, or name the first field that does not fit
     /// ([`EepromFields::validate`]).
-    pub fn encode(&self) -> Result<[u16; EEPROM_WORDS], String> {
+    pub fn encode(&self) -> Result<[u16; EEPROM_WORDS], EepromError> {
         self.validate()?;
         let mut w = self.reserved;
         if self.interleaved_calibration {
@@ -660,7 +702,7 @@ mod tests {
             let mut f = realistic(1);
             spoil(&mut f);
             let err = f.encode().unwrap_err();
-            assert!(err.contains(name), "{name}: {err}");
+            assert!(err.to_string().contains(name), "{name}: {err}");
             assert_eq!(f.validate().unwrap_err(), err);
         }
         // A pixel that is not broken but whose word would be 0.
@@ -668,7 +710,7 @@ mod tests {
         f.offset_delta[4] = 0;
         f.alpha_delta[4] = 0;
         f.kta_delta[4] = 0;
-        assert!(f.encode().unwrap_err().contains("broken[4]"));
+        assert!(f.encode().unwrap_err().to_string().contains("broken[4]"));
     }
 
     #[test]

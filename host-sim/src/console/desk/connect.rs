@@ -23,6 +23,7 @@ use rustyline::{Context, Editor, ExternalPrinter, Helper};
 use thermorph::command::{COMMANDS, mode_names};
 use thermorph::settings::PARAMS;
 
+use super::DeskError;
 use super::link::{Line, Link};
 use super::telemetry::Telemetry;
 
@@ -120,16 +121,16 @@ pub struct ConnectOptions {
 }
 
 /// Run the interactive console on `path` until the user leaves or the port is lost.
-pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
-    let mut link = Link::open(path, o.baud).map_err(|e| e.to_string())?;
-    let mut reader = link.try_clone().map_err(|e| e.to_string())?;
+pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
+    let mut link = Link::open(path, o.baud)?;
+    let mut reader = link.try_clone()?;
     // Bash-like completion: Tab completes the common part, a second Tab lists the choices.
     let config = rustyline::Config::builder()
         .completion_type(rustyline::CompletionType::List)
         .auto_add_history(false)
         .build();
     let mut rl: Editor<DeskHelper, FileHistory> =
-        Editor::with_config(config).map_err(|e| format!("line editor: {e}"))?;
+        Editor::with_config(config).map_err(DeskError::LineEditor)?;
     rl.set_helper(Some(DeskHelper));
     if let Some(h) = &o.history {
         let _ = rl.load_history(h);
@@ -223,7 +224,7 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
     let mut result = Ok(());
     loop {
         if lost.load(Ordering::SeqCst) {
-            result = Err(format!("{path}: port lost"));
+            result = Err(DeskError::PortLost(path.to_string()));
             break;
         }
         match rl.readline("desk> ") {
@@ -249,7 +250,7 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
                     }
                     _ => {
                         if let Err(e) = link.send(line) {
-                            result = Err(e.to_string());
+                            result = Err(e.into());
                             break;
                         }
                         sent += 1;
@@ -258,7 +259,7 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), String> {
             }
             Err(ReadlineError::Interrupted | ReadlineError::Eof) => break,
             Err(e) => {
-                result = Err(format!("line editor: {e}"));
+                result = Err(DeskError::LineEditor(e));
                 break;
             }
         }

@@ -3,6 +3,8 @@
 
 use serialport::{SerialPortInfo, SerialPortType};
 
+use super::DeskError;
+
 /// STMicroelectronics' USB vendor id (the ST-LINK on NUCLEO boards).
 pub const ST_VID: u16 = 0x0483;
 
@@ -30,8 +32,8 @@ pub fn describe(p: &SerialPortInfo) -> String {
 }
 
 /// List the ports, ST-LINK ones first.
-pub fn list() -> Result<Vec<String>, String> {
-    let mut ports = serialport::available_ports().map_err(|e| format!("listing ports: {e}"))?;
+pub fn list() -> Result<Vec<String>, DeskError> {
+    let mut ports = serialport::available_ports().map_err(DeskError::Ports)?;
     ports.sort_by_key(|p| {
         let st = matches!(&p.port_type, SerialPortType::UsbPort(u) if u.vid == ST_VID);
         (!st, p.port_name.clone())

@@ -14,6 +14,7 @@ use std::io::Write;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use super::DeskError;
 use super::link::{Line, Link, LinkError};
 use super::telemetry::{Telemetry, csv_header, csv_row};
 
@@ -67,12 +68,16 @@ pub struct CsvSink {
 
 impl CsvSink {
     /// Create `path` and write the header.
-    pub fn create(path: &Path) -> Result<CsvSink, String> {
-        let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    pub fn create(path: &Path) -> Result<CsvSink, DeskError> {
+        let file_err = |err| DeskError::File {
+            path: path.to_path_buf(),
+            err,
+        };
+        let file = std::fs::File::create(path).map_err(file_err)?;
         let mut out = std::io::BufWriter::new(file);
         writeln!(out, "{}", csv_header())
             .and_then(|_| out.flush())
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+            .map_err(file_err)?;
         Ok(CsvSink {
             out,
             path: path.to_path_buf(),
@@ -86,7 +91,7 @@ impl CsvSink {
 
     /// Write `line` if it is telemetry (a board clock that went backwards marks a `reset`);
     /// return the parsed telemetry.
-    pub fn line(&mut self, line: &str) -> Result<Option<Telemetry>, String> {
+    pub fn line(&mut self, line: &str) -> Result<Option<Telemetry>, DeskError> {
         let Some(t) = Telemetry::parse(line) else {
             return Ok(None);
         };
@@ -102,7 +107,10 @@ impl CsvSink {
         }
         writeln!(self.out, "{row}")
             .and_then(|_| self.out.flush())
-            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+            .map_err(|err| DeskError::File {
+                path: self.path.clone(),
+                err,
+            })?;
         self.rows += 1;
         Ok(Some(t))
     }
@@ -136,18 +144,20 @@ fn stream_on(
     }
 }
 
-fn reopen(path: &str, o: &RecordOptions, why: &str) -> Result<Link, String> {
+fn reopen(path: &str, o: &RecordOptions, why: LinkError) -> Result<Link, DeskError> {
     let until = Instant::now() + o.reconnect;
     loop {
         let last = match Link::open(path, o.baud) {
             Ok(l) => return Ok(l),
-            Err(e) => e.to_string(),
+            Err(e) => e,
         };
         if Instant::now() + o.retry > until {
-            return Err(format!(
-                "{path}: port lost ({why}) and not back within {:.1} s: {last}",
-                o.reconnect.as_secs_f64()
-            ));
+            return Err(DeskError::NotBack {
+                path: path.to_string(),
+                why,
+                within_s: o.reconnect.as_secs_f64(),
+                last,
+            });
         }
         std::thread::sleep(o.retry);
     }
@@ -159,13 +169,13 @@ pub fn record(
     out: &Path,
     o: &RecordOptions,
     progress: &mut dyn FnMut(&Telemetry, &RecordStats),
-) -> Result<RecordStats, String> {
+) -> Result<RecordStats, DeskError> {
     let mut sink = CsvSink::create(out)?;
     let started = Instant::now();
     let end = o.duration.map(|d| started + d);
     let mut garbage = 0;
     let mut last_row = Instant::now();
-    let mut write = |line: &str, sink: &mut CsvSink, garbage: u64| -> Result<bool, String> {
+    let mut write = |line: &str, sink: &mut CsvSink, garbage: u64| -> Result<bool, DeskError> {
         let t = sink.line(line)?;
         if let Some(t) = &t {
             progress(
@@ -182,7 +192,7 @@ pub fn record(
 
     // Rows that arrive while a command waits for its reply are written too.
     let mut held: Vec<String> = Vec::new();
-    let mut link = Link::open(path, o.baud).map_err(|e| e.to_string())?;
+    let mut link = Link::open(path, o.baud)?;
     let mut need_stream = true;
     let mut answered_once = false;
     // Since when a reopened port has not answered: a port of the same name that comes back
@@ -229,16 +239,16 @@ pub fn record(
                 }
             }
             Err(LinkError::Timeout(e)) if !answered_once => {
-                return Err(format!("{e}: is this a Thermorph console?"));
+                return Err(DeskError::NoConsole(e));
             }
             Err(LinkError::Timeout(e))
                 if unanswered_since.is_some_and(|t| t.elapsed() >= o.reconnect) =>
             {
-                return Err(format!(
-                    "{path}: port lost and not back within {:.1} s: a port of that name came \
-                     back, but no Thermorph console answers on it ({e})",
-                    o.reconnect.as_secs_f64()
-                ));
+                return Err(DeskError::NoAnswer {
+                    path: path.to_string(),
+                    within_s: o.reconnect.as_secs_f64(),
+                    detail: e,
+                });
             }
             Err(LinkError::Timeout(e)) => {
                 eprintln!("record: {e}");
@@ -249,7 +259,7 @@ pub fn record(
             Err(e) => {
                 eprintln!("record: {e}; reopening {path}");
                 drop(link);
-                link = reopen(path, o, &e.to_string())?;
+                link = reopen(path, o, e)?;
                 link.garbage = garbage;
                 eprintln!("record: {path} is back");
                 unanswered_since = Some(Instant::now());

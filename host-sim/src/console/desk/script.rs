@@ -21,9 +21,10 @@
 
 use std::time::{Duration, Instant};
 
-use super::link::{Line, Link, LinkError};
+use super::link::{Line, Link};
 use super::record::CsvSink;
 use super::telemetry::{Fields, fields, get};
+use super::{DeskError, WaitTimeout};
 
 /// Default `wait` timeout.
 pub const DEFAULT_WAIT: Duration = Duration::from_secs(60);
@@ -144,33 +145,45 @@ pub enum Step {
 /// A step and its line number (1-based).
 pub type Script = Vec<(usize, Step)>;
 
-fn check_command(line: &str) -> Result<(), String> {
+fn check_command(line: &str) -> Result<(), DeskError> {
     thermorph::command::parse(line)
         .map(|_| ())
-        .map_err(|e| format!("`{line}`: {}", e.message()))
+        .map_err(|e| DeskError::Command {
+            command: line.to_string(),
+            message: e.message(),
+        })
 }
 
-fn seconds(word: &str) -> Result<Duration, String> {
+/// Parse a number of seconds (`0.5`, `90`), as scripts and the desk's options write it.
+pub fn seconds(word: &str) -> Result<Duration, DeskError> {
     word.parse::<f64>()
         .ok()
         .filter(|s| s.is_finite() && *s >= 0.0 && *s < 1e7)
         .map(Duration::from_secs_f64)
-        .ok_or_else(|| format!("`{word}` is not a number of seconds"))
+        .ok_or_else(|| DeskError::Seconds(word.to_string()))
 }
 
-fn cond(words: &[&str]) -> Result<Cond, String> {
+fn cond(words: &[&str]) -> Result<Cond, DeskError> {
     match words {
         [field, op, value] => Ok(Cond {
             field: field.to_string(),
-            op: Op::parse(op).ok_or_else(|| format!("`{op}` is not one of == != < <= > >="))?,
+            op: Op::parse(op).ok_or_else(|| DeskError::Op(op.to_string()))?,
             value: value.to_string(),
         }),
-        _ => Err("expected FIELD OP VALUE".into()),
+        _ => Err(DeskError::Usage("FIELD OP VALUE")),
     }
 }
 
-/// Parse a script; the error names the line.
-pub fn parse(text: &str) -> Result<Script, String> {
+/// A script line's error: `line N: …`.
+fn at_line(line: usize) -> impl Fn(DeskError) -> DeskError + Copy {
+    move |e| DeskError::Line {
+        line,
+        err: Box::new(e),
+    }
+}
+
+/// Parse a script; the error ([`DeskError::Line`]) names the line.
+pub fn parse(text: &str) -> Result<Script, DeskError> {
     let mut out = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let n = i + 1;
@@ -179,7 +192,7 @@ pub fn parse(text: &str) -> Result<Script, String> {
             continue;
         }
         let words: Vec<&str> = line.split_whitespace().collect();
-        let step = (|| -> Result<Step, String> {
+        let step = (|| -> Result<Step, DeskError> {
             match words[0] {
                 "wait" => {
                     let (c, within) = match words[1..] {
@@ -191,7 +204,7 @@ pub fn parse(text: &str) -> Result<Script, String> {
                 "expect" => Ok(Step::Expect(cond(&words[1..])?)),
                 "sleep" => match words[1..] {
                     [s] => Ok(Step::Sleep(seconds(s)?)),
-                    _ => Err("expected `sleep SECONDS`".into()),
+                    _ => Err(DeskError::Usage("`sleep SECONDS`")),
                 },
                 "try" => {
                     let rest = line["try".len()..].trim();
@@ -202,10 +215,12 @@ pub fn parse(text: &str) -> Result<Script, String> {
                     })
                 }
                 "expect-err" => {
-                    let code = words.get(1).ok_or("expected `expect-err CODE COMMAND`")?;
+                    let code = words
+                        .get(1)
+                        .ok_or(DeskError::Usage("`expect-err CODE COMMAND`"))?;
                     let rest = line["expect-err".len()..].trim()[code.len()..].trim();
                     if rest.is_empty() {
-                        return Err("expected `expect-err CODE COMMAND`".into());
+                        return Err(DeskError::Usage("`expect-err CODE COMMAND`"));
                     }
                     Ok(Step::ExpectErr {
                         code: code.to_string(),
@@ -221,7 +236,7 @@ pub fn parse(text: &str) -> Result<Script, String> {
                 }
             }
         })()
-        .map_err(|e| format!("line {n}: {e}"))?;
+        .map_err(at_line(n))?;
         out.push((n, step));
     }
     Ok(out)
@@ -233,7 +248,7 @@ fn command(
     line: &str,
     timeout: Duration,
     sink: &mut Option<CsvSink>,
-) -> Result<String, String> {
+) -> Result<String, DeskError> {
     let mut held = Vec::new();
     let r = link.command(line, timeout, &mut |l| held.push(l.to_string()));
     if let Some(s) = sink.as_mut() {
@@ -241,7 +256,7 @@ fn command(
             s.line(l)?;
         }
     }
-    r.map_err(|e| e.to_string())
+    Ok(r?)
 }
 
 /// Ask for `status` and return its fields.
@@ -249,25 +264,25 @@ pub fn status(
     link: &mut Link,
     timeout: Duration,
     sink: &mut Option<CsvSink>,
-) -> Result<Fields, String> {
+) -> Result<Fields, DeskError> {
     let r = command(link, "status", timeout, sink)?;
     match r.strip_prefix("ok") {
         Some(body) => Ok(fields(body)),
-        None => Err(format!("`status` refused: {r}")),
+        None => Err(DeskError::StatusRefused(r)),
     }
 }
 
-fn check(f: &Fields, c: &Cond) -> Result<bool, String> {
+fn check(f: &Fields, c: &Cond) -> Result<bool, DeskError> {
     match get(f, &c.field) {
         Some(v) => Ok(c.holds(v)),
-        None => Err(format!(
-            "`status` has no field `{}` (it has: {})",
-            c.field,
-            f.iter()
+        None => Err(DeskError::NoField {
+            field: c.field.clone(),
+            fields: f
+                .iter()
                 .map(|(n, _)| n.as_str())
                 .collect::<Vec<_>>()
-                .join(" ")
-        )),
+                .join(" "),
+        }),
     }
 }
 
@@ -279,34 +294,41 @@ pub fn run(
     reply_timeout: Duration,
     sink: &mut Option<CsvSink>,
     log: &mut dyn FnMut(&str),
-) -> Result<(), String> {
+) -> Result<(), DeskError> {
     let started = Instant::now();
     for (n, step) in script {
         let at = || format!("[{:7.2} s] line {n}:", started.elapsed().as_secs_f64());
-        let fail = |e: String| format!("line {n}: {e}");
+        let fail = at_line(*n);
         match step {
             Step::Command { line, any } => {
                 let r = command(link, line, reply_timeout, sink).map_err(fail)?;
                 log(&format!("{} {line} -> {r}", at()));
                 if !any && !r.starts_with("ok") {
-                    return Err(fail(format!("`{line}` got `{r}`")));
+                    return Err(fail(DeskError::NotOk {
+                        command: line.clone(),
+                        reply: r,
+                    }));
                 }
             }
             Step::ExpectErr { code, line } => {
                 let r = command(link, line, reply_timeout, sink).map_err(fail)?;
                 log(&format!("{} {line} -> {r}", at()));
                 if !r.starts_with(&format!("err {code}:")) {
-                    return Err(fail(format!("`{line}` got `{r}`, not `err {code}`")));
+                    return Err(fail(DeskError::NotErr {
+                        command: line.clone(),
+                        reply: r,
+                        code: code.clone(),
+                    }));
                 }
             }
             Step::Expect(c) => {
                 let f = status(link, reply_timeout, sink).map_err(fail)?;
                 if !check(&f, c).map_err(fail)? {
-                    return Err(fail(format!(
-                        "expected {c}, but {} = {}",
-                        c.field,
-                        get(&f, &c.field).unwrap_or("?")
-                    )));
+                    return Err(fail(DeskError::Expected {
+                        cond: c.to_string(),
+                        field: c.field.clone(),
+                        value: get(&f, &c.field).unwrap_or("?").to_string(),
+                    }));
                 }
                 log(&format!("{} expect {c}: holds", at()));
             }
@@ -319,14 +341,14 @@ pub fn run(
                         break;
                     }
                     if Instant::now() >= until {
-                        return Err(fail(format!(
-                            "timeout: {cond} did not hold within {:.1} s (last {} = {}, mode = {}, fault = {})",
-                            within.as_secs_f64(),
-                            cond.field,
-                            get(&f, &cond.field).unwrap_or("?"),
-                            get(&f, "mode").unwrap_or("?"),
-                            get(&f, "fault").unwrap_or("?"),
-                        )));
+                        return Err(fail(DeskError::WaitTimeout(Box::new(WaitTimeout {
+                            cond: cond.to_string(),
+                            within_s: within.as_secs_f64(),
+                            field: cond.field.clone(),
+                            value: get(&f, &cond.field).unwrap_or("?").to_string(),
+                            mode: get(&f, "mode").unwrap_or("?").to_string(),
+                            fault: get(&f, "fault").unwrap_or("?").to_string(),
+                        }))));
                     }
                     let next =
                         Instant::now() + POLL.min(until.saturating_duration_since(Instant::now()));
@@ -343,8 +365,8 @@ pub fn run(
 }
 
 /// Read lines until `until`, writing telemetry to `sink` (so nothing piles up while waiting).
-fn drain(link: &mut Link, until: Instant, sink: &mut Option<CsvSink>) -> Result<(), String> {
-    while let Some(l) = link.next_line(until).map_err(|e| e.to_string())? {
+fn drain(link: &mut Link, until: Instant, sink: &mut Option<CsvSink>) -> Result<(), DeskError> {
+    while let Some(l) = link.next_line(until)? {
         if let (Line::Async(a), Some(s)) = (l, sink.as_mut()) {
             s.line(&a)?;
         }
@@ -361,16 +383,21 @@ pub fn run_file(
     reply_timeout: Duration,
     record: Option<&std::path::Path>,
     log: &mut dyn FnMut(&str),
-) -> Result<(), String> {
-    let text = std::fs::read_to_string(script_path)
-        .map_err(|e| format!("{}: {e}", script_path.display()))?;
-    let script = parse(&text).map_err(|e| format!("{}: {e}", script_path.display()))?;
-    let mut link = Link::open(path, baud).map_err(|e: LinkError| e.to_string())?;
+) -> Result<(), DeskError> {
+    let text = std::fs::read_to_string(script_path).map_err(|err| DeskError::File {
+        path: script_path.to_path_buf(),
+        err,
+    })?;
+    let script = parse(&text).map_err(|e| DeskError::Script {
+        path: script_path.to_path_buf(),
+        err: Box::new(e),
+    })?;
+    let mut link = Link::open(path, baud)?;
     let mut sink = record.map(CsvSink::create).transpose()?;
     if sink.is_some() {
         let r = command(&mut link, "stream on", reply_timeout, &mut sink)?;
         if !r.starts_with("ok") {
-            return Err(format!("`stream on` refused: {r}"));
+            return Err(DeskError::StreamRefused(r));
         }
     }
     let result = run(&mut link, &script, reply_timeout, &mut sink, log);
@@ -451,23 +478,31 @@ mod tests {
     #[test]
     fn bad_lines_are_named() {
         assert_eq!(
-            parse("status\nfrobnicate\n").unwrap_err(),
+            parse("status\nfrobnicate\n").unwrap_err().to_string(),
             "line 2: `frobnicate`: unknown command, try `help`"
         );
         assert!(
             parse("mode fly")
                 .unwrap_err()
+                .to_string()
                 .starts_with("line 1: `mode fly`")
         );
         assert!(
             parse("set nope 1")
                 .unwrap_err()
+                .to_string()
                 .contains("no such parameter")
         );
-        assert!(parse("wait tc_k ~ 3").unwrap_err().contains("`~`"));
+        assert!(
+            parse("wait tc_k ~ 3")
+                .unwrap_err()
+                .to_string()
+                .contains("`~`")
+        );
         assert!(
             parse("wait tc_k >= 3 within soon")
                 .unwrap_err()
+                .to_string()
                 .contains("seconds")
         );
         assert!(parse("sleep -1").is_err());
@@ -492,10 +527,11 @@ mod tests {
             "a missing value never passes"
         );
         let f = fields("mode=form tc_k=330.5");
-        assert_eq!(check(&f, &c("tc_k", Op::Lt, "331")), Ok(true));
+        assert!(check(&f, &c("tc_k", Op::Lt, "331")).unwrap());
         assert!(
             check(&f, &c("nope", Op::Eq, "1"))
                 .unwrap_err()
+                .to_string()
                 .contains("mode tc_k")
         );
     }
