@@ -1,9 +1,272 @@
-//! The figures of one thesis cycle (SPEC section 8), measured on a closed-loop run's time
-//! series: times from the supervisor's modes and phases, temperatures from its Tc, angles and
-//! k_b from the plant's truth. `host-sim paper` judges them against the thesis, `host-sim run`
-//! prints them beside it; this module depends on the time series alone.
+//! The thesis's figures (SPEC section 8): this module owns their one definition — key, name,
+//! unit, the thesis's value, the tolerance and how each is measured ([`judge`]) — the
+//! [`Figure`] every run and `paper` report, and their measurement on a closed-loop run's time
+//! series ([`measure`]: times from the supervisor's modes and phases, temperatures from its Tc,
+//! angles and k_b from the plant's truth). `host-sim paper` judges two cycles with it,
+//! `host-sim run` the scene's one; it depends on the time series alone.
+
+use serde::Serialize;
 
 use crate::runs::series::Row;
+
+/// The figures, keyed as `host-sim paper --json` prints them, in SPEC order.
+pub const KEYS: [&str; 13] = [
+    "preheat_time_s",
+    "standby_overshoot_k",
+    "standby_hold_band_k",
+    "large_stepping_time_s",
+    "pulse_drop_deg",
+    "full_loading_one_spring_deg",
+    "full_loading_two_springs_deg",
+    "forming_time_s",
+    "forming_angle_loss_deg",
+    "formed_k_b",
+    "stiffness_ratio",
+    "recovery_time_s",
+    "cycle_time_s",
+];
+
+/// One figure: the thesis's value beside the simulated one, judged where a tolerance is
+/// defined.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Figure {
+    /// Its key (as `host-sim paper --json` names it).
+    pub key: String,
+    /// What it is, for a person.
+    pub name: String,
+    /// Unit of `thesis` and `simulated`.
+    pub unit: String,
+    /// The thesis's (or SPEC's) value: a number, or `[lo, hi]` for a range.
+    pub thesis: serde_json::Value,
+    /// Measured in this run: a number, a list, or `null` where the run does not show it.
+    pub simulated: serde_json::Value,
+    /// The tolerance, as printed (`None`: reported, not judged).
+    pub tolerance: Option<String>,
+    /// Within the tolerance (`None`: not judged, or the run does not show it).
+    pub pass: Option<bool>,
+    /// How it is measured.
+    pub how: String,
+}
+
+impl Figure {
+    /// A figure reported beside the thesis's value without a tolerance.
+    pub fn reported(
+        key: &str,
+        name: &str,
+        unit: &str,
+        sim: Option<f64>,
+        thesis: f64,
+        how: &str,
+    ) -> Figure {
+        Figure {
+            key: key.into(),
+            name: name.into(),
+            unit: unit.into(),
+            thesis: serde_json::json!(thesis),
+            simulated: num(sim),
+            tolerance: None,
+            pass: None,
+            how: how.into(),
+        }
+    }
+
+    /// The simulated value as a number, if it is one.
+    pub fn simulated_f64(&self) -> Option<f64> {
+        self.simulated.as_f64()
+    }
+
+    /// Whether it was judged and passed.
+    pub fn passes(&self) -> bool {
+        self.pass == Some(true)
+    }
+
+    /// The verdict as printed: `pass`, `FAIL`, or `—` (not judged or not shown).
+    pub fn verdict(&self) -> &'static str {
+        match self.pass {
+            Some(true) => "pass",
+            Some(false) => "FAIL",
+            None => "—",
+        }
+    }
+}
+
+/// A value rounded to 0.001 for reports (`null` when missing or not finite).
+pub fn num(v: Option<f64>) -> serde_json::Value {
+    v.filter(|x| x.is_finite())
+        .map_or(serde_json::Value::Null, |x| {
+            serde_json::json!((x * 1000.0).round() / 1000.0)
+        })
+}
+
+/// A figure judged against `[lo, hi]` (`pass` is `None` where the run does not show it).
+#[allow(clippy::too_many_arguments)]
+fn judged(
+    key: &str,
+    name: &str,
+    unit: &str,
+    thesis: f64,
+    sim: Option<f64>,
+    (lo, hi): (f64, f64),
+    tolerance: &str,
+    how: &str,
+) -> Figure {
+    Figure {
+        pass: sim.map(|x| (lo..=hi).contains(&x)),
+        tolerance: Some(tolerance.into()),
+        ..Figure::reported(key, name, unit, sim, thesis, how)
+    }
+}
+
+/// Every SPEC section 8 figure, in SPEC order (the keys of `host-sim paper --json`), judged
+/// against the thesis: `cycle` gives all but the one-spring loading, which comes from
+/// `one_spring` (a cycle stepped with one spring), where there is one.
+pub fn judge(cycle: &CycleFigures, one_spring: Option<&CycleFigures>) -> Vec<Figure> {
+    let c = cycle;
+    let drops = &c.pulse_drop_deg;
+    let drops_shown = !drops.is_empty();
+    vec![
+        judged(
+            "preheat_time_s",
+            "standby preheat",
+            "s",
+            10.0,
+            c.preheat_time_s,
+            (7.0, 13.0),
+            "±3 s",
+            "power-up until Tc reaches 322.5 K",
+        ),
+        judged(
+            "standby_overshoot_k",
+            "standby overshoot",
+            "K",
+            1.0,
+            c.standby_overshoot_k,
+            (f64::MIN, 1.0),
+            "< 1 K",
+            "largest Tc − 323 K after reaching it, before stepping",
+        ),
+        judged(
+            "standby_hold_band_k",
+            "standby hold band",
+            "K",
+            0.5,
+            c.standby_hold_band_k,
+            (0.0, 0.5),
+            "≤ 0.5 K",
+            "largest |Tc − 323 K| over 60 s from 20 s after reaching it",
+        ),
+        judged(
+            "large_stepping_time_s",
+            "large stepping",
+            "s",
+            30.0,
+            c.large_stepping_time_s,
+            (29.5, 30.5),
+            "±0.5 s",
+            "first spring phase's start to the last one's end",
+        ),
+        Figure {
+            key: "pulse_drop_deg".into(),
+            name: "pulse drops".into(),
+            unit: "deg".into(),
+            thesis: serde_json::json!([2.0, 4.0]),
+            simulated: if drops_shown {
+                serde_json::json!(
+                    drops
+                        .iter()
+                        .map(|d| (d * 1000.0).round() / 1000.0)
+                        .collect::<Vec<_>>()
+                )
+            } else {
+                serde_json::Value::Null
+            },
+            tolerance: Some("each 2–4° ±1°".into()),
+            pass: drops_shown
+                .then(|| drops.len() == 3 && drops.iter().all(|d| (1.0..=5.0).contains(d))),
+            how: "bend at each pulse's start minus at its end (three pulses)".into(),
+        },
+        judged(
+            "full_loading_one_spring_deg",
+            "full loading, one spring",
+            "deg",
+            42.0,
+            one_spring.and_then(|o| o.full_loading_deg),
+            (38.0, 46.0),
+            "±4°",
+            "bend at the end of stepping with one spring",
+        ),
+        judged(
+            "full_loading_two_springs_deg",
+            "full loading, two springs",
+            "deg",
+            65.0,
+            c.full_loading_deg,
+            (61.0, 69.0),
+            "±4°",
+            "bend at the end of stepping with two springs",
+        ),
+        judged(
+            "forming_time_s",
+            "forming",
+            "s",
+            50.0,
+            c.forming_time_s,
+            (40.0, 60.0),
+            "±10 s",
+            "forming's start until the supervisor ends it",
+        ),
+        judged(
+            "forming_angle_loss_deg",
+            "forming angle loss",
+            "deg",
+            5.0,
+            c.forming_angle_loss_deg,
+            (2.0, 8.0),
+            "±3°",
+            "bend at forming's start minus 20 s later",
+        ),
+        judged(
+            "formed_k_b",
+            "formed stiffness",
+            "N·mm/rad",
+            1400.0,
+            c.formed_k_b,
+            (1190.0, 1610.0),
+            "±15 %",
+            "k_b when forming ends",
+        ),
+        judged(
+            "stiffness_ratio",
+            "stiffness ratio formed/heated",
+            "",
+            4.5,
+            c.stiffness_ratio,
+            (3.8, 5.2),
+            "±0.7",
+            "k_b formed over k_b at the end of stepping",
+        ),
+        judged(
+            "recovery_time_s",
+            "recovery",
+            "s",
+            40.0,
+            c.recovery_time_s,
+            (30.0, 50.0),
+            "±10 s",
+            "recovery's start until within 2° of straight and staying there",
+        ),
+        judged(
+            "cycle_time_s",
+            "cycle",
+            "s",
+            120.0,
+            c.cycle_time_s,
+            (100.0, 140.0),
+            "±20 s",
+            "first spring phase until recovery has restored the straight posture",
+        ),
+    ]
+}
 
 fn period(rows: &[Row]) -> f64 {
     match rows {
@@ -129,4 +392,29 @@ pub fn measure(rows: &[Row]) -> CycleFigures {
     f.recovery_time_s = settled.map(|i| rows[i].obs.time_s - t_rec);
     f.cycle_time_s = settled.map(|i| rows[i].obs.time_s - start(s0));
     f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn judge_gives_every_key_in_spec_order_and_judges_only_what_was_shown() {
+        let f = CycleFigures {
+            forming_time_s: Some(50.5),
+            recovery_time_s: Some(61.0),
+            ..CycleFigures::default()
+        };
+        let table = judge(&f, None);
+        let keys: Vec<&str> = table.iter().map(|x| x.key.as_str()).collect();
+        assert_eq!(keys, KEYS);
+        let get = |k: &str| table.iter().find(|x| x.key == k).unwrap();
+        assert_eq!(get("forming_time_s").pass, Some(true));
+        assert_eq!(get("recovery_time_s").pass, Some(false));
+        assert_eq!(get("recovery_time_s").verdict(), "FAIL");
+        // Not shown: reported as null, not judged.
+        assert_eq!(get("preheat_time_s").simulated, serde_json::Value::Null);
+        assert_eq!(get("preheat_time_s").pass, None);
+        assert_eq!(get("full_loading_one_spring_deg").pass, None);
+    }
 }

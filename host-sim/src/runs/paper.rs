@@ -8,48 +8,13 @@
 //! from the supervisor's mode and phase in each scene period, temperatures from its Tc,
 //! angles and k_b from the plant's truth.
 
-use serde::Serialize;
 use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::events::EventKind;
 
-pub use crate::runs::cycle_figures::{CycleFigures, measure};
+pub use crate::runs::cycle_figures::{CycleFigures, Figure, KEYS, judge, measure};
 use crate::runs::run::{RunError, run_with};
 use crate::runs::scenario;
 use crate::runs::series::Row;
-
-/// One figure: the thesis's value, the simulated one and whether it passes.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct Figure {
-    /// The thesis's (or SPEC's) value.
-    pub thesis: serde_json::Value,
-    /// The simulated value (`null` if the run never showed it).
-    pub sim: serde_json::Value,
-    /// Within tolerance.
-    pub pass: bool,
-    /// The tolerance, as printed.
-    #[serde(skip)]
-    pub tolerance: String,
-    /// Why it failed, when it did and the reason is known.
-    #[serde(skip)]
-    pub note: String,
-}
-
-/// The figures, keyed as `host-sim paper --json` prints them, in SPEC order.
-pub const KEYS: [&str; 13] = [
-    "preheat_time_s",
-    "standby_overshoot_k",
-    "standby_hold_band_k",
-    "large_stepping_time_s",
-    "pulse_drop_deg",
-    "full_loading_one_spring_deg",
-    "full_loading_two_springs_deg",
-    "forming_time_s",
-    "forming_angle_loss_deg",
-    "formed_k_b",
-    "stiffness_ratio",
-    "recovery_time_s",
-    "cycle_time_s",
-];
 
 /// When the stepping command is sent, s (after the standby figures' window).
 pub const STEP_AT_S: f64 = 120.0;
@@ -112,23 +77,9 @@ pub fn cycle_in(sc: &scenario::Scenario, springs: &str) -> Result<Vec<Row>, RunE
     Ok(run_with(sc, &mut |_| {}, &mut react)?.rows)
 }
 
-fn num(v: Option<f64>) -> serde_json::Value {
-    v.filter(|x| x.is_finite())
-        .map_or(serde_json::Value::Null, |x| {
-            serde_json::json!((x * 1000.0).round() / 1000.0)
-        })
-}
-
-fn within(v: Option<f64>, lo: f64, hi: f64) -> bool {
-    v.is_some_and(|x| (lo..=hi).contains(&x))
-}
-
 /// Run both cycles (camera on, or off for a quick look with true temperatures) and build the
 /// table (keys in [`KEYS`] order).
-pub fn figures(
-    camera: bool,
-    out: Option<&std::path::Path>,
-) -> Result<Vec<(&'static str, Figure)>, RunError> {
+pub fn figures(camera: bool, out: Option<&std::path::Path>) -> Result<Vec<Figure>, RunError> {
     let two_rows = cycle("AB", 700.0, camera)?;
     let one_rows = cycle("A", 400.0, camera)?;
     if let Some(dir) = out {
@@ -148,81 +99,7 @@ pub fn figures(
     }
     let two = measure(&two_rows);
     let one = measure(&one_rows);
-    let fig = |thesis: serde_json::Value, sim: Option<f64>, lo: f64, hi: f64, tol: &str| Figure {
-        thesis,
-        sim: num(sim),
-        pass: within(sim, lo, hi),
-        tolerance: tol.into(),
-        note: String::new(),
-    };
-    let j = |x: f64| serde_json::json!(x);
-    let drops = &two.pulse_drop_deg;
-    let drops_ok = drops.len() == 3 && drops.iter().all(|d| (1.0..=5.0).contains(d));
-    Ok(vec![
-        (
-            "preheat_time_s",
-            fig(j(10.0), two.preheat_time_s, 7.0, 13.0, "±3 s"),
-        ),
-        (
-            "standby_overshoot_k",
-            fig(j(1.0), two.standby_overshoot_k, f64::MIN, 1.0, "< 1 K"),
-        ),
-        (
-            "standby_hold_band_k",
-            fig(j(0.5), two.standby_hold_band_k, 0.0, 0.5, "≤ 0.5 K"),
-        ),
-        (
-            "large_stepping_time_s",
-            fig(j(30.0), two.large_stepping_time_s, 29.5, 30.5, "±0.5 s"),
-        ),
-        (
-            "pulse_drop_deg",
-            Figure {
-                thesis: serde_json::json!([2.0, 4.0]),
-                sim: serde_json::json!(
-                    drops
-                        .iter()
-                        .map(|d| (d * 1000.0).round() / 1000.0)
-                        .collect::<Vec<_>>()
-                ),
-                pass: drops_ok,
-                tolerance: "each 2–4° ±1°".into(),
-                note: String::new(),
-            },
-        ),
-        (
-            "full_loading_one_spring_deg",
-            fig(j(42.0), one.full_loading_deg, 38.0, 46.0, "±4°"),
-        ),
-        (
-            "full_loading_two_springs_deg",
-            fig(j(65.0), two.full_loading_deg, 61.0, 69.0, "±4°"),
-        ),
-        (
-            "forming_time_s",
-            fig(j(50.0), two.forming_time_s, 40.0, 60.0, "±10 s"),
-        ),
-        (
-            "forming_angle_loss_deg",
-            fig(j(5.0), two.forming_angle_loss_deg, 2.0, 8.0, "±3°"),
-        ),
-        (
-            "formed_k_b",
-            fig(j(1400.0), two.formed_k_b, 1190.0, 1610.0, "±15 %"),
-        ),
-        (
-            "stiffness_ratio",
-            fig(j(4.5), two.stiffness_ratio, 3.8, 5.2, "±0.7"),
-        ),
-        (
-            "recovery_time_s",
-            fig(j(40.0), two.recovery_time_s, 30.0, 50.0, "±10 s"),
-        ),
-        (
-            "cycle_time_s",
-            fig(j(120.0), two.cycle_time_s, 100.0, 140.0, "±20 s"),
-        ),
-    ])
+    Ok(judge(&two, Some(&one)))
 }
 
 /// `host-sim paper [--json] [--no-camera] [--out DIR]`: print the table (or the JSON object),
@@ -233,10 +110,10 @@ pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> anyhow::R
     if json {
         let map: serde_json::Map<String, serde_json::Value> = table
             .iter()
-            .map(|(k, f)| {
+            .map(|f| {
                 (
-                    (*k).to_string(),
-                    serde_json::to_value(f).unwrap_or_default(),
+                    f.key.clone(),
+                    serde_json::json!({"thesis": f.thesis, "sim": f.simulated, "pass": f.passes()}),
                 )
             })
             .collect();
@@ -247,14 +124,14 @@ pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> anyhow::R
         "{:<30} {:>12} {:>22} {:>14}",
         "figure", "thesis", "simulated", "tolerance"
     );
-    for (k, f) in &table {
+    for f in &table {
         println!(
             "{:<30} {:>12} {:>22} {:>14} {}",
-            k,
+            f.key,
             f.thesis.to_string(),
-            f.sim.to_string(),
-            f.tolerance,
-            if f.pass { "pass" } else { "FAIL" }
+            f.simulated.to_string(),
+            f.tolerance.as_deref().unwrap_or("—"),
+            if f.passes() { "pass" } else { "FAIL" }
         );
     }
     Ok(())
