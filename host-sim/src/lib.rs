@@ -30,3 +30,17 @@ pub mod rig;
 pub mod runs;
 pub mod sensing;
 pub mod sensor;
+
+/// The exit of a command-line binary (`host-sim`, `thermorph-desk`): success, or the error
+/// on standard error as `error: …` and a failure status. `{:#}` prints the error and its
+/// context, `a: b` (the typed errors carry their causes' text themselves, so nothing shows
+/// twice).
+pub fn exit(result: anyhow::Result<()>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

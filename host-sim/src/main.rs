@@ -109,15 +109,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            // `{:#}`: the error and its context, `a: b` (the typed errors carry their causes'
-            // text themselves, so nothing shows twice).
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
-    }
+    host_sim::exit(run(Cli::parse()))
 }
 
 /// Run the command.
