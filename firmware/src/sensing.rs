@@ -27,7 +27,7 @@
 //!   computes its own) must be within [`mtts::PLAUSIBLE_K`]; regions 3–5 may be missing
 //!   (`None`). A uniform block has no lattice, so MTTS may give T1 or T2
 //!   no cluster: the other stands for both, quality `Fallback` ([`to_measurement`]). More than
-//!   [`PipelineConfig::max_filled_pixels`] broken pixels in a frame is an error.
+//!   [`mtts::Config::max_filled`] broken pixels in a frame is an error.
 //! - Every error is a [`SensingError`] with a stable [`SensingError::code`], for the logs: an
 //!   error publishes no [`Measurement`], and the supervisor's sensor-loss fault is the age of
 //!   the last valid one (it does not read the errors).

@@ -11,7 +11,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use host_sim::sensing::scene::{Geometry, Layout, Temps};
+use host_sim::imaging::view::{Geometry, Layout, Temps};
 use host_sim::sensor::sim_time::SimClock;
 use host_sim::sensor::virtual_mlx::VirtualMlx90640;
 use thermorph::mlx90640::{

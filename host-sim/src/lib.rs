@@ -3,7 +3,7 @@
 //!
 //! - [`sensor`]: the virtual sensor — the MLX90640 on a simulated I2C bus, its EEPROM, the
 //!   simulated clock.
-//! - [`sensing`]: sensing tools and tables — the camera's view (standard scenes and the
+//! - [`imaging`]: the camera's images on the host — the camera's view (standard scenes and the
 //!   randomized family), MTTS on images, work-precision tables, the shared dumps.
 //! - [`plant`]: the simulated block: thermal network, SMA springs, SMP lattice, bending.
 //! - [`rig`]: the simulated board — plant, camera chain, injected faults and the firmware's
@@ -17,7 +17,7 @@
 //! [`runs::scenario::ScenarioError`], [`plant::PlantError`], [`sensor::eeprom::EepromError`]
 //! and [`sensor::SensorError`], [`rig::RigError`] (wrapping the plant's and the sensor's),
 //! [`runs::plot::PlotError`], [`runs::run::RunError`] (runs and `paper`),
-//! [`sensing::SensingError`] (with [`sensing::dump::DumpError`]) and
+//! [`imaging::SensingError`] (with [`imaging::dump::DumpError`]) and
 //! [`console::desk::DeskError`]. Each error's `Display` is the whole message a person reads, its
 //! causes' text included; a wrapper adds no text of its own (`#[error(transparent)]`). Only the
 //! command entries (`cli`, the `run` of `sensor`, `plant-wp` and `mtts-wp`, `mtts_cli::run` and
@@ -25,10 +25,10 @@
 //! binaries print `error: {:#}`.
 
 pub mod console;
+pub mod imaging;
 pub mod plant;
 pub mod rig;
 pub mod runs;
-pub mod sensing;
 pub mod sensor;
 
 /// The exit of a command-line binary (`host-sim`, `thermorph-desk`): success, or the error

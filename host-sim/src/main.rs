@@ -91,7 +91,7 @@ enum Command {
         out: PathBuf,
     },
     /// Measure the MTTS work-precision table (speed against error) and print it as markdown.
-    MttsWp(host_sim::sensing::mtts_wp::WpArgs),
+    MttsWp(host_sim::imaging::mtts_wp::WpArgs),
     /// Run the thesis's experiments (camera on, the firmware's supervisor) and print each
     /// SPEC section 8 figure beside the thesis's, with its tolerance and pass/fail.
     Paper {
@@ -131,10 +131,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 reflected: None,
                 ta_shift_k: ta_shift,
             };
-            let img = host_sim::sensing::decode::decode_files(&eeprom, &frames, &params)?;
+            let img = host_sim::imaging::decode::decode_files(&eeprom, &frames, &params)?;
             let stdout = std::io::stdout();
             let mut out = std::io::BufWriter::new(stdout.lock());
-            host_sim::sensing::decode::write_csv(&img, &mut out)?;
+            host_sim::imaging::decode::write_csv(&img, &mut out)?;
             Ok(())
         }
         Command::Run(args) => host_sim::runs::run::cli(&args),
@@ -148,7 +148,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             seed,
             prior,
         } => {
-            let method = host_sim::sensing::mtts_cli::parse_method(&method)?;
+            let method = host_sim::imaging::mtts_cli::parse_method(&method)?;
             let config = thermorph::mtts::Config {
                 scale,
                 k,
@@ -156,14 +156,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 seed,
                 ..Default::default()
             };
-            let prior = host_sim::sensing::mtts_cli::parse_prior(&prior)?;
-            host_sim::sensing::mtts_cli::run(&image, config, prior, &mut std::io::stdout().lock())
+            let prior = host_sim::imaging::mtts_cli::parse_prior(&prior)?;
+            host_sim::imaging::mtts_cli::run(&image, config, prior, &mut std::io::stdout().lock())
         }
         Command::Scene { name, seed } => {
-            host_sim::sensing::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
+            host_sim::imaging::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
         }
         Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
-        Command::MttsWp(args) => host_sim::sensing::mtts_wp::run(&args),
+        Command::MttsWp(args) => host_sim::imaging::mtts_wp::run(&args),
         Command::Paper {
             json,
             no_camera,

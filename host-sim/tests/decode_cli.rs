@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use host_sim::sensing::data::require_mlx90640_dir;
+use host_sim::imaging::data::require_mlx90640_dir;
 
 fn run(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_host-sim"))

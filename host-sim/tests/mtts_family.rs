@@ -1,8 +1,8 @@
 //! MTTS on the scene family (unseen seeds): never a swap, never NaN, a merged or fallback frame
 //! says so, and resolved frames at periods ≥ 5 px are accurate.
 
-use host_sim::sensing::mtts_wp::family_outcomes;
-use host_sim::sensing::scene_family::UNSEEN;
+use host_sim::imaging::mtts_wp::family_outcomes;
+use host_sim::imaging::view_family::UNSEEN;
 use thermorph::mtts::Quality;
 
 #[test]

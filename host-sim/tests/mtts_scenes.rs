@@ -1,7 +1,7 @@
 //! MTTS on rendered scenes: region temperatures against ground truth, region identity through
 //! the hot-zone inversion, tilt, shift, springs, noise and low contrast.
 
-use host_sim::sensing::scene::{Scene, standard_scenes};
+use host_sim::imaging::view::{Scene, standard_scenes};
 use thermorph::mtts::{Config, Method, Mtts, Output, Prior, Quality, Scratch};
 use thermorph::units::k_or_nan;
 

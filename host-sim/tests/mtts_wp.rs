@@ -3,8 +3,8 @@
 
 use std::process::Command;
 
-use host_sim::sensing::mtts_wp::{self, M4Counts, WpConfig, optimal_sse, pareto};
-use host_sim::sensing::scene::standard_scenes;
+use host_sim::imaging::mtts_wp::{self, M4Counts, WpConfig, optimal_sse, pareto};
+use host_sim::imaging::view::standard_scenes;
 use host_sim::sensor::virtual_mlx::Rng;
 use thermorph::mtts::Method;
 

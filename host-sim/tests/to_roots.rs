@@ -1,9 +1,9 @@
 //! The roots of the To calculation: the f64 reference against the firmware's f32 path and the
 //! datasheet, the software square root bit-identical to the default, micromath's far off.
 
-use host_sim::sensing::data::require_mlx90640_dir;
-use host_sim::sensing::dump::{read_eeprom, read_frame};
-use host_sim::sensing::to_roots::{self, Case, LibmSqrtf, VARIANTS, max_error_k, to_f64};
+use host_sim::imaging::data::require_mlx90640_dir;
+use host_sim::imaging::dump::{read_eeprom, read_frame};
+use host_sim::imaging::to_roots::{self, Case, LibmSqrtf, VARIANTS, max_error_k, to_f64};
 use thermorph::mlx90640::calc::{calculate_to, pixel_in_subpage};
 use thermorph::mlx90640::{Calibration, DecodeParams, PIXELS, calculate_to_with};
 

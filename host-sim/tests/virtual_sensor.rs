@@ -395,12 +395,12 @@ fn image_errors_leave_the_image_unchanged() {
 #[test]
 fn driver_reads_a_real_eeprom_over_the_bus() {
     let Some(dir) =
-        host_sim::sensing::data::require_mlx90640_dir("driver_reads_a_real_eeprom_over_the_bus")
+        host_sim::imaging::data::require_mlx90640_dir("driver_reads_a_real_eeprom_over_the_bus")
     else {
         return;
     };
     let words =
-        host_sim::sensing::dump::read_eeprom(&dir.join("melexis_example_eeprom.hex")).unwrap();
+        host_sim::imaging::dump::read_eeprom(&dir.join("melexis_example_eeprom.hex")).unwrap();
     let r = Rig::new(words, 1, Config::default()).unwrap();
     let direct = thermorph::mlx90640::Calibration::from_eeprom(&words).unwrap();
     assert_eq!(*r.cal, direct);
@@ -412,7 +412,7 @@ fn driver_reads_a_real_eeprom_over_the_bus() {
 /// truth at every pixel (noise off: what is left is the ADC's rounding).
 #[test]
 fn camera_view_round_trip_within_0_1_k() {
-    use host_sim::sensing::scene::{Geometry, Layout, Temps};
+    use host_sim::imaging::view::{Geometry, Layout, Temps};
     use host_sim::sensor::virtual_mlx::VirtualMlx90640;
     use thermorph::mlx90640::{Calibration, Control, Image, PIXELS};
 

@@ -5,8 +5,8 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use host_sim::sensing::data::require_mlx90640_dir;
-use host_sim::sensing::dump::{read_eeprom, read_frame};
+use host_sim::imaging::data::require_mlx90640_dir;
+use host_sim::imaging::dump::{read_eeprom, read_frame};
 use thermorph::mlx90640::calc::{self, IDX_GAIN};
 use thermorph::mlx90640::{Calibration, CalibrationError, DecodeParams, Image, PIXELS};
 

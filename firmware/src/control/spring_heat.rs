@@ -110,7 +110,7 @@ impl SpringHeat {
         self.austenite.get(i).copied().unwrap_or(false)
     }
 
-    /// Spring `i`'s level for balancing: its heat estimate, but at least [`AUSTENITE_KEPT`]
+    /// Spring `i`'s level for balancing: its heat estimate, but at least `AUSTENITE_KEPT`
     /// while it is still austenite.
     pub fn level(&self, i: usize) -> f32 {
         let h = self.heat(i);
@@ -132,7 +132,7 @@ impl SpringHeat {
     }
 
     /// The springs to drive so that all reach `target` together. While some spring's
-    /// [`level`](Self::level) is below [`AUSTENITE_KEPT`]: those within `band` of the lowest
+    /// [`level`](Self::level) is below `AUSTENITE_KEPT`: those within `band` of the lowest
     /// level — the coldest spring starts alone and the others join as it catches up
     /// (water-filling), a spring still austenite from earlier waits. Then all three together
     /// while any estimate is below `target`: equal heat from there on, so no spring stops while

@@ -8,7 +8,7 @@
 //! binned values, within w/2 of the unbinned ones.
 //!
 //! [`exact_binned`] finds the partition of the bins into K contiguous groups with the least
-//! SSE, by dynamic programming (D[m][j] = min_i D[m−1][i−1] + cost(i, j)) with the
+//! SSE, by dynamic programming (`D[m][j] = min_i D[m−1][i−1] + cost(i, j)`) with the
 //! divide-and-conquer speed-up, which is exact because the optimal split point is monotone in
 //! j for this cost (Grønlund et al., "Fast exact k-means, k-medians and Bregman divergence
 //! clustering in 1D", 2017). Costs use bin indices as integer coordinates, so the prefix sums

@@ -66,7 +66,7 @@
 //! loop drives bang-bang with its integrator reset (Marlin's functional range), so a 35 K
 //! target step heats at full power instead of waiting for the integrator.
 //!
-//! Tc is [`controlled_temperature`](crate::measurement::controlled_temperature) of the mode's
+//! Tc is [`crate::measurement::controlled_temperature`] of the mode's
 //! [`SensingHint`]: the heating modes control the colder of T1/T2, forming the hotter one. The
 //! supervisor is the one place Tc is computed — once per new valid measurement, with the hint
 //! of the mode at that step; a [`Measurement`] carries no Tc.

@@ -1,9 +1,9 @@
 //! Every constant of the plant, with its unit and its source: the one place they live.
 //!
-//! Sources: [T] the thesis (`/work/shared/seed/000_05d5a5c9fd66e5b4.txt`, section given);
-//! [S] a handbook or paper value (cited, via `PLANT-REFERENCE.md`); [F] fitted once to the
+//! Sources: \[T\] the thesis (`/work/shared/seed/000_05d5a5c9fd66e5b4.txt`, section given);
+//! \[S\] a handbook or paper value (cited, via `PLANT-REFERENCE.md`); \[F\] fitted once to the
 //! thesis figures by the open-loop calibration (`tests/plant_calibration.rs` measures them,
-//! `docs/PLANT-API.md` lists fit against thesis); [D] derived here from the others.
+//! `docs/PLANT-API.md` lists fit against thesis); \[D\] derived here from the others.
 //! The block's dimensions are not repeated here: they come from `thermorph::block`.
 
 use thermorph::block;
@@ -29,11 +29,11 @@ pub const PLATE_THICKNESS_MM: f64 = block::PLATE_THICKNESS_MM as f64;
 /// PMMA end plate diameter, mm [T 6.2.1].
 pub const PLATE_DIAMETER_MM: f64 = block::PLATE_DIAMETER_MM as f64;
 
-/// Inner (heater film) surface area, m² [D]: π·d_i·L.
+/// Inner (heater film) surface area, m² \[D\]: π·d_i·L.
 pub const INNER_AREA_M2: f64 = std::f64::consts::PI * INNER_DIAMETER_MM * LENGTH_MM * 1e-6;
-/// Outer surface area, m² [D]: π·d_o·L.
+/// Outer surface area, m² \[D\]: π·d_o·L.
 pub const OUTER_AREA_M2: f64 = std::f64::consts::PI * OUTER_DIAMETER_MM * LENGTH_MM * 1e-6;
-/// Air volume of the duct, m³ [D]: π/4·d_i²·L.
+/// Air volume of the duct, m³ \[D\]: π/4·d_i²·L.
 pub const DUCT_VOLUME_M3: f64 =
     std::f64::consts::PI / 4.0 * INNER_DIAMETER_MM * INNER_DIAMETER_MM * LENGTH_MM * 1e-9;
 
@@ -43,7 +43,7 @@ pub const DUCT_VOLUME_M3: f64 =
 pub const HEATER_SUPPLY_V: f64 = 18.0;
 /// Heater supply current limit, A [T 6.3.2].
 pub const HEATER_SUPPLY_LIMIT_A: f64 = 10.0;
-/// Heater (PI film group) resistance, Ω [F]: fitted so that full duty (≈41 W) brings the
+/// Heater (PI film group) resistance, Ω \[F\]: fitted so that full duty (≈41 W) brings the
 /// heater surface from 298 K to 323 K in ≈10 s [T 6.4.2] and reheats to 358 K in ≈25 s
 /// [T 6.4.3].
 pub const HEATER_RESISTANCE_OHM: f64 = 7.89;
@@ -71,9 +71,9 @@ pub const HEATER_AREAL_CAPACITY_J_PER_M2K: f64 = 280.0;
 /// where forming starts from the state the supervisor's stepping leaves, to the thesis's 50 s
 /// forming (T 6.4.3): 1900 gives 50.25 s (2178, the open-loop fit, gave 56.75 s); ≈0.41 solid].
 pub const WALL_AREAL_CAPACITY_J_PER_M2K: f64 = 1900.0;
-/// Share of the wall's capacity in the thick inner layer [D]: 4 mm / (4 + 1.8) mm.
+/// Share of the wall's capacity in the thick inner layer \[D\]: 4 mm / (4 + 1.8) mm.
 pub const INNER_LAYER_SHARE: f64 = INNER_LAYER_MM / (INNER_LAYER_MM + OUTER_LAYER_MM);
-/// Heater film → SMP inner layer contact conductance, W/(m²·K) [F].
+/// Heater film → SMP inner layer contact conductance, W/(m²·K) \[F\].
 pub const H_HEATER_WALL_W_PER_M2K: f64 = 84.2;
 /// SMP inner → outer layer conductance through the lattice, W/(m²·K) [F; a solid 2.5 mm PLA
 /// wall would give k/t = 0.13/0.0025 = 52, S Zmeskal 2020].
@@ -90,16 +90,16 @@ pub const H_DUCT_FAN_W_PER_M2K: f64 = 49.0;
 /// Heater film → duct air, fan off (natural convection), W/(m²·K) [S/E PLANT-REFERENCE: 2–5].
 pub const H_DUCT_STILL_W_PER_M2K: f64 = 4.0;
 /// Exponent of the duct coefficient on the fan duty (flow ∝ duty; turbulent h ∝ Re^0.8,
-/// Dittus–Boelter) [S].
+/// Dittus–Boelter) \[S\].
 pub const DUCT_FLOW_EXPONENT: f64 = 0.8;
 /// Air flow through the duct at full fan duty, m³/s [S/E PLANT-REFERENCE: Delta AFB0912HH,
 /// 58 CFM free air, ≈14 CFM through the 35 mm duct].
 pub const DUCT_FLOW_FULL_M3_PER_S: f64 = 6.6e-3;
-/// Natural (stack) draught through the duct with the fan off, m³/s [E].
+/// Natural (stack) draught through the duct with the fan off, m³/s \[E\].
 pub const DUCT_FLOW_STILL_M3_PER_S: f64 = 4.0e-5;
 /// Air density, kg/m³ [S at 298 K].
 pub const AIR_DENSITY_KG_PER_M3: f64 = 1.19;
-/// Air specific heat, J/(kg·K) [S].
+/// Air specific heat, J/(kg·K) \[S\].
 pub const AIR_CP_J_PER_KGK: f64 = 1005.0;
 /// PMMA density, kg/m³ [S material databases].
 pub const PMMA_DENSITY_KG_PER_M3: f64 = 1185.0;
@@ -180,27 +180,27 @@ pub const SMA_CM_MPA_PER_K: f64 = 8.0;
 /// C_A = 13.8].
 pub const SMA_CA_MPA_PER_K: f64 = 13.8;
 
-/// Shear modulus from E and ν, MPa [D].
+/// Shear modulus from E and ν, MPa \[D\].
 pub const fn shear_mpa(e_mpa: f64) -> f64 {
     e_mpa / (2.0 * (1.0 + SMA_POISSON))
 }
-/// Wire cross-section, mm² [D].
+/// Wire cross-section, mm² \[D\].
 pub const WIRE_AREA_MM2: f64 = std::f64::consts::PI / 4.0 * WIRE_DIAMETER_MM * WIRE_DIAMETER_MM;
-/// Wire length of one spring, mm [D]: π·D·n.
+/// Wire length of one spring, mm \[D\]: π·D·n.
 pub const WIRE_LENGTH_MM: f64 = std::f64::consts::PI * COIL_DIAMETER_MM * COIL_COUNT;
-/// Wire mass of one spring, kg [D].
+/// Wire mass of one spring, kg \[D\].
 pub const SPRING_MASS_KG: f64 = WIRE_AREA_MM2 * WIRE_LENGTH_MM * 1e-9 * NITI_DENSITY_KG_PER_M3;
-/// Wahl correction of the coil's shear stress, (4C − 1)/(4C − 4) + 0.615/C with C = D/d [D].
+/// Wahl correction of the coil's shear stress, (4C − 1)/(4C − 4) + 0.615/C with C = D/d \[D\].
 pub const WAHL_FACTOR: f64 = {
     let c = COIL_DIAMETER_MM / WIRE_DIAMETER_MM;
     (4.0 * c - 1.0) / (4.0 * c - 4.0) + 0.615 / c
 };
-/// Equivalent tensile stress (√3·τ, von Mises) per newton of spring force, MPa/N [D]:
+/// Equivalent tensile stress (√3·τ, von Mises) per newton of spring force, MPa/N \[D\]:
 /// τ = 8·F·D·K_w/(π·d³).
 pub const SPRING_STRESS_MPA_PER_N: f64 =
     1.732_050_807_568_877_2 * 8.0 * COIL_DIAMETER_MM * WAHL_FACTOR
         / (std::f64::consts::PI * WIRE_DIAMETER_MM * WIRE_DIAMETER_MM * WIRE_DIAMETER_MM);
-/// Wire surface area of one spring, m² [D].
+/// Wire surface area of one spring, m² \[D\].
 pub const SPRING_AREA_M2: f64 = std::f64::consts::PI * WIRE_DIAMETER_MM * WIRE_LENGTH_MM * 1e-6;
 /// Spring rate k = G·d⁴/(8·D³·n), N/mm [D, S Wahl] for shear modulus `g_mpa`.
 pub const fn spring_rate_n_per_mm(g_mpa: f64) -> f64 {
@@ -208,9 +208,9 @@ pub const fn spring_rate_n_per_mm(g_mpa: f64) -> f64 {
     let c3 = COIL_DIAMETER_MM * COIL_DIAMETER_MM * COIL_DIAMETER_MM;
     g_mpa * d2 * d2 / (8.0 * c3 * COIL_COUNT)
 }
-/// Spring rate, austenite, N/mm [D] (≈0.68).
+/// Spring rate, austenite, N/mm \[D\] (≈0.68).
 pub const SPRING_K_A_N_PER_MM: f64 = spring_rate_n_per_mm(shear_mpa(SMA_E_A_MPA));
-/// Spring rate, martensite, N/mm [D] (≈0.25).
+/// Spring rate, martensite, N/mm \[D\] (≈0.25).
 pub const SPRING_K_M_N_PER_MM: f64 = spring_rate_n_per_mm(shear_mpa(SMA_E_M_MPA));
 
 // ---------------------------------------------------------------- SMP (PLA lattice)
@@ -237,7 +237,7 @@ pub const SMP_E_RUBBERY_MPA: f64 = 200.0;
 /// modulus falls (DMA, ≈55–70 °C); the 5.5 K of the first round (span 24 K) released the bend
 /// from ≈325 K on, as soon as the reheat began, and φ_f(358 K) is now ≈0.001].
 pub const SMP_PHI_WIDTH_K: f64 = 3.0;
-/// Centre of the logistic frozen fraction, K [D]: T_g − w·ln(1/φ_g − 1) with
+/// Centre of the logistic frozen fraction, K \[D\]: T_g − w·ln(1/φ_g − 1) with
 /// φ_g = (1/400 − 1/E_r)/(1/E_g − 1/E_r), so that Liu's series law
 /// 1/E = φ_f/E_g + (1 − φ_f)/E_r gives E(Tg) = 400 MPa (−60 %, T 6.3.1); checked by a test.
 pub const SMP_PHI_CENTRE_K: f64 = 335.532_5;
@@ -255,7 +255,7 @@ pub const FILM_BENDING_NMM_PER_RAD: f64 = 10.0;
 /// Yield strain of the polyimide film [S DuPont Kapton HN: yield at ≈3 % (69 MPa at 23 °C,
 /// lower at 85 °C)].
 pub const FILM_YIELD_STRAIN: f64 = 0.03;
-/// Bend at which the film's outer fibre (r = d_i/2) reaches its yield strain, rad [D]:
+/// Bend at which the film's outer fibre (r = d_i/2) reaches its yield strain, rad \[D\]:
 /// ε = r·θ/L → θ_y = ε_y·L/r (≈0.34 rad ≈ 20°; at 65° the film would be strained ≈10 %).
 pub const FILM_YIELD_BEND_RAD: f64 = FILM_YIELD_STRAIN * LENGTH_MM / (0.5 * INNER_DIAMETER_MM);
 /// Maxwell branch modulus (generalised Maxwell, eq. 6.7), MPa [F: 100 first fitted the

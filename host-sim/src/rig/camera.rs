@@ -14,10 +14,10 @@ use thermorph::mtts::{IMG_PIXELS, REGIONS};
 use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
 use thermorph::units::{Kelvin, Millis, k_or_nan};
 
+use crate::imaging::view::{Geometry, Layout, Temps};
 use crate::plant::Observation;
 use crate::rig::RigError;
 use crate::rig::faults::{BURNING_FILM_K, CameraFault, ELSEWHERE_K};
-use crate::sensing::scene::{Geometry, Layout, Temps};
 use crate::sensor::sim_time::{SimClock, SimDelay};
 use crate::sensor::virtual_mlx::{Fault as SensorFault, HeapBuffers, VirtualBus, VirtualMlx90640};
 use crate::sensor::{SensorError, eeprom};

@@ -1,7 +1,7 @@
 //! Scene files: what a simulator run does, read from TOML and checked before anything runs.
 //!
 //! This module owns the scene-file format and its bundled scenes (`host-sim/scenes/*.toml`,
-//! built into the binary). (The camera renderer of one image is [`crate::sensing::scene`]; a scene
+//! built into the binary). (The camera renderer of one image is [`crate::imaging::view`]; a scene
 //! *file* here is a whole run.) A file gives:
 //!
 //! ```toml

@@ -94,7 +94,7 @@ pub fn bench_input(scene: &str) -> Result<([u16; 832], [SubpageFrame; 2]), Senso
         Resolution::Bits18,
         ReadingPattern::Chess,
     ));
-    let s = crate::sensing::scene::standard_scenes()
+    let s = crate::imaging::view::standard_scenes()
         .into_iter()
         .find(|s| s.name == scene)
         .ok_or_else(|| SensorError::UnknownScene(scene.to_string()))?;

@@ -623,7 +623,7 @@ mod tests {
             assert_eq!(EepromFields::decode(&w).encode().unwrap(), w, "{fill:04X}");
         }
         let Some(dir) =
-            crate::sensing::data::require_mlx90640_dir("words_fields_words_is_identity")
+            crate::imaging::data::require_mlx90640_dir("words_fields_words_is_identity")
         else {
             return;
         };
@@ -638,7 +638,7 @@ mod tests {
         dumps.sort();
         assert!(dumps.len() >= 6, "EEPROM dumps in {}", dir.display());
         for path in dumps {
-            let w = crate::sensing::dump::read_eeprom(&path).unwrap();
+            let w = crate::imaging::dump::read_eeprom(&path).unwrap();
             let f = EepromFields::decode(&w);
             assert_eq!(f.encode().unwrap(), w, "{}", path.display());
             assert_eq!(EepromFields::decode(&f.encode().unwrap()), f);

@@ -19,7 +19,7 @@ use std::ops::Range;
 
 use thermorph::mtts::{IMG_COLS, IMG_PIXELS, IMG_ROWS, REGIONS};
 
-use crate::sensing::scene::{Geometry, Rendered, Temps, sample};
+use crate::imaging::view::{Geometry, Rendered, Temps, sample};
 use crate::sensor::virtual_mlx::Rng;
 
 /// Seeds the MTTS constants were tuned on.
@@ -219,10 +219,10 @@ mod tests {
         // σ = 0: the footprint box alone, which `scene::render` computes with its own grid.
         let m = Member::draw(7);
         let ours = render_psf(&m.geometry, &m.temps, 0.0, 0.0, 1);
-        let theirs = crate::sensing::scene::render(
+        let theirs = crate::imaging::view::render(
             &m.geometry,
             &m.temps,
-            &crate::sensing::scene::Options {
+            &crate::imaging::view::Options {
                 subgrid: 8,
                 noise_k: 0.0,
                 seed: 1,

@@ -10,9 +10,9 @@
 //!   the divide-and-conquer speed-up (O(K·n·log n), exact because the optimal split is
 //!   monotone), independent of the firmware's binned solver;
 //! - Cortex-M4 instruction counts parsed from a saved `scripts/bench-m4` output ([`M4Counts`]);
-//! - the roots table (variant, max |ΔTo| against the f64 reference of [`crate::sensing::to_roots`],
+//! - the roots table (variant, max |ΔTo| against the f64 reference of [`crate::imaging::to_roots`],
 //!   to_768 instructions) and the Pareto fronts of both tables ([`pareto`]);
-//! - the scene family ([`crate::sensing::scene_family`]): T1/T2 error distributions by lattice period
+//! - the scene family ([`crate::imaging::view_family`]): T1/T2 error distributions by lattice period
 //!   and gap on the tuning seeds and on unseen ones, quality, swaps ([`family_outcomes`],
 //!   [`family_markdown`]).
 
@@ -29,11 +29,11 @@ use thermorph::units::k_or_nan;
 
 use anyhow::{Context as _, bail};
 
-use crate::sensing::SensingError;
-use crate::sensing::mtts_cli::method_name;
-use crate::sensing::scene::{Scene, standard_scenes};
-use crate::sensing::scene_family::Member;
-use crate::sensing::to_roots;
+use crate::imaging::SensingError;
+use crate::imaging::mtts_cli::method_name;
+use crate::imaging::to_roots;
+use crate::imaging::view::{Scene, standard_scenes};
+use crate::imaging::view_family::Member;
 
 /// Options of `host-sim mtts-wp`.
 #[derive(Args, Clone, Debug)]
@@ -154,7 +154,7 @@ pub fn upsampled_sorted(filled: &[f32; IMG_PIXELS], scale: u8) -> Result<Vec<f64
 /// The least SSE of `sorted` (ascending) split into at most `k` groups, K², in f64.
 ///
 /// Dynamic programming over prefix sums of the values (shifted by their mean for precision):
-/// D[m][j] = min_{i ≤ j} D[m−1][i−1] + cost(i, j), each layer by divide and conquer on the
+/// `D[m][j] = min_{i ≤ j} D[m−1][i−1] + cost(i, j)`, each layer by divide and conquer on the
 /// monotone optimal split (Grønlund et al. 2017) — exact, O(k·n·log n).
 pub fn optimal_sse(sorted: &[f64], k: usize) -> f64 {
     let n = sorted.len();
@@ -614,7 +614,7 @@ pub fn markdown(cfg: &WpConfig, rows: &[Row], roots: &[RootsRow]) -> String {
          (Melexis example, datasheet example, Signaloid, ceri) and synthetic subpages of three \
          virtual sensors (the twelve scenes, random fields of 263–573 K through every \
          extended range, 16/18/19-bit) — is compared with an f64 evaluation of the same \
-         formulas (`host_sim::sensing::to_roots::to_f64`). to_768: both subpages of bench-m4's frame \
+         formulas (`host_sim::imaging::to_roots::to_f64`). to_768: both subpages of bench-m4's frame \
          (To and bad-pixel correction), Cortex-M4F under QEMU (`wp_roots` lines).\n"
     );
     let _ = writeln!(
@@ -822,12 +822,12 @@ pub fn run(args: &WpArgs) -> anyhow::Result<()> {
     let m4 = args.m4.as_deref().map(M4Counts::read).transpose()?;
     let cfg = WpConfig::full(args.seeds);
     let mut rows = measure(&cfg)?;
-    let dir = crate::sensing::data::mlx90640_dir();
+    let dir = crate::imaging::data::mlx90640_dir();
     if !dir.is_dir() {
         bail!(
             "sensor data folder {} is missing (the roots table reads the real dumps; set {})",
             dir.display(),
-            crate::sensing::data::DATA_DIR_ENV
+            crate::imaging::data::DATA_DIR_ENV
         );
     }
     let cases = to_roots::cases(Some(&dir))?;
@@ -999,7 +999,7 @@ pub fn family_headline(outs: &[FamilyOutcome]) -> (f64, f64, usize, f64) {
 /// The scene-family section of the table: `count` members from the tuning seeds and `count`
 /// unseen ones, with the mode's prior; then the unseen ones without a prior.
 pub fn family_section(count: u64) -> String {
-    use crate::sensing::scene_family::{SEEN, UNSEEN};
+    use crate::imaging::view_family::{SEEN, UNSEEN};
     let seen = family_outcomes(SEEN, count, true);
     let unseen = family_outcomes(UNSEEN, count, true);
     let blind = family_outcomes(UNSEEN, count, false);
@@ -1008,7 +1008,7 @@ pub fn family_section(count: u64) -> String {
     let _ = writeln!(
         s,
         "`host-sim mtts-wp --family-only --family {count}` (the full run: `--family 3000`). \
-         Members of `host_sim::sensing::scene_family` (period 3–8 px, width 6–20 px, exposed fraction \
+         Members of `host_sim::imaging::view_family` (period 3–8 px, width 6–20 px, exposed fraction \
          0.3–0.8, tilt ±15°, shifts, 50–100 mm, footprint ⊗ Gaussian PSF σ 0.25–0.45 px, noise \
          0–0.5 K, T1 − T2 within ±20 K), first frames of the default MTTS (s = 4, exact, K = 5) \
          with the mode's prior (heating modes: heater hotter; forming: surface hotter). Seen: \

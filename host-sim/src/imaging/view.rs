@@ -1,5 +1,7 @@
 //! The camera's view of the block: a 32×24 image with ground truth, for MTTS tests, benches
-//! and (later) the plant model.
+//! and the simulated board's camera ([`crate::rig::camera`]). A [`Scene`] here is one rendered
+//! image (the twelve standard scenes); a scene *file*, a whole run, is
+//! [`crate::runs::scenario`].
 //!
 //! Geometry (in sensor pixels; the block's sizes live in `thermorph::block`): the cylinder is a
 //! band around an axis `col = axis_col0 + tan(tilt)·row` of half-width `half_width_px`. Along

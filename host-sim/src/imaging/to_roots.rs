@@ -25,8 +25,8 @@ use thermorph::mlx90640::{
     RefreshRate, Resolution, Roots, SubpageFrame, SubpageInfo, calculate_to_with,
 };
 
-use crate::sensing::SensingError;
-use crate::sensing::dump::{read_eeprom, read_frame};
+use crate::imaging::SensingError;
+use crate::imaging::dump::{read_eeprom, read_frame};
 use crate::sensor::SensorError;
 use crate::sensor::sim_time::SimClock;
 use crate::sensor::virtual_mlx::{Rng, VirtualMlx90640};
@@ -271,7 +271,7 @@ pub fn real_cases(dir: &Path) -> Result<Vec<Case>, SensingError> {
 /// 263–573 K (through every extended range), both subpages, 18-bit chess plus one 16-bit and
 /// one 19-bit interleaved pair of the first scene.
 pub fn synthetic_cases(sensors: u64, random_fields: usize) -> Result<Vec<Case>, SensingError> {
-    let scenes = crate::sensing::scene::standard_scenes();
+    let scenes = crate::imaging::view::standard_scenes();
     let mut out = Vec::new();
     for seed in 1..=sensors {
         let eeprom = crate::sensor::eeprom::realistic(seed)

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use thermorph::mlx90640::{Calibration, DecodeParams, Image, PIXELS};
 
-use crate::sensing::SensingError;
-use crate::sensing::dump::{read_eeprom, read_frame};
+use crate::imaging::SensingError;
+use crate::imaging::dump::{read_eeprom, read_frame};
 
 /// Decode `frames` (in order, merged into one image) with the calibration in `eeprom` and
 /// return the image; errors name the file at fault.

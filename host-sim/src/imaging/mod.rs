@@ -1,8 +1,11 @@
-//! Sensing tools and tables: what renders and judges the camera's view, and the work-precision
-//! tables of the sensing math.
+//! Imaging: the camera's images on the host — what renders and judges the camera's view, real
+//! dumps decoded, and the work-precision tables of the sensing math. (The firmware's sensing
+//! pipeline is `thermorph::sensing`; this is the simulator's side of the camera.)
 //!
-//! - [`scene`]: the camera's view of the block, with ground truth (the standard scenes).
-//! - [`scene_family`]: randomized views through the MLX90640 optics (MTTS robustness).
+//! - [`view`]: the camera's view of the block rendered, with ground truth (the twelve standard
+//!   scenes: a *scene* here is one rendered image; a scene file, a whole run, is
+//!   [`crate::runs::scenario`]).
+//! - [`view_family`]: randomized views through the MLX90640 optics (MTTS robustness).
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files (`host-sim mtts`, `scene`).
 //! - [`mtts_wp`]: the MTTS work-precision table (`host-sim mtts-wp`).
 //! - [`to_roots`]: root variants of the To calculation and its f64 reference.
@@ -18,9 +21,9 @@ pub mod decode;
 pub mod dump;
 pub mod mtts_cli;
 pub mod mtts_wp;
-pub mod scene;
-pub mod scene_family;
 pub mod to_roots;
+pub mod view;
+pub mod view_family;
 
 use std::path::PathBuf;
 

@@ -10,8 +10,8 @@ use thermorph::units::k_or_nan;
 
 use anyhow::{Context as _, bail};
 
-use crate::sensing::SensingError;
-use crate::sensing::scene::standard_scenes;
+use crate::imaging::SensingError;
+use crate::imaging::view::standard_scenes;
 
 /// Parse an image CSV: 24 lines of 32 comma-separated Kelvin values (`nan` for a broken pixel);
 /// blank lines and lines starting with `#` are skipped. Errors name the line and column.
