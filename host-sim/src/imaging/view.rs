@@ -277,7 +277,8 @@ impl Sampler {
     /// The region every sample of a pixel shows, or [`UNSETTLED`]: its samples' distances
     /// from the axis lie within `reach` of `d` and their axial positions within `reach` of `t`
     /// (`reach` covers the rounding of `d` and `t` and of the samples' own values), so if no
-    /// test's border comes that close, they all show the region of (`d`, `t`). No branches.
+    /// test's border comes that close, they all show the region of (`d`, `t`). One branch:
+    /// the lattice's position is worked out only off the edge, the one place it matters.
     #[inline]
     fn settled(&self, d: f64, t: f64, reach: f64) -> u8 {
         let ad = d.abs();
@@ -288,10 +289,18 @@ impl Sampler {
         if self.springs {
             near = near.min((sp + 0.25).abs()).min((sp - 0.25).abs());
         }
-        let x = t - self.phase;
-        let ph = x - floor(x / self.period) * self.period;
-        let gap = ph < self.gap;
-        let along = ph.min(self.period - ph).min((ph - self.gap).abs());
+        // The lattice matters only off the edge (`ad < inner`): elsewhere neither `gap` nor
+        // `along` is looked at, so they are not worked out.
+        let (gap, along) = if ad < self.inner {
+            let x = t - self.phase;
+            let ph = x - floor(x / self.period) * self.period;
+            (
+                ph < self.gap,
+                ph.min(self.period - ph).min((ph - self.gap).abs()),
+            )
+        } else {
+            (false, f64::INFINITY)
+        };
         let lattice = (ad < self.half_width) & (ad < self.inner);
         let sure = (near > reach) & (!lattice | (along > reach));
         let cylinder = if ad >= self.inner { 2 } else { 1 - gap as u8 };
@@ -311,26 +320,38 @@ impl Sampler {
 
     /// The region codes of the 4×4 samples at `rows` × `cols`, row by row: [`Self::region_at`]
     /// of each, computed for all sixteen at once without branches (a pixel a border crosses
-    /// has no likely region).
+    /// has no likely region) but one: the lattice's position only when a sample lies off the
+    /// edge.
     fn regions_4x4(&self, rows: [f64; 4], cols: [f64; 4]) -> [u8; 16] {
         let centre: [f64; 4] = core::array::from_fn(|i| self.axis + self.slope * rows[i]);
         let shift: [f64; 4] = core::array::from_fn(|j| self.slope * (cols[j] - self.axis));
         let mut ad = [0.0; 16];
-        let mut x = [0.0; 16];
         for k in 0..16 {
             ad[k] = ((cols[k % 4] - centre[k / 4]) / self.norm).abs();
-            x[k] = (rows[k / 4] + shift[k % 4]) / self.norm - self.phase;
         }
-        let mut q = [0.0; 16];
-        for k in 0..16 {
-            q[k] = x[k] / self.period;
+        // Where the lattice matters (a sample off the edge, `ad < inner`), whether it shows
+        // the heater; elsewhere (most pixels a border crosses: the cylinder's sides, the
+        // radiation zone, the springs) `gap` is never looked at, so it is not worked out.
+        let mut gap = [0u8; 16];
+        if ad.iter().any(|&a| a < self.inner) {
+            let mut x = [0.0; 16];
+            for k in 0..16 {
+                x[k] = (rows[k / 4] + shift[k % 4]) / self.norm - self.phase;
+            }
+            let mut q = [0.0; 16];
+            for k in 0..16 {
+                q[k] = x[k] / self.period;
+            }
+            let unit = floor16(&q);
+            for k in 0..16 {
+                let ph = x[k] - unit[k] * self.period;
+                gap[k] = (ph < self.gap) as u8;
+            }
         }
-        let unit = floor16(&q);
         let mut out = [0u8; 16];
         for k in 0..16 {
             let ad = ad[k];
-            let ph = x[k] - unit[k] * self.period;
-            let gap = (ph < self.gap) as u8;
+            let gap = gap[k];
             let sp = ad - self.spring;
             let cylinder = if ad >= self.inner { 2 } else { 1 - gap };
             let spring = self.springs & (sp > -0.25) & (sp < 0.25);
