@@ -334,7 +334,7 @@ impl VirtualMlx90640 {
     /// The words are those of [`Self::encode_subpage_exact`], found faster: the encoder's
     /// per-pixel constants kept while the control register, Ta and Vdd stay, the signal from a
     /// table of the inverse, and the secant method only where the table's word could round
-    /// differently (see `Encoder::pixel_raw_fast`).
+    /// differently (see `Encoder::word_of_unit`).
     pub fn encode_subpage(&mut self, sp: u8) {
         let key = EncoderKey {
             control: self.control,
@@ -350,13 +350,24 @@ impl VirtualMlx90640 {
         self.table.prepare(enc);
         enc.write_aux(&mut self.ram);
         let noise = self.noise_k > 0.0;
-        for &p in enc.pixels.iter() {
-            let p = p as usize;
-            let mut t = self.field_k[p] as f64;
+        // Each pixel's temperature (the noise drawn in pixel order) and the table's signal for
+        // a unit alpha (NaN where the table has none), then the words two pixels at a time.
+        let n = enc.pixels.len();
+        let mut to_k = [0f64; PIXELS];
+        let mut unit = [0f64; PIXELS];
+        for ((&p, t), u) in enc.pixels.iter().zip(&mut to_k).zip(&mut unit) {
+            let mut v = self.field_k[p as usize] as f64;
             if noise {
-                t += self.noise_k * self.noise.next();
+                v += self.noise_k * self.noise.next();
             }
-            self.ram[p] = match enc.pixel_raw_fast(p, t, &mut self.table) {
+            *t = v;
+            *u = self.table.unit_ir(enc, v).unwrap_or(f64::NAN);
+        }
+        let mut words = [None; PIXELS];
+        enc.words_of_units(&unit[..n], &mut words[..n]);
+        for ((&p, &t), w) in enc.pixels.iter().zip(&to_k).zip(&words) {
+            let p = p as usize;
+            self.ram[p] = match *w {
                 Some(w) => w,
                 None => {
                     self.exact_pixels += 1;
@@ -765,14 +776,91 @@ impl Encoder {
         clamp_i16(self.word_of_ir(p, ir))
     }
 
-    /// [`Self::pixel_raw`], fast, or `None` where it cannot vouch for the word: the signal
-    /// from the table of `table` (alpha × the inverse for a unit alpha, which the calculation
-    /// scales by), taken unless the table has no smooth piece there or the word lies within
-    /// [`TIE_GUARD`] counts of a rounding tie — there it and the secant method's could round
-    /// apart.
+    /// [`Self::word_of_unit`] of the subpage's pixels `self.pixels[i]` for `unit[i]` (NaN:
+    /// `None`) into `words[i]`. On x86-64 two pixels at a time with SSE2 (`sse2_words`), the
+    /// same operations in the same order, so the same words.
+    fn words_of_units(&self, unit: &[f64], words: &mut [Option<i16>]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `sse2_words` needs SSE2 alone, which every x86-64 processor has (it is
+            // part of the architecture's baseline).
+            unsafe { self.sse2_words(unit, words) };
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        for ((&p, &u), w) in self.pixels.iter().zip(unit).zip(words) {
+            *w = self.word_of_unit(p as usize, u);
+        }
+    }
+
+    /// [`Self::words_of_units`] with SSE2: x = ((alpha·u + ir_cp_tgc) − il + offset)·(1/gain)
+    /// for two pixels at once, then the same tests as [`Self::word_of_unit`] — NaN or
+    /// |x| ≥ 1e9, the truncation (`CVTTPD2DQ`; exact below 2³¹), the distance from a tie —
+    /// per lane. An odd last pixel goes through [`Self::word_of_unit`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "sse2")]
+    fn sse2_words(&self, unit: &[f64], words: &mut [Option<i16>]) {
+        use core::arch::x86_64::{
+            _mm_add_pd, _mm_and_pd, _mm_castsi128_pd, _mm_cmpge_pd, _mm_cmpgt_pd, _mm_cmple_pd,
+            _mm_cmplt_pd, _mm_cmpunord_pd, _mm_cvtepi32_pd, _mm_cvtsi128_si32, _mm_cvttpd_epi32,
+            _mm_movemask_pd, _mm_mul_pd, _mm_or_pd, _mm_set_pd, _mm_set1_epi64x, _mm_set1_pd,
+            _mm_srli_si128, _mm_sub_pd,
+        };
+        let abs_mask = _mm_castsi128_pd(_mm_set1_epi64x(i64::MAX));
+        let (cp, inv_gain) = (_mm_set1_pd(self.ir_cp_tgc), _mm_set1_pd(self.inv_gain));
+        let (big, half, guard, zero) = (
+            _mm_set1_pd(1e9),
+            _mm_set1_pd(0.5),
+            _mm_set1_pd(TIE_GUARD),
+            _mm_set1_pd(0.0),
+        );
+        let pairs = unit.len() / 2;
+        for i in 0..pairs {
+            let (a, b) = (2 * i, 2 * i + 1);
+            let (pa, pb) = (self.pixels[a] as usize, self.pixels[b] as usize);
+            let pair = |v: &[f64]| _mm_set_pd(v[pb], v[pa]);
+            let u = _mm_set_pd(unit[b], unit[a]);
+            let mut v = _mm_add_pd(_mm_mul_pd(pair(&self.alpha[..]), u), cp);
+            if !self.calibration_mode {
+                v = _mm_sub_pd(v, pair(&self.il[..]));
+            }
+            let x = _mm_mul_pd(_mm_add_pd(v, pair(&self.offset[..])), inv_gain);
+            let bad = _mm_or_pd(
+                _mm_cmpunord_pd(x, x),
+                _mm_cmpge_pd(_mm_and_pd(x, abs_mask), big),
+            );
+            let whole = _mm_cvttpd_epi32(x);
+            let frac = _mm_and_pd(_mm_sub_pd(x, _mm_cvtepi32_pd(whole)), abs_mask);
+            let tie = _mm_cmple_pd(_mm_and_pd(_mm_sub_pd(frac, half), abs_mask), guard);
+            let skip = _mm_movemask_pd(_mm_or_pd(bad, tie));
+            let up = _mm_movemask_pd(_mm_cmpgt_pd(frac, half));
+            let neg = _mm_movemask_pd(_mm_cmplt_pd(x, zero));
+            let wholes = [
+                _mm_cvtsi128_si32(whole),
+                _mm_cvtsi128_si32(_mm_srli_si128::<4>(whole)),
+            ];
+            for (lane, k) in [a, b].into_iter().enumerate() {
+                words[k] = if skip >> lane & 1 != 0 {
+                    None
+                } else {
+                    let step = if neg >> lane & 1 != 0 { -1 } else { 1 };
+                    let n = wholes[lane] as i64 + (up >> lane & 1) as i64 * step;
+                    Some(n.clamp(-32768, 32766) as i16)
+                };
+            }
+        }
+        if unit.len() % 2 == 1 {
+            let k = unit.len() - 1;
+            words[k] = self.word_of_unit(self.pixels[k] as usize, unit[k]);
+        }
+    }
+
+    /// [`Self::pixel_raw`], fast, or `None` where it cannot vouch for the word: the word of
+    /// pixel `p` for `u`, the table's signal for a unit alpha (`alpha × u` is the signal: the
+    /// calculation scales by alpha), taken unless the table has no smooth piece there (`u`
+    /// NaN) or the word lies within [`TIE_GUARD`] counts of a rounding tie — there it and the
+    /// secant method's could round apart.
     #[inline]
-    fn pixel_raw_fast(&self, p: usize, to_k: f64, table: &mut InverseTable) -> Option<i16> {
-        let u = table.unit_ir(self, to_k)?;
+    fn word_of_unit(&self, p: usize, u: f64) -> Option<i16> {
         let mut v = self.alpha[p] * u + self.ir_cp_tgc;
         if !self.calibration_mode {
             v -= self.il[p];
