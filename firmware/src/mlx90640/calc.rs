@@ -534,18 +534,20 @@ impl Image {
         params: &DecodeParams,
     ) -> Result<SubpageInfo, FrameError> {
         let pattern = frame.control().pattern();
-        let mut scratch = self.to_k;
-        let info = calculate_to_with::<R>(frame, cal, params, &mut scratch)?;
-        if pattern != self.pattern {
-            self.to_k = [f32::NAN; PIXELS];
+        // `calculate_to_with` writes the subpage's pixels only, and only once every check has
+        // passed (a refused frame leaves `out` as it was): with the pattern unchanged it
+        // writes straight into the image.
+        let info = if pattern == self.pattern {
+            calculate_to_with::<R>(frame, cal, params, &mut self.to_k)?
+        } else {
+            // A new pattern: the other subpage's pixels are not covered yet.
+            let mut fresh = [f32::NAN; PIXELS];
+            let info = calculate_to_with::<R>(frame, cal, params, &mut fresh)?;
+            self.to_k = fresh;
             self.covered = [false; 2];
             self.pattern = pattern;
-        }
-        for (p, (dst, src)) in self.to_k.iter_mut().zip(scratch.iter()).enumerate() {
-            if pixel_in_subpage(p, pattern, info.subpage) {
-                *dst = *src;
-            }
-        }
+            info
+        };
         correct_bad_pixels(
             cal.broken_pixels.as_slice(),
             &mut self.to_k,

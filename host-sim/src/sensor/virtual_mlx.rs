@@ -26,7 +26,8 @@
 //! kept while the control register, Ta and Vdd stay; each pixel's signal comes from a table of
 //! the inverse (cubic pieces 1 K wide, built as needed), checked to round as the secant
 //! method's would (else solved by it: a few words in 10⁴); the noise is drawn ahead on a
-//! thread of its own, in the generator's order. The words are the same as solving every pixel
+//! thread of its own, in the generator's order; the words are worked out from the table's
+//! signals two pixels at a time (SSE2 on x86-64). The words are the same as solving every pixel
 //! by the secant method ([`VirtualMlx90640::encode_subpage_exact`]).
 
 use std::cell::RefCell;
