@@ -5,7 +5,7 @@ use embassy_futures::block_on;
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 use host_sim::sensor::demo::{Rig, round_trip};
 use host_sim::sensor::sim_time::{SimClock, SimDelay};
-use host_sim::sensor::virtual_mlx::{Fault, HeapBuffers, VirtualBus};
+use host_sim::sensor::virtual_mlx::{HeapBuffers, SensorFault, VirtualBus};
 use thermorph::measurement::Measurement;
 use thermorph::mlx90640::calc::FrameError;
 use thermorph::mlx90640::{
@@ -209,7 +209,7 @@ fn nack_is_a_typed_error_and_recovers() {
     let mut r = rig(Config::default());
     let params = DecodeParams::default();
     r.step(&params).unwrap();
-    r.bus.0.borrow_mut().set_fault(Some(Fault::Nack));
+    r.bus.0.borrow_mut().set_fault(Some(SensorFault::Nack));
     let e = r.step(&params).unwrap_err();
     assert_eq!(
         e,
@@ -231,7 +231,10 @@ fn nack_is_a_typed_error_and_recovers() {
 fn bus_timeout_is_a_typed_error() {
     let mut r = rig(Config::default());
     let params = DecodeParams::default();
-    r.bus.0.borrow_mut().set_fault(Some(Fault::BusTimeout));
+    r.bus
+        .0
+        .borrow_mut()
+        .set_fault(Some(SensorFault::BusTimeout));
     let t0 = r.clock.now_us();
     assert_eq!(
         r.step(&params).unwrap_err(),
@@ -248,7 +251,7 @@ fn stuck_sensor_is_stale_after_two_periods() {
     let mut r = rig(Config::default());
     let params = DecodeParams::default();
     r.step(&params).unwrap();
-    r.bus.0.borrow_mut().set_fault(Some(Fault::Stuck));
+    r.bus.0.borrow_mut().set_fault(Some(SensorFault::Stuck));
     let t0 = r.clock.now_us();
     // The subpage measured just before the fault may still be pending; after it, stale.
     let e = match r.step(&params) {
@@ -273,7 +276,7 @@ fn corrupt_words_are_rejected() {
     let mut r = rig(Config::default());
     let params = DecodeParams::default();
     r.step(&params).unwrap();
-    r.bus.0.borrow_mut().set_fault(Some(Fault::Corrupt));
+    r.bus.0.borrow_mut().set_fault(Some(SensorFault::Corrupt));
     let mut got = None;
     for _ in 0..3 {
         if let Err(e) = r.step(&params) {
@@ -292,7 +295,7 @@ fn frozen_frame_is_rejected() {
     let r = rig(Config::default());
     let mut s = sensor(&r);
     assert_eq!(run_until_frames(&mut s, &r, 2, 2_000_000).len(), 2);
-    r.bus.0.borrow_mut().set_fault(Some(Fault::Frozen));
+    r.bus.0.borrow_mut().set_fault(Some(SensorFault::Frozen));
     let t0 = r.clock.now_us();
     let (frames, errors) = run_for(&mut s, &r, 1_000_000);
     // At most the frame whose subpages were measured before the fault.
@@ -311,7 +314,10 @@ fn a_bus_stuck_low_is_recovered_and_frames_come_again() {
     let r = rig(Config::default());
     let mut s = sensor(&r);
     assert_eq!(run_until_frames(&mut s, &r, 2, 2_000_000).len(), 2);
-    r.bus.0.borrow_mut().set_fault(Some(Fault::BusStuckLow));
+    r.bus
+        .0
+        .borrow_mut()
+        .set_fault(Some(SensorFault::BusStuckLow));
     let t0 = r.clock.now_us();
     // One timeout, then the recovery frees the bus: a pause, a setup, and frames again.
     let got = run_until_frames(&mut s, &r, 2, 2_000_000);
@@ -325,7 +331,10 @@ fn a_bus_stuck_low_is_recovered_and_frames_come_again() {
         "first frame {back_us} µs after the bus stuck (inside the 1 s loss window)"
     );
     // Without the recovery the bus stays stuck: every transfer times out.
-    r.bus.0.borrow_mut().set_fault(Some(Fault::BusStuckLow));
+    r.bus
+        .0
+        .borrow_mut()
+        .set_fault(Some(SensorFault::BusStuckLow));
     let mut frame = SubpageFrame::new();
     assert!(matches!(
         block_on(s.driver().read_subpage(&mut frame)),
@@ -339,7 +348,7 @@ fn a_bus_stuck_low_is_recovered_and_frames_come_again() {
 
 #[test]
 fn nack_and_timeout_recover_the_bus_then_set_up_again() {
-    for fault in [Fault::Nack, Fault::BusTimeout] {
+    for fault in [SensorFault::Nack, SensorFault::BusTimeout] {
         let r = rig(Config::default());
         let mut s = sensor(&r);
         assert_eq!(run_until_frames(&mut s, &r, 1, 2_000_000).len(), 1);

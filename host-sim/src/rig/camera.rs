@@ -19,7 +19,7 @@ use crate::plant::Observation;
 use crate::rig::RigError;
 use crate::rig::faults::{BURNING_FILM_K, CameraFault, ELSEWHERE_K};
 use crate::sensor::sim_time::{SimClock, SimDelay};
-use crate::sensor::virtual_mlx::{Fault as SensorFault, HeapBuffers, VirtualBus, VirtualMlx90640};
+use crate::sensor::virtual_mlx::{HeapBuffers, SensorFault, VirtualBus, VirtualMlx90640};
 use crate::sensor::{SensorError, eeprom};
 
 /// Samples per pixel side of the camera's view.

@@ -2,7 +2,7 @@
 //! MOSFET, the sensor, what the camera sees) and when, and the camera's settings. Scene files
 //! name them ([`crate::runs::scenario`]); the board ([`crate::rig::SimBoard`]) applies them.
 
-use crate::sensor::virtual_mlx::Fault as SensorFault;
+use crate::sensor::virtual_mlx::SensorFault;
 
 /// Camera settings of a scene.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -54,7 +54,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use crate::plant::{Fidelity, Integrator, SmaFidelity, SmpFidelity, ThermalFidelity};
-use crate::sensor::virtual_mlx::Fault as SensorFault;
+use crate::sensor::virtual_mlx::SensorFault;
 
 pub use crate::rig::faults::{
     BURNING_FILM_K, CameraFault, CameraSettings, ELSEWHERE_K, FaultSpec, Injection,

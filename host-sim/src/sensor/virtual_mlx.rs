@@ -13,7 +13,7 @@
 //! 573 K, twice that per resolution bit less, half per bit more. Ta and Vdd round too (PTAT and
 //! Vbe are chosen together to put Ta within a few mK).
 //!
-//! Injectable faults ([`Fault`]): NACK, bus timeout (a transfer that never completes), a bus
+//! Injectable faults ([`SensorFault`]): NACK, bus timeout (a transfer that never completes), a bus
 //! held low (every transfer hangs until a bus recovery, [`VirtualBus`]'s
 //! [`RecoverBus`] implementation, clocks it free), stuck (no new data), 0x7FFF corruption, and
 //! a frozen frame (RAM stops changing while the new-data flag keeps coming). A power cycle
@@ -56,7 +56,7 @@ pub const BIT_TIME_NS: u64 = 2_500;
 
 /// A fault the virtual device can be told to show.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Fault {
+pub enum SensorFault {
     /// Every transfer is refused with a NACK of the address.
     Nack,
     /// Every transfer hangs forever (the driver's timeout must fire).
@@ -186,7 +186,7 @@ pub struct VirtualMlx90640 {
     pub vdd_v: f64,
     /// Noise added to each pixel's temperature per measurement, K rms (NETD).
     pub noise_k: f64,
-    fault: Option<Fault>,
+    fault: Option<SensorFault>,
     noise: Noise,
     measurements: u64,
     recoveries: u64,
@@ -250,12 +250,12 @@ impl VirtualMlx90640 {
     }
 
     /// Show `fault` from now on (`None` heals the device).
-    pub fn set_fault(&mut self, fault: Option<Fault>) {
+    pub fn set_fault(&mut self, fault: Option<SensorFault>) {
         self.fault = fault;
     }
 
     /// Return the active fault.
-    pub fn fault(&self) -> Option<Fault> {
+    pub fn fault(&self) -> Option<SensorFault> {
         self.fault
     }
 
@@ -279,7 +279,7 @@ impl VirtualMlx90640 {
     fn recover_bus(&mut self) {
         self.recoveries += 1;
         self.clock.advance_us(100);
-        if self.fault == Some(Fault::BusStuckLow) {
+        if self.fault == Some(SensorFault::BusStuckLow) {
             self.fault = None;
         }
     }
@@ -314,16 +314,16 @@ impl VirtualMlx90640 {
     }
 
     fn measure(&mut self) {
-        if self.fault == Some(Fault::Stuck) {
+        if self.fault == Some(SensorFault::Stuck) {
             return;
         }
         let sp = self.next_subpage;
         self.next_subpage ^= 1;
         self.measurements += 1;
-        if self.fault != Some(Fault::Frozen) {
+        if self.fault != Some(SensorFault::Frozen) {
             self.encode_subpage(sp);
         }
-        if self.fault == Some(Fault::Corrupt) {
+        if self.fault == Some(SensorFault::Corrupt) {
             self.ram[PIXELS] = 0x7FFF; // aux word 0 (Vbe)
             self.ram[(2 + sp as usize) * 32] = 0x7FFF; // first pixel of a row of this parity
         }
@@ -474,7 +474,7 @@ impl VirtualMlx90640 {
         self.clock
             .advance_us(((bytes as u64 + 1) * 9 * BIT_TIME_NS).div_ceil(1000));
         self.advance();
-        if self.fault == Some(Fault::Nack) || address != thermorph::mlx90640::ADDRESS {
+        if self.fault == Some(SensorFault::Nack) || address != thermorph::mlx90640::ADDRESS {
             return Err(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address));
         }
         let mut pointer: Option<u16> = None;
@@ -1008,7 +1008,7 @@ impl I2c for VirtualBus {
     ) -> Result<(), Self::Error> {
         if matches!(
             self.0.borrow().fault,
-            Some(Fault::BusTimeout | Fault::BusStuckLow)
+            Some(SensorFault::BusTimeout | SensorFault::BusStuckLow)
         ) {
             // A held-down line: the transfer never completes.
             core::future::pending::<()>().await;
