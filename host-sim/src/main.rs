@@ -3,6 +3,8 @@
 //! - `host-sim` (or `host-sim run [SCENE] [--out DIR]`): the main job — a scene (default: the
 //!   bundled `cycle`) played against the simulated block, writing a CSV time series, a summary
 //!   JSON and a PNG plot, and printing the summary.
+//! - `host-sim sweep SCENE --set KEY=V1,V2,… [--set …] [--shard K/N] [--out DIR]` (or
+//!   `--merge SHARD.csv … [--out FILE]`): a scene over a grid of overrides, in parallel.
 //! - `host-sim console [--speed X] [--pty] [--settings FILE] [SCENE]`: the simulated block
 //!   behind the board's console, on stdin/stdout or on a pseudo-terminal (its path printed).
 //! - `host-sim sensor`: the virtual MLX90640 on a simulated I2C bus, read and decoded by the
@@ -49,6 +51,9 @@ enum Command {
     },
     /// Play a scene against the simulated block; write timeseries.csv, summary.json, plot.png.
     Run(host_sim::runs::run::RunArgs),
+    /// One scene over a grid of overrides (`--set KEY=V1,V2,…`), in parallel across the cores;
+    /// one CSV row per case and a PNG of each figure against the first swept key.
+    Sweep(host_sim::runs::sweep::SweepArgs),
     /// The simulated block behind the board's console, in real time (or `--speed` times it), on
     /// stdin/stdout or on a pseudo-terminal whose path is printed; Ctrl-C ends it.
     Console(host_sim::console::sim::ConsoleArgs),
@@ -138,6 +143,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Run(args) => host_sim::runs::run::cli(&args),
+        Command::Sweep(args) => host_sim::runs::sweep::cli(&args),
         Command::Console(args) => host_sim::console::sim::cli(&args),
         Command::Sensor(args) => host_sim::sensor::demo::run(&args),
         Command::Mtts {

@@ -242,3 +242,72 @@ fn progress_line_shows_fraction_and_time_left() {
     assert!(l.contains(" 25%") && l.contains("about 6 s left"), "{l}");
     assert!(Progress::line(1.0, 3.0).contains("100%"));
 }
+
+#[test]
+fn sweep_runs_a_grid_and_shards_merge_to_the_same_table() {
+    let dir = tmp_dir("sweep");
+    let path = |p: &str| dir.join(p).to_str().unwrap().to_string();
+    let base = [
+        "sweep",
+        "open-loop",
+        "--set",
+        "ambient=288K,298K,308K",
+        "--set",
+        "camera.seed=1",
+        "--quiet",
+    ];
+    let ok = |args: &[&str]| {
+        let out = host_sim(args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let whole = path("whole");
+    ok(&[&base[..], &["--out", &whole]].concat());
+    let table = std::fs::read_to_string(dir.join("whole/sweep.csv")).unwrap();
+    let lines: Vec<&str> = table.lines().collect();
+    assert_eq!(lines.len(), 4, "{table}");
+    assert!(
+        lines[0].starts_with("case,ambient,camera.seed,max_heater_k,"),
+        "{table}"
+    );
+    assert!(lines[1].starts_with("0,288K,1,") && lines[3].starts_with("2,308K,1,"));
+    // A warmer room, a warmer film at the end of the same duties.
+    let heater = |l: &str| l.split(',').nth(3).unwrap().parse::<f64>().unwrap();
+    assert!(heater(lines[1]) < heater(lines[2]) && heater(lines[2]) < heater(lines[3]));
+    assert!(dir.join("whole/sweep-max_heater_k.png").exists());
+    // Two shards, merged, are the whole table.
+    let shards = path("shards");
+    ok(&[&base[..], &["--shard", "0/2", "--out", &shards]].concat());
+    ok(&[&base[..], &["--shard", "1/2", "--out", &shards]].concat());
+    let merged = path("merged.csv");
+    ok(&[
+        "sweep",
+        "--merge",
+        &path("shards/sweep-1-of-2.csv"),
+        &path("shards/sweep-0-of-2.csv"),
+        "--out",
+        &merged,
+        "--quiet",
+    ]);
+    assert_eq!(std::fs::read_to_string(&merged).unwrap(), table);
+    // A bad override is refused before anything runs, naming the case.
+    let out = host_sim(&[
+        "sweep",
+        "open-loop",
+        "--set",
+        "ambient=900K",
+        "--out",
+        &path("bad"),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("ambient=900K") && err.contains("out of range"),
+        "{err}"
+    );
+    assert!(!dir.join("bad").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -6,6 +6,7 @@
 //! - [`series`]: a run's time series (one row a period) and its CSV.
 //! - [`cycle_figures`]: the thesis cycle's figures measured on a time series.
 //! - [`paper`]: `host-sim paper`, the thesis's experiments against the real supervisor.
+//! - [`sweep`]: `host-sim sweep`, a scene over a grid of overrides, in parallel.
 //! - [`plot`]: the PNG plots (of a run and of a desk recording).
 
 pub mod cycle_figures;
@@ -14,3 +15,4 @@ pub mod plot;
 pub mod run;
 pub mod scenario;
 pub mod series;
+pub mod sweep;

@@ -28,7 +28,8 @@ const TITLE_H: u32 = 46;
 const TEMP_H: u32 = 380;
 const PANEL_H: u32 = 210;
 const SPRING_H: u32 = 150;
-const FONT: &str = "sans-serif";
+/// The font family every plot registers and uses.
+pub(crate) const FONT: &str = "sans-serif";
 const RIGHT_PX: u32 = 90;
 
 /// Why a CSV could not be read or plotted.
@@ -156,7 +157,8 @@ pub struct PlotInfo {
     pub size_px: (u32, u32),
 }
 
-fn fonts() {
+/// Register the embedded fonts (once per process).
+pub(crate) fn fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The embedded DejaVu bytes are a valid font; a failure would only lose the text.

@@ -196,8 +196,29 @@ pub enum ScenarioError {
 
 /// Load a scene: a bundled name (`cycle`, …) or a path to a TOML file.
 pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
+    let src = source(name_or_path)?;
+    parse(&src.text, &src.file, &src.default_name)
+}
+
+/// A scene's text before it is checked, with the names its errors and output use.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Source {
+    /// The TOML text.
+    pub text: String,
+    /// How errors name it (`<bundled cycle>` or the path).
+    pub file: String,
+    /// The scene's name when the text gives none (the bundled name or the file's stem).
+    pub default_name: String,
+}
+
+/// The text of a scene: a bundled name (`cycle`, …) or a path to a TOML file.
+pub fn source(name_or_path: &str) -> Result<Source, ScenarioError> {
     if let Some((name, text)) = BUNDLED.iter().find(|(n, _)| *n == name_or_path) {
-        return parse(text, &format!("<bundled {name}>"), name);
+        return Ok(Source {
+            text: (*text).to_string(),
+            file: format!("<bundled {name}>"),
+            default_name: (*name).to_string(),
+        });
     }
     let path = Path::new(name_or_path);
     if !path.exists() && !name_or_path.contains(['/', '.']) {
@@ -216,7 +237,11 @@ pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
         .and_then(|s| s.to_str())
         .unwrap_or("scene")
         .to_string();
-    parse(&text, &path.display().to_string(), &stem)
+    Ok(Source {
+        text,
+        file: path.display().to_string(),
+        default_name: stem,
+    })
 }
 
 /// Where a value sits, for error messages.
