@@ -210,7 +210,7 @@ pub fn scene_of(src: &scenario::Source, case: &Case) -> Result<Scenario, SweepEr
 pub struct Outcome {
     /// The case.
     pub case: Case,
-    /// `(column, value)`, in [`columns`] order; `None` where the run did not show it.
+    /// `(column, value)`, in [`figures_of`] order; `None` where the run did not show it.
     pub figures: Vec<(String, Option<f64>)>,
     /// The faults the controller latched, as `code@time_s` separated by `;`.
     pub faults: String,
