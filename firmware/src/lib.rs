@@ -7,6 +7,8 @@
 //! - [`mlx90640`]: the MLX90640 thermal camera — typed registers, calibration extraction, the
 //!   Melexis temperature calculation, and an async driver generic over the I2C trait.
 //! - [`mtts`]: multi-target thermal sensing — five region temperatures from a frame.
+//! - [`observer`]: a Kalman filter of the hidden wall temperatures from the camera's surfaces
+//!   (not yet wired into the supervisor).
 //! - [`sensing`]: the sensor policy (setup, bus recovery, subpage pairing, frozen and
 //!   implausible data) from subpages to one [`measurement::Measurement`] a frame.
 //! - [`measurement`]: what sensing hands control, one [`measurement::Measurement`] a frame.
@@ -31,6 +33,7 @@ pub mod fmath;
 pub mod measurement;
 pub mod mlx90640;
 pub mod mtts;
+pub mod observer;
 pub mod outputs;
 pub mod sensing;
 pub mod settings;

@@ -1,0 +1,632 @@
+//! A state observer of the block's hidden temperatures: a linear Kalman filter on the
+//! firmware's own reduced thermal model (issue 19, first step).
+//!
+//! The camera sees surfaces only: region 1 is the heater film through the lattice's gaps
+//! (T1), region 2 the lattice's outer surface (T2), region 5 the background (T5 ≈ ambient).
+//! The wall's inside, where the shape memory polymer must pass its transition, is never seen.
+//! This module owns the estimate of it: the model, its discretisation, the filter's state and
+//! covariance, and its parameters ([`ObserverParams`]). It is **not yet wired** into the
+//! supervisor or the app (the next step of issue 19): nothing the board does depends on it.
+//!
+//! # State and model
+//!
+//! The state (K, `f32`) is `[film, layer 0 (inner, next to the film), …, layer LAYERS−1
+//! (outer, what the camera sees as T2), ambient]` ([`STATES`] values). It is a reduced RC
+//! network of the plant:
+//!
+//! ```text
+//! C_f·dT_f/dt  = P·heater_duty − G_fw·(T_f − T_0) − G_duct(fan)·(T_f − T_a)
+//! C_i·dT_i/dt  = G_{i−1,i}·(T_{i−1} − T_i) − G_{i,i+1}·(T_i − T_{i+1})   (layers)
+//! C_o·dT_o/dt  = G_{o−1,o}·(T_{o−1} − T_o) − G_out·(T_o − T_a)
+//! dT_a/dt      = 0 (+ process noise: a random walk)
+//! ```
+//!
+//! The duct's air is not a state: its capacity (≈0.23 J/K) is 25–300 times smaller than
+//! the film's, so it is eliminated quasi-statically and the film → duct wall coefficient and
+//! the air flow's advective conductance act in series, `G_duct = G_w·G_flow/(G_w + G_flow)`,
+//! both rising with the fan duty ([`ObserverParams::duct_conductance_w_per_k`]).
+//!
+//! # Discretisation
+//!
+//! For a control period `dt` and a fan duty the update is the exact zero-order hold
+//! `x₊ = Φ·x + Γ·P·duty`, `Φ = e^{A·dt}`, `Γ = ∫₀^dt e^{A·s}ds·B`, both read from the
+//! exponential of the augmented matrix `[[A, B], [0, 0]]·dt`. The exponential is computed by
+//! scaling and squaring with a Taylor series (scale until the ∞-norm is ≤ ½, 10 terms, then
+//! square back): for this network's ∞-norms (≤ 1 s⁻¹, so ≤ 0.25 at 0.25 s) that is exact to
+//! `f32` rounding. Φ and Γ are cached and recomputed only when the fan duty, the period or the
+//! parameters change (a 5 × 5 exponential: a few thousand flops).
+//!
+//! `Φ·1 = 1` (the network only moves heat), so Φ is applied to the deviations from the
+//! ambient: the rounding of Φ's row sums, times ≈300 K, does not make a block at rest drift.
+//!
+//! The process noise is added as `Q·dt` (continuous spectral densities per node, diagonal);
+//! measurements are fused one at a time (their noises are independent), in Joseph form, so a
+//! missing one is simply skipped.
+//!
+//! # Robustness
+//!
+//! No input panics: a NaN duty counts as 0, duties are clamped to 0…1, a non-finite or
+//! non-positive period skips the prediction, a period above [`MAX_STEP_S`] is clamped, and a
+//! non-finite measurement is skipped like a missing one.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::units::{Kelvin, Seconds};
+
+/// Number of wall layers through the lattice's thickness (inner = 0, outer = `LAYERS − 1`).
+pub const LAYERS: usize = 2;
+/// Number of states: the film, the layers, the ambient.
+pub const STATES: usize = LAYERS + 2;
+/// State index of the heater film.
+pub const FILM: usize = 0;
+/// State index of the inner wall layer (next to the film).
+pub const INNER: usize = 1;
+/// State index of the outer wall layer (the surface the camera sees as T2).
+pub const OUTER: usize = LAYERS;
+/// State index of the ambient.
+pub const AMBIENT: usize = LAYERS + 1;
+/// Longest period one prediction covers, s: a longer one is clamped (the covariance then
+/// under-grows; the board's period is 0.125–0.5 s).
+pub const MAX_STEP_S: f32 = 10.0;
+
+/// Size of the augmented matrix of the zero-order hold (state + one input).
+const AUG: usize = STATES + 1;
+
+type Mat = SMatrix<f32, STATES, STATES>;
+type Vec = SVector<f32, STATES>;
+type AugMat = SMatrix<f32, AUG, AUG>;
+
+// The plant's geometry (`crate::block`), in m and m².
+const PI: f32 = core::f32::consts::PI;
+const LENGTH_M: f32 = crate::block::CYLINDER_LENGTH_MM * 1e-3;
+const INNER_DIAMETER_M: f32 = crate::block::CYLINDER_INNER_DIAMETER_MM * 1e-3;
+const OUTER_DIAMETER_M: f32 = crate::block::CYLINDER_OUTER_DIAMETER_MM * 1e-3;
+/// Heater film (inner) surface, m²: π·d_i·L ≈ 0.02199.
+const INNER_AREA_M2: f32 = PI * INNER_DIAMETER_M * LENGTH_M;
+/// Outer surface, m²: π·d_o·L ≈ 0.02513.
+const OUTER_AREA_M2: f32 = PI * OUTER_DIAMETER_M * LENGTH_M;
+/// Mid-wall area, m² (the layer-to-layer path).
+const MID_AREA_M2: f32 = 0.5 * (INNER_AREA_M2 + OUTER_AREA_M2);
+/// The inner layer's share of the wall's capacity: 4 mm / (4 + 1.8) mm
+/// (`block::LATTICE_LOWER_LAYER_MM`, `block::LATTICE_UPPER_LAYER_MM`).
+const INNER_SHARE: f32 = crate::block::LATTICE_LOWER_LAYER_MM
+    / (crate::block::LATTICE_LOWER_LAYER_MM + crate::block::LATTICE_UPPER_LAYER_MM);
+/// The wall's areal capacity, J/(m²·K) (host-sim `WALL_AREAL_CAPACITY_J_PER_M2K`).
+const WALL_AREAL_J_PER_M2K: f32 = 1900.0;
+/// Heater supply voltage, V (thesis 6.3.2; host-sim `HEATER_SUPPLY_V`).
+const HEATER_SUPPLY_V: f32 = 18.0;
+/// Heater resistance, Ω (host-sim `HEATER_RESISTANCE_OHM`, fitted).
+const HEATER_RESISTANCE_OHM: f32 = 7.89;
+/// Heater supply current limit, A (thesis 6.3.2; host-sim `HEATER_SUPPLY_LIMIT_A`).
+const HEATER_SUPPLY_LIMIT_A: f32 = 10.0;
+/// Full-duty current, A: V/R, capped by the supply's limit.
+const HEATER_FULL_A: f32 = if HEATER_SUPPLY_V / HEATER_RESISTANCE_OHM < HEATER_SUPPLY_LIMIT_A {
+    HEATER_SUPPLY_V / HEATER_RESISTANCE_OHM
+} else {
+    HEATER_SUPPLY_LIMIT_A
+};
+/// Advective conductance ρ·c_p of one m³/s of air, W·s/(m³·K): 1.19 kg/m³ × 1005 J/(kg·K).
+const AIR_RHO_CP: f32 = 1.19 * 1005.0;
+
+/// The observer's model and noise parameters. Every default comes from the simulator's plant
+/// constants (`host-sim/src/plant/params.rs`, assembled as in `thermal::Network::new`) so the
+/// reduced model matches the plant; they are the firmware's own copies, not the plant linked
+/// in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObserverParams {
+    /// Heater power at full duty, W: `min(V/R, I_max)²·R` with 18 V, 7.89 Ω, 10 A (host-sim
+    /// `HEATER_SUPPLY_V`, `HEATER_RESISTANCE_OHM`, `HEATER_SUPPLY_LIMIT_A`) ≈ 41.06 W.
+    pub heater_full_power_w: f32,
+    /// Heater film capacity, J/K: `HEATER_AREAL_CAPACITY_J_PER_M2K` (280) × the inner area
+    /// (π·35 mm·200 mm) ≈ 6.16.
+    pub film_capacity_j_per_k: f32,
+    /// Capacity of each wall layer, inner first, J/K: `WALL_AREAL_CAPACITY_J_PER_M2K` (1900) ×
+    /// the inner area, split 4 : 1.8 by the lattice layers' thicknesses ≈ [28.8, 13.0].
+    pub layer_capacity_j_per_k: [f32; LAYERS],
+    /// Film → inner layer conductance, W/K: `H_HEATER_WALL_W_PER_M2K` (84.2) × the inner
+    /// area ≈ 1.85.
+    pub film_layer_w_per_k: f32,
+    /// Layer i → layer i+1 conductances, W/K: `H_WALL_W_PER_M2K` (54.6) × the mid-wall area
+    /// (π·37.5 mm·200 mm) ≈ [1.29].
+    pub layer_layer_w_per_k: [f32; LAYERS - 1],
+    /// Outer layer → ambient (natural convection and radiation), W/K: `H_OUTSIDE_W_PER_M2K`
+    /// (13.4) × the outer area (π·40 mm·200 mm) ≈ 0.337.
+    pub outer_ambient_w_per_k: f32,
+    /// Film → duct air coefficient × inner area with the fan off, W/K:
+    /// `H_DUCT_STILL_W_PER_M2K` (4) × 0.02199 ≈ 0.088.
+    pub duct_wall_still_w_per_k: f32,
+    /// The same with the fan at full duty, W/K: `H_DUCT_FAN_W_PER_M2K` (49) × 0.02199 ≈ 1.08.
+    pub duct_wall_fan_w_per_k: f32,
+    /// Exponent of the duct wall coefficient on the fan duty (host-sim `DUCT_FLOW_EXPONENT`,
+    /// Dittus–Boelter h ∝ Re^0.8): `G_w = still + (fan − still)·duty^exponent`.
+    pub duct_exponent: f32,
+    /// Advective conductance ṁ·c_p of the duct's natural draught (fan off), W/K:
+    /// `DUCT_FLOW_STILL_M3_PER_S` (4·10⁻⁵) × 1.19 kg/m³ × 1005 J/(kg·K) ≈ 0.048.
+    pub duct_flow_still_w_per_k: f32,
+    /// Added advective conductance at full fan duty (linear in the duty), W/K:
+    /// `DUCT_FLOW_FULL_M3_PER_S` (6.6·10⁻³) × 1.19 × 1005 ≈ 7.89.
+    pub duct_flow_fan_w_per_k: f32,
+    /// Process noise of the film, K²/s (unmodelled power: the PWM, the supply's droop, the
+    /// film's contact).
+    pub film_process_k2_per_s: f32,
+    /// Process noise of each wall layer, K²/s (unmodelled heat paths: plates, springs).
+    pub layer_process_k2_per_s: f32,
+    /// Process noise of the ambient (its random walk), K²/s.
+    pub ambient_process_k2_per_s: f32,
+    /// Noise variance of T1 (film), K² (MLX90640 region mean, ≈0.3 K; the film is seen
+    /// through the lattice's gaps).
+    pub t1_noise_k2: f32,
+    /// Noise variance of T2 (outer layer), K².
+    pub t2_noise_k2: f32,
+    /// Noise variance of T5 (background ≈ ambient), K².
+    pub t5_noise_k2: f32,
+    /// Initial variance of every state, K² (the initial temperature is a guess).
+    pub initial_variance_k2: f32,
+}
+
+impl ObserverParams {
+    /// The defaults: the plant's constants (see each field) and moderate noises.
+    pub const DEFAULT: ObserverParams = ObserverParams {
+        heater_full_power_w: HEATER_FULL_A * HEATER_FULL_A * HEATER_RESISTANCE_OHM,
+        film_capacity_j_per_k: 280.0 * INNER_AREA_M2,
+        layer_capacity_j_per_k: [
+            WALL_AREAL_J_PER_M2K * INNER_AREA_M2 * INNER_SHARE,
+            WALL_AREAL_J_PER_M2K * INNER_AREA_M2 * (1.0 - INNER_SHARE),
+        ],
+        film_layer_w_per_k: 84.2 * INNER_AREA_M2,
+        layer_layer_w_per_k: [54.6 * MID_AREA_M2],
+        outer_ambient_w_per_k: 13.4 * OUTER_AREA_M2,
+        duct_wall_still_w_per_k: 4.0 * INNER_AREA_M2,
+        duct_wall_fan_w_per_k: 49.0 * INNER_AREA_M2,
+        duct_exponent: 0.8,
+        duct_flow_still_w_per_k: 4.0e-5 * AIR_RHO_CP,
+        duct_flow_fan_w_per_k: 6.6e-3 * AIR_RHO_CP,
+        film_process_k2_per_s: 0.05,
+        layer_process_k2_per_s: 0.01,
+        ambient_process_k2_per_s: 1e-4,
+        t1_noise_k2: 0.25,
+        t2_noise_k2: 0.25,
+        t5_noise_k2: 0.25,
+        initial_variance_k2: 100.0,
+    };
+
+    /// Film → ambient conductance through the duct at a fan duty (0…1), W/K: the wall
+    /// coefficient and the air flow in series (the duct air eliminated quasi-statically).
+    pub fn duct_conductance_w_per_k(&self, fan_duty: f32) -> f32 {
+        let d = sanitize_duty(fan_duty);
+        let wall = self.duct_wall_still_w_per_k
+            + (self.duct_wall_fan_w_per_k - self.duct_wall_still_w_per_k)
+                * libm::powf(d, self.duct_exponent);
+        let flow = self.duct_flow_still_w_per_k + self.duct_flow_fan_w_per_k * d;
+        let sum = wall + flow;
+        if sum > 0.0 { wall * flow / sum } else { 0.0 }
+    }
+
+    /// The continuous system `dx/dt = A·x + b·duty` at a fan duty: `A` (1/s) and `b` (K/s at
+    /// full heater duty).
+    fn continuous(&self, fan_duty: f32) -> (Mat, Vec) {
+        let mut a = Mat::zeros();
+        let mut link = |i: usize, j: usize, g: f32| {
+            a[(i, j)] += g;
+            a[(j, i)] += g;
+            a[(i, i)] -= g;
+            a[(j, j)] -= g;
+        };
+        link(FILM, INNER, self.film_layer_w_per_k);
+        for (l, &g) in self.layer_layer_w_per_k.iter().enumerate() {
+            link(INNER + l, INNER + l + 1, g);
+        }
+        link(OUTER, AMBIENT, self.outer_ambient_w_per_k);
+        link(FILM, AMBIENT, self.duct_conductance_w_per_k(fan_duty));
+        // The ambient is a random walk: no heat flows into it.
+        for j in 0..STATES {
+            a[(AMBIENT, j)] = 0.0;
+        }
+        let mut caps = [0.0f32; STATES];
+        caps[FILM] = self.film_capacity_j_per_k;
+        caps[INNER..=OUTER].copy_from_slice(&self.layer_capacity_j_per_k);
+        for (i, &c) in caps.iter().enumerate().take(AMBIENT) {
+            let inv = if c > 0.0 { 1.0 / c } else { 0.0 };
+            for j in 0..STATES {
+                a[(i, j)] *= inv;
+            }
+        }
+        let mut b = Vec::zeros();
+        if caps[FILM] > 0.0 {
+            b[FILM] = self.heater_full_power_w / caps[FILM];
+        }
+        (a, b)
+    }
+}
+
+impl Default for ObserverParams {
+    /// [`ObserverParams::DEFAULT`].
+    fn default() -> Self {
+        ObserverParams::DEFAULT
+    }
+}
+
+/// What the observer believes: the temperatures and their standard deviations, K.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// Heater film, K.
+    pub film_k: f32,
+    /// Wall layers, inner (next to the film) first, outer (T2's surface) last, K.
+    pub layers_k: [f32; LAYERS],
+    /// Ambient, K.
+    pub ambient_k: f32,
+    /// Standard deviation of the film's estimate, K.
+    pub film_std_k: f32,
+    /// Standard deviation of each layer's estimate, K.
+    pub layers_std_k: [f32; LAYERS],
+    /// Standard deviation of the ambient's estimate, K.
+    pub ambient_std_k: f32,
+}
+
+/// The cached zero-order hold for one (fan duty, period, parameters).
+#[derive(Clone, Copy, Debug)]
+struct Zoh {
+    fan_duty: f32,
+    dt_s: f32,
+    phi: Mat,
+    gamma: Vec,
+}
+
+/// The Kalman filter: the state, its covariance, the parameters and the cached
+/// discretisation. Allocation-free (fixed-size `nalgebra` matrices).
+#[derive(Clone, Debug)]
+pub struct Observer {
+    params: ObserverParams,
+    x: Vec,
+    p: Mat,
+    zoh: Option<Zoh>,
+}
+
+impl Observer {
+    /// A filter with every state at `initial_k` (a non-finite one is taken as 298.15 K) and
+    /// the initial variance of `params`.
+    pub fn new(params: &ObserverParams, initial_k: f32) -> Observer {
+        let t0 = if initial_k.is_finite() {
+            initial_k
+        } else {
+            298.15
+        };
+        Observer {
+            params: *params,
+            x: Vec::repeat(t0),
+            p: Mat::identity() * params.initial_variance_k2.max(0.0),
+            zoh: None,
+        }
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &ObserverParams {
+        &self.params
+    }
+
+    /// Replace the parameters (the discretisation is recomputed at the next prediction); the
+    /// state and covariance are kept.
+    pub fn set_params(&mut self, params: &ObserverParams) {
+        self.params = *params;
+        self.zoh = None;
+    }
+
+    /// Advance the estimate by `dt` with the heater and fan duties (0…1) held: the model's
+    /// zero-order hold, the covariance `Φ·P·Φᵀ + Q·dt`. A NaN duty counts as 0; a
+    /// non-finite or non-positive `dt` does nothing; `dt` above [`MAX_STEP_S`] is clamped.
+    pub fn predict(&mut self, heater_duty: f32, fan_duty: f32, dt: Seconds) {
+        let dt_s = dt.s();
+        if !dt_s.is_finite() || dt_s <= 0.0 {
+            return;
+        }
+        let dt_s = dt_s.min(MAX_STEP_S);
+        let heater = sanitize_duty(heater_duty);
+        let fan = sanitize_duty(fan_duty);
+        let zoh = match self.zoh {
+            Some(z) if z.fan_duty == fan && z.dt_s == dt_s => z,
+            _ => {
+                let z = self.discretise(fan, dt_s);
+                self.zoh = Some(z);
+                z
+            }
+        };
+        // Φ·1 = 1 (heat only moves between the nodes and the ambient), so the update is done
+        // on the deviations from the ambient: no f32 rounding of Φ's row sums times ≈300 K
+        // creeps into a state at rest.
+        let ambient = self.x[AMBIENT];
+        let dev = self.x.add_scalar(-ambient);
+        self.x = (zoh.phi * dev + zoh.gamma * heater).add_scalar(ambient);
+        let mut q = Mat::zeros();
+        q[(FILM, FILM)] = self.params.film_process_k2_per_s.max(0.0) * dt_s;
+        for l in INNER..=OUTER {
+            q[(l, l)] = self.params.layer_process_k2_per_s.max(0.0) * dt_s;
+        }
+        q[(AMBIENT, AMBIENT)] = self.params.ambient_process_k2_per_s.max(0.0) * dt_s;
+        self.p = zoh.phi * self.p * zoh.phi.transpose() + q;
+        self.symmetrise();
+    }
+
+    /// Fuse the camera's region temperatures: T1 → the film, T2 → the outer layer, T5 → the
+    /// ambient. A missing (`None`) or non-finite one is skipped.
+    pub fn correct(&mut self, t1: Option<Kelvin>, t2: Option<Kelvin>, t5: Option<Kelvin>) {
+        let r = [
+            self.params.t1_noise_k2,
+            self.params.t2_noise_k2,
+            self.params.t5_noise_k2,
+        ];
+        for ((t, idx), r) in [(t1, FILM), (t2, OUTER), (t5, AMBIENT)].into_iter().zip(r) {
+            if let Some(z) = t.map(Kelvin::k).filter(|z| z.is_finite()) {
+                self.fuse(idx, z, r);
+            }
+        }
+    }
+
+    /// The current estimate.
+    pub fn estimate(&self) -> Estimate {
+        let std = |i: usize| libm::sqrtf(self.p[(i, i)].max(0.0));
+        Estimate {
+            film_k: self.x[FILM],
+            layers_k: core::array::from_fn(|l| self.x[INNER + l]),
+            ambient_k: self.x[AMBIENT],
+            film_std_k: std(FILM),
+            layers_std_k: core::array::from_fn(|l| std(INNER + l)),
+            ambient_std_k: std(AMBIENT),
+        }
+    }
+
+    /// One scalar measurement `z` of state `idx` with variance `r`, Joseph form.
+    fn fuse(&mut self, idx: usize, z: f32, r: f32) {
+        let r = if r.is_finite() && r > 0.0 { r } else { 1e-6 };
+        let s = self.p[(idx, idx)] + r;
+        if !(s.is_finite() && s > 0.0) {
+            return;
+        }
+        let k: Vec = self.p.column(idx) / s;
+        let innovation = z - self.x[idx];
+        let x = self.x + k * innovation;
+        // (I − K·H)·P·(I − K·H)ᵀ + K·r·Kᵀ
+        let mut ikh = Mat::identity();
+        for i in 0..STATES {
+            ikh[(i, idx)] -= k[i];
+        }
+        let p = ikh * self.p * ikh.transpose() + k * k.transpose() * r;
+        if x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite()) {
+            self.x = x;
+            self.p = p;
+            self.symmetrise();
+        }
+    }
+
+    fn symmetrise(&mut self) {
+        self.p = (self.p + self.p.transpose()) * 0.5;
+    }
+
+    /// Φ and Γ for a fan duty and period: the exponential of `[[A, b], [0, 0]]·dt`.
+    fn discretise(&self, fan_duty: f32, dt_s: f32) -> Zoh {
+        let (a, b) = self.params.continuous(fan_duty);
+        let mut m = AugMat::zeros();
+        m.fixed_view_mut::<STATES, STATES>(0, 0)
+            .copy_from(&(a * dt_s));
+        m.fixed_view_mut::<STATES, 1>(0, STATES)
+            .copy_from(&(b * dt_s));
+        let e = expm(&m);
+        Zoh {
+            fan_duty,
+            dt_s,
+            phi: e.fixed_view::<STATES, STATES>(0, 0).into_owned(),
+            gamma: e.fixed_view::<STATES, 1>(0, STATES).into_owned(),
+        }
+    }
+}
+
+/// A duty in 0…1; NaN counts as 0.
+fn sanitize_duty(d: f32) -> f32 {
+    if d.is_nan() { 0.0 } else { d.clamp(0.0, 1.0) }
+}
+
+/// Matrix exponential by scaling and squaring: scale by 2⁻ˢ until the ∞-norm is ≤ ½, sum
+/// 10 Taylor terms (remainder ≤ ½¹¹/11! ≈ 10⁻¹¹), square s times. A non-finite matrix gives
+/// the identity (no update rather than a panic or NaN).
+fn expm(m: &AugMat) -> AugMat {
+    let norm = m
+        .row_iter()
+        .map(|r| r.iter().map(|v| v.abs()).sum::<f32>())
+        .fold(0.0f32, f32::max);
+    if !norm.is_finite() {
+        return AugMat::identity();
+    }
+    let mut s = 0u32;
+    let mut scaled_norm = norm;
+    while scaled_norm > 0.5 && s < 40 {
+        scaled_norm *= 0.5;
+        s += 1;
+    }
+    let scaled = m * libm::ldexpf(1.0, -(s as i32));
+    let mut term = AugMat::identity();
+    let mut sum = AugMat::identity();
+    for k in 1..=10 {
+        term = term * scaled / k as f32;
+        sum += term;
+    }
+    for _ in 0..s {
+        sum = sum * sum;
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn secs(s: f32) -> Seconds {
+        Seconds::new(s).unwrap()
+    }
+
+    fn k(t: f32) -> Option<Kelvin> {
+        Kelvin::new(t)
+    }
+
+    /// A small xorshift and a sum of uniforms (Irwin–Hall, 12 terms) for Gaussian-ish noise.
+    struct Noise(u64);
+    impl Noise {
+        fn uniform(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn gauss(&mut self, std: f32) -> f32 {
+            let s: f32 = (0..12).map(|_| self.uniform()).sum();
+            (s - 6.0) * std
+        }
+    }
+
+    #[test]
+    fn defaults_match_the_plant() {
+        let p = ObserverParams::DEFAULT;
+        assert!((p.heater_full_power_w - 41.06).abs() < 0.01);
+        assert!((p.film_capacity_j_per_k - 6.158).abs() < 0.01);
+        assert!((p.layer_capacity_j_per_k[0] - 28.82).abs() < 0.02);
+        assert!((p.layer_capacity_j_per_k[1] - 12.97).abs() < 0.02);
+        assert!((p.film_layer_w_per_k - 1.852).abs() < 0.002);
+        assert!((p.layer_layer_w_per_k[0] - 1.2865).abs() < 0.002);
+        assert!((p.outer_ambient_w_per_k - 0.3368).abs() < 0.001);
+        // Fan off: 0.088 in series with 0.048; full: 1.078 in series with 7.94.
+        assert!((p.duct_conductance_w_per_k(0.0) - 0.0310).abs() < 0.001);
+        assert!((p.duct_conductance_w_per_k(1.0) - 0.949).abs() < 0.002);
+        assert_eq!(
+            p.duct_conductance_w_per_k(f32::NAN),
+            p.duct_conductance_w_per_k(0.0)
+        );
+    }
+
+    /// The film alone (decoupled from the wall, a fixed duct conductance): the prediction is
+    /// the analytic first-order step `T_a + P/G·(1 − e^{−t·G/C})`.
+    #[test]
+    fn single_node_matches_the_first_order_step() {
+        let mut p = ObserverParams::DEFAULT;
+        p.film_layer_w_per_k = 0.0;
+        p.duct_exponent = 1.0;
+        p.duct_flow_still_w_per_k = 1e6;
+        p.duct_flow_fan_w_per_k = 0.0;
+        let g = p.duct_conductance_w_per_k(0.0);
+        let c = p.film_capacity_j_per_k;
+        let power = p.heater_full_power_w * 0.5;
+        let ambient = 298.15;
+        let mut obs = Observer::new(&p, ambient);
+        let mut worst = 0.0f32;
+        for i in 1..=2400 {
+            obs.predict(0.5, 0.0, secs(0.25));
+            let t = i as f32 * 0.25;
+            let want = ambient + power / g * (1.0 - libm::expf(-t * g / c));
+            let e = obs.estimate();
+            worst = worst.max((e.film_k - want).abs() / (want - ambient));
+            // The wall stays at ambient (no path to it), the ambient does not move.
+            assert!((e.layers_k[0] - ambient).abs() < 1e-3);
+            assert_eq!(e.ambient_k, ambient);
+        }
+        println!("single node: worst relative error {worst:e}");
+        assert!(worst < 2e-4, "relative error {worst}");
+    }
+
+    /// From a state 20 K wrong the filter converges to a truth run by its own model plus
+    /// process and measurement noise: the inner layer (never measured) is within 1 K after
+    /// 120 s, and stays so.
+    #[test]
+    fn converges_from_a_wrong_state() {
+        let p = ObserverParams::DEFAULT;
+        let mut truth = Observer::new(&p, 298.15);
+        let mut obs = Observer::new(&p, 318.15);
+        let mut noise = Noise(0x9e37_79b9_7f4a_7c15);
+        let mut worst_late = 0.0f32;
+        for i in 0..2400 {
+            let t = i as f32 * 0.25;
+            let heater = if (t as u32 / 60).is_multiple_of(2) {
+                0.8
+            } else {
+                0.1
+            };
+            let fan = if (t as u32 / 90) % 2 == 1 { 1.0 } else { 0.0 };
+            truth.predict(heater, fan, secs(0.25));
+            for s in 0..STATES - 1 {
+                truth.x[s] += noise.gauss(0.02);
+            }
+            obs.predict(heater, fan, secs(0.25));
+            let m = truth.x;
+            obs.correct(
+                k(m[FILM] + noise.gauss(0.5)),
+                k(m[OUTER] + noise.gauss(0.5)),
+                k(m[AMBIENT] + noise.gauss(0.5)),
+            );
+            if t >= 120.0 {
+                let e = obs.estimate();
+                worst_late = worst_late.max((e.layers_k[0] - m[INNER]).abs());
+            }
+        }
+        println!("converge: inner layer max |error| after 120 s {worst_late:.3} K");
+        assert!(
+            worst_late < 1.0,
+            "inner layer error {worst_late} K after 120 s"
+        );
+    }
+
+    #[test]
+    fn a_missing_measurement_grows_the_covariance() {
+        let p = ObserverParams::DEFAULT;
+        let mut obs = Observer::new(&p, 298.15);
+        for _ in 0..200 {
+            obs.predict(0.3, 0.0, secs(0.25));
+            obs.correct(k(300.0), k(299.0), k(298.0));
+        }
+        let settled = obs.estimate();
+        for _ in 0..40 {
+            obs.predict(0.3, 0.0, secs(0.25));
+            obs.correct(None, k(299.0), None);
+        }
+        let later = obs.estimate();
+        assert!(later.film_std_k > settled.film_std_k);
+        assert!(later.ambient_std_k > settled.ambient_std_k);
+        let trace = |o: &Observer| o.p.trace();
+        let before = trace(&obs);
+        obs.predict(0.3, 0.0, secs(0.25));
+        obs.correct(None, None, None);
+        assert!(trace(&obs) > before);
+    }
+
+    #[test]
+    fn non_finite_inputs_never_panic_nor_poison() {
+        let p = ObserverParams::DEFAULT;
+        let mut obs = Observer::new(&p, f32::NAN);
+        let odd = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -3.0, 7.0, 0.5];
+        for &h in &odd {
+            for &f in &odd {
+                for &dt in &odd {
+                    if let Some(dt) = Seconds::new(dt) {
+                        obs.predict(h, f, dt);
+                    }
+                    for &z in &odd {
+                        obs.correct(Kelvin::new(z), Kelvin::new(z * 300.0), Kelvin::new(z));
+                    }
+                }
+            }
+        }
+        let e = obs.estimate();
+        let all = [e.film_k, e.ambient_k, e.film_std_k, e.ambient_std_k]
+            .into_iter()
+            .chain(e.layers_k)
+            .chain(e.layers_std_k);
+        for v in all {
+            assert!(v.is_finite(), "{e:?}");
+        }
+        // Zero and negative noises, an infinite period: still finite.
+        let mut bad = p;
+        bad.t1_noise_k2 = 0.0;
+        bad.t2_noise_k2 = -1.0;
+        bad.film_capacity_j_per_k = 0.0;
+        obs.set_params(&bad);
+        obs.predict(1.0, 1.0, Seconds::new(f32::INFINITY).unwrap());
+        obs.predict(1.0, 1.0, secs(1e9));
+        obs.correct(k(350.0), k(340.0), k(298.0));
+        assert!(obs.estimate().film_k.is_finite());
+    }
+}
