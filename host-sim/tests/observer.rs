@@ -6,6 +6,7 @@
 //! `cargo test -p host-sim --test observer -- --nocapture` prints the errors.
 
 use host_sim::plant::{Inputs, ModelOptions, Plant, PlantConfig};
+use host_sim::sensor::virtual_mlx::Rng;
 use thermorph::observer::{Observer, ObserverParams};
 use thermorph::units::{Kelvin, Seconds};
 
@@ -13,23 +14,6 @@ const DT_S: f64 = 0.25;
 const NOISE_K: f32 = 0.1;
 /// The errors are counted from this time on, s (the filter's start-up).
 const SETTLE_S: f64 = 10.0;
-
-/// A small xorshift; 12 uniforms summed (Irwin–Hall) for Gaussian-ish noise.
-struct Noise(u64);
-
-impl Noise {
-    fn uniform(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    fn gauss(&mut self, std: f32) -> f32 {
-        let s: f32 = (0..12).map(|_| self.uniform()).sum();
-        (s - 6.0) * std
-    }
-}
 
 /// Mean and max |inner layer error| after `SETTLE_S`, K, with the plant's PMMA end plates on
 /// or off (the observer does not model them).
@@ -46,7 +30,7 @@ fn run(ambient_k: f64, pmma_plates: bool) -> (f64, f64) {
     let mut plant = Plant::with_options(&config, options).expect("valid config");
     // The observer starts from a guess 5 K off (it does not know the ambient yet).
     let mut obs = Observer::new(&ObserverParams::DEFAULT, ambient_k as f32 + 5.0);
-    let mut noise = Noise(0x2545_f491_4f6c_dd1d);
+    let mut noise = Rng::new(0x2545_f491_4f6c_dd1d);
     let dt = Seconds::new(DT_S as f32).expect("finite");
     let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0u32);
     let steps = (300.0 / DT_S) as u32;
@@ -67,7 +51,7 @@ fn run(ambient_k: f64, pmma_plates: bool) -> (f64, f64) {
         plant.step(&inputs, DT_S);
         obs.predict(heater_duty as f32, fan_duty as f32, dt);
         let o = plant.observe();
-        let mut measure = |k: f64| Kelvin::new(k as f32 + noise.gauss(NOISE_K));
+        let mut measure = |k: f64| Kelvin::new(k as f32 + (noise.gauss() * NOISE_K as f64) as f32);
         let (t1, t2, t5) = (
             measure(o.heater_k),
             measure(o.smp_outer_k),
