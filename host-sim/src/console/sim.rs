@@ -36,7 +36,7 @@ use thermorph::units::Millis;
 use anyhow::{Context as _, bail};
 
 use crate::rig::store::{SettingsFile, SimFlash};
-use crate::rig::{RigError, Said, SimBoard, TICK_MS};
+use crate::rig::{RigError, Said, SimBoard};
 use crate::runs::scenario::Scenario;
 
 /// Arguments of `host-sim console`.
@@ -89,8 +89,7 @@ impl Block {
 
     /// Simulated time of the next tick's end, s.
     pub fn next_tick_s(&self) -> f64 {
-        let tick_us = TICK_MS * 1000;
-        ((self.board.time_us() / tick_us + 1) * tick_us) as f64 * 1e-6
+        self.board.next_tick_us() as f64 * 1e-6
     }
 
     /// The board's clock now.
@@ -101,10 +100,8 @@ impl Block {
     /// One tick of the board: the block runs to the next tick, with a control period at each
     /// frame and at the tick; due warnings and telemetry lines go to `out`.
     pub fn tick(&mut self, out: &mut impl Write) -> std::io::Result<()> {
-        let tick_us = TICK_MS * 1000;
-        let next = (self.board.time_us() / tick_us + 1) * tick_us;
         let mut said = Vec::new();
-        self.board.advance_to(next, &mut said);
+        self.board.advance_to(self.board.next_tick_us(), &mut said);
         write_said(&said, out)
     }
 

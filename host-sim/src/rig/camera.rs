@@ -117,7 +117,8 @@ impl Camera {
         self.bus.0.borrow_mut().set_fault(faults.sensor);
     }
 
-    /// Show the sensor the block as `obs` has it (or what a camera fault shows instead).
+    /// Show the sensor the block as `obs` has it (or what a camera fault shows instead; the
+    /// sensor's own fault is [`Camera::set_fault`]'s).
     pub fn show(&mut self, obs: &Observation, faults: CameraFaults) {
         let mut dev = self.bus.0.borrow_mut();
         if faults.view == Some(CameraFault::Elsewhere) {
@@ -143,7 +144,6 @@ impl Camera {
                 *dst = k as f32;
             }
         }
-        dev.set_fault(faults.sensor);
     }
 
     /// Run the sensing pipeline, with `hint`, until the sensor's clock reaches `until_us` or a

@@ -149,9 +149,9 @@ pub struct SimBoard {
     boot_us: u64,
     /// A frame the camera chain published ahead of the board's time, with its time, µs.
     pending: Option<(u64, Measurement)>,
-    /// The view shown to the sensor is the plant's present state, with these faults.
-    shown: bool,
-    shown_faults: CameraFaults,
+    /// The faults the view shown to the sensor was drawn with, while that view is the plant's
+    /// present state (`None`: the plant has run since, or nothing was shown yet).
+    shown: Option<CameraFaults>,
     /// Camera off: the period of the true measurements, µs, and the next one's time.
     truth_period_us: u64,
     next_truth_us: u64,
@@ -164,8 +164,8 @@ pub struct SimBoard {
 
 impl SimBoard {
     /// The block of `block` at time 0 with its camera (if on) and injected faults. A
-    /// closed-loop board gets whose controller starts with `settings` and keeps its
-    /// record in `flash`; an open-loop one none ([`SimBoard::set_inputs`] drives it).
+    /// closed-loop board gets a controller that starts with `settings` and keeps its record
+    /// in `flash`; an open-loop one gets none ([`SimBoard::set_inputs`] drives it).
     /// The simulated springs start at ambient, and the board knows it: its supervisor starts
     /// with [`SpringMemory::RESTED`], as a board would whose RAM kept the springs' memory
     /// across a reset long after they were last driven (a real power-up assumes them hot).
@@ -199,8 +199,7 @@ impl SimBoard {
             held: Inputs::default(),
             boot_us: 0,
             pending: None,
-            shown: false,
-            shown_faults: CameraFaults::default(),
+            shown: None,
             truth_period_us,
             next_truth_us: truth_period_us,
             truth_frames: 0,
@@ -218,6 +217,12 @@ impl SimBoard {
     /// Simulated time, µs.
     pub fn time_us(&self) -> u64 {
         self.time_us
+    }
+
+    /// When the board's next tick falls, µs of simulated time (every [`TICK_MS`] of its clock).
+    pub fn next_tick_us(&self) -> u64 {
+        let since_boot = self.time_us - self.boot_us;
+        self.boot_us + (since_boot / TICK_US + 1) * TICK_US
     }
 
     /// The board's clock now (from its last boot).
@@ -301,12 +306,15 @@ impl SimBoard {
     /// runs one when a line arrives; returns the reply (a `save` or `load` carried out first),
     /// and puts the period's warnings and telemetry in `said`. `None` for an open-loop board.
     pub fn line(&mut self, line: Line<'_>, said: &mut Vec<Said>) -> Option<Reply> {
+        self.control.as_ref()?;
         let reply = self.period(None, Some(line), said);
         self.hold_inputs();
-        reply
+        // Every line gets a reply (a `store`'s comes from the flash).
+        Some(reply.unwrap_or_else(|| Reply::err("internal", "no reply")))
     }
 
-    /// One control period at the board's present time.
+    /// One control period at the board's present time; returns the line's reply, if a line
+    /// came and got one.
     fn period(
         &mut self,
         frame: Option<&Measurement>,
@@ -341,10 +349,7 @@ impl SimBoard {
             }
         }
         self.seen_events = events.total();
-        Some(
-            p.reply
-                .unwrap_or_else(|| Reply::err("internal", "no reply")),
-        )
+        p.reply
     }
 
     /// Run the plant to the board's time with the inputs held since it last ran.
@@ -353,7 +358,7 @@ impl SimBoard {
             self.plant
                 .step(&self.held, (self.time_us - self.plant_us) as f64 * 1e-6);
             self.plant_us = self.time_us;
-            self.shown = false;
+            self.shown = None;
         }
     }
 
@@ -378,18 +383,16 @@ impl SimBoard {
     pub fn advance_to(&mut self, t_us: u64, said: &mut Vec<Said>) {
         self.hold_inputs();
         while self.time_us < t_us {
-            let since_boot = self.time_us - self.boot_us;
-            let next_tick = self.boot_us + (since_boot / TICK_US + 1) * TICK_US;
+            let next_tick = self.next_tick_us();
             let mut target = next_tick.min(t_us);
             let faults = self.inputs().2;
             let hint = self.hint();
             if let Some(cam) = &mut self.camera {
                 if self.pending.is_none() && cam.clock_us() < target {
                     cam.set_fault(faults);
-                    if (!self.shown || faults != self.shown_faults) && cam.measures_before(target) {
+                    if self.shown != Some(faults) && cam.measures_before(target) {
                         cam.show(&self.plant.observe(), faults);
-                        self.shown = true;
-                        self.shown_faults = faults;
+                        self.shown = Some(faults);
                     }
                     self.pending = cam.run_until(target, hint);
                 }

@@ -27,9 +27,9 @@ use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
 
 use crate::rig::RigError;
+use crate::rig::SimBoard;
 use crate::rig::camera::{Camera, camera_temps};
 use crate::rig::store::SimFlash;
-use crate::rig::{SimBoard, TICK_MS};
 use crate::runs::plot::PlotError;
 use crate::runs::scenario::{Scenario, ScenarioError};
 pub use crate::runs::series::{CSV_HEADER, ControlRow, Row, write_csv};
@@ -185,7 +185,6 @@ pub fn run_with(
     )?;
     let steps = (scenario.duration_s / scenario.period_s).round().max(1.0) as usize;
     let period_us = ((scenario.period_s * 1e6).round() as u64).max(1);
-    let tick_us = TICK_MS * 1000;
     let mut rows = Vec::with_capacity(steps);
     let mut next_action = 0;
     let mut next_command = 0;
@@ -252,8 +251,7 @@ pub fn run_with(
             if now_us >= t1_us {
                 break;
             }
-            let next_tick = (now_us / tick_us + 1) * tick_us;
-            board.advance_to(next_tick.min(t1_us), &mut said);
+            board.advance_to(board.next_tick_us().min(t1_us), &mut said);
         }
         let ((inputs, faults, _), springs_cmd, control) =
             row_start.take().expect("set at the period's start");
