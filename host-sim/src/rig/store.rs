@@ -78,37 +78,32 @@ impl SimFlash {
         control: &mut Controller,
         now: Millis,
     ) -> Reply {
-        let outcome_reply =
-            |control: &mut Controller, o: StoreOutcome<'_>| control.finish_store(now, o);
-        match (self, req) {
+        // A file's record, read for `load`, lives here while the outcome borrows it.
+        let read: Option<Vec<u8>>;
+        let outcome = match (self, req) {
             (SimFlash::Memory(kept), StoreRequest::Save(record)) => {
                 *kept = Some(record.to_vec());
-                outcome_reply(control, StoreOutcome::Saved)
+                StoreOutcome::Saved
             }
-            (SimFlash::Memory(kept), StoreRequest::Load) => {
-                let kept = kept.clone();
-                outcome_reply(control, StoreOutcome::Loaded(kept.as_deref()))
-            }
+            (SimFlash::Memory(kept), StoreRequest::Load) => StoreOutcome::Loaded(kept.as_deref()),
             (SimFlash::File(f), StoreRequest::Save(record)) => match f.write(record) {
-                Ok(()) => outcome_reply(control, StoreOutcome::Saved),
+                Ok(()) => StoreOutcome::Saved,
                 Err(e) => {
                     eprintln!("host-sim: save: {e}");
-                    outcome_reply(
-                        control,
-                        StoreOutcome::Failed("cannot write the settings file"),
-                    )
+                    StoreOutcome::Failed("cannot write the settings file")
                 }
             },
             (SimFlash::File(f), StoreRequest::Load) => match f.read() {
-                Ok(b) => outcome_reply(control, StoreOutcome::Loaded(b.as_deref())),
+                Ok(b) => {
+                    read = b;
+                    StoreOutcome::Loaded(read.as_deref())
+                }
                 Err(e) => {
                     eprintln!("host-sim: load: {e}");
-                    outcome_reply(
-                        control,
-                        StoreOutcome::Failed("cannot read the settings file"),
-                    )
+                    StoreOutcome::Failed("cannot read the settings file")
                 }
             },
-        }
+        };
+        control.finish_store(now, outcome)
     }
 }
