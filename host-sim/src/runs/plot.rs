@@ -157,6 +157,18 @@ pub struct PlotInfo {
     pub size_px: (u32, u32),
 }
 
+/// Style a legend as every plot draws it (at `pos`, on white, grey border, 13 px text).
+pub(crate) fn legend<'s, 'a, 'b, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    labels: &'s mut plotters::chart::SeriesLabelStyle<'a, 'b, DB, CT>,
+    pos: SeriesLabelPosition,
+) -> &'s mut plotters::chart::SeriesLabelStyle<'a, 'b, DB, CT> {
+    labels
+        .position(pos)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(180, 180, 180))
+        .label_font((FONT, 13))
+}
+
 /// Register the embedded fonts (once per process).
 pub(crate) fn fonts() {
     static ONCE: Once = Once::new();
@@ -324,14 +336,12 @@ fn line_panel(
             }
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(180, 180, 180))
-        .label_font((FONT, 13))
-        .draw()
-        .map_err(err)?;
+    legend(
+        &mut chart.configure_series_labels(),
+        SeriesLabelPosition::UpperRight,
+    )
+    .draw()
+    .map_err(err)?;
     Ok(())
 }
 
@@ -556,14 +566,12 @@ fn bending_panel(
             }
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(180, 180, 180))
-        .label_font((FONT, 13))
-        .draw()
-        .map_err(err)?;
+    legend(
+        &mut chart.configure_series_labels(),
+        SeriesLabelPosition::UpperLeft,
+    )
+    .draw()
+    .map_err(err)?;
     Ok(())
 }
 

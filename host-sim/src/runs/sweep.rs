@@ -20,7 +20,7 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 use rayon::prelude::*;
 
-use crate::runs::plot::{FONT, fonts};
+use crate::runs::plot::{FONT, fonts, legend};
 use crate::runs::run::{RunError, RunResult, run};
 use crate::runs::scenario::{self, Scenario, ScenarioError};
 
@@ -455,14 +455,12 @@ pub fn write_pngs(
                 }
             }
             if series.keys().any(|l| !l.is_empty()) {
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperLeft)
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(RGBColor(180, 180, 180))
-                    .label_font((FONT, 13))
-                    .draw()
-                    .map_err(|e| plot(&e))?;
+                legend(
+                    &mut chart.configure_series_labels(),
+                    SeriesLabelPosition::UpperLeft,
+                )
+                .draw()
+                .map_err(|e| plot(&e))?;
             }
             root.present().map_err(|e| plot(&e))?;
         }
