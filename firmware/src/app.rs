@@ -14,7 +14,7 @@ use crate::measurement::{Measurement, SensingHint};
 use crate::outputs::Outputs;
 use crate::supervisor::report::Reply;
 use crate::supervisor::store::{StoreOutcome, StoreRequest};
-use crate::supervisor::{Decision, Supervisor};
+use crate::supervisor::{Decision, Supervisor, Warning};
 use crate::units::Millis;
 
 /// The board's control period, ms: the control loop steps at least this often (besides every
@@ -41,7 +41,7 @@ pub struct Period {
     /// The reply to the line, if a line came (none while a `store` waits for its outcome).
     pub reply: Option<Reply>,
     /// Warnings to print as `# warning: …` lines (after the reply).
-    pub warnings: [Option<&'static str>; 2],
+    pub warnings: [Option<Warning>; 2],
     /// A telemetry line is due ([`Controller::write_telemetry`], after the warnings).
     pub telemetry: bool,
     /// The loop is alive: the caller may feed its watchdog.

@@ -6,10 +6,9 @@
 //! exactly one place. Values are `f32` in the unit the name ends with (`_k` Kelvin, `_s`
 //! seconds, `_pct` percent, gains per Kelvin of error on a duty fraction).
 
-use crate::control::{OnTimer, PidGains, SpringHeat};
+use crate::control::{OnTimer, PidGains};
+use crate::observer::ObserverParams;
 use crate::mtts::Weights;
-use crate::outputs::SpringMask;
-use crate::units::Seconds;
 
 /// The PID gains the block ships with: what `autotune` (relay around 340 K, Ziegler–Nichols'
 /// classic rule) measured on the simulated block at 298 K ambient — Ku = 0.231 /K, Tu = 3.5 s.
@@ -19,20 +18,12 @@ pub const DEFAULT_GAINS: PidGains = PidGains {
     kd_s_per_k: 0.061,
 };
 
-/// The springs' heat model's on-time to austenite, s: the heat a 2.3 mm spring at 15 A takes
-/// from room temperature through its transformation (≈1.8 kJ at ≈66 W) with little load. On
-/// the simulated block a spring pulling on the cold column (14 N, its transformation shifted
-/// up ≈8 K) is 95 % austenite after 32 s, when this model reads 1.12 (host-sim's
-/// `plant_calibration::spring_heat_model_tracks_the_plant`).
-pub const SPRING_HEAT_S: f32 = 27.0;
-/// The springs' heat model's cooling time constant, s (still air): after a stepping the
-/// estimate falls to [`SPRING_REST`] in 469 s, where the simulated block's spring is martensite
-/// again after 313 s alone and ≈430 s loaded by the bend: never early.
-pub const SPRING_COOL_S: f32 = 240.0;
-/// The heat estimate below which a spring counts as rested (martensite), fraction: a spring
-/// just below Mf holds ≈19 % of the heat of an austenite one (its sensible heat from room
-/// temperature over the sum of that at Af and the latent heat).
-pub const SPRING_REST: f32 = 0.15;
+/// The springs' temperature band's top, K: the thesis's A_f (351 K) plus the shift of a
+/// spring loaded by the bend (≈ 14 N: σ/C_A ≈ +8 K, Brinson's slope), plus 4 K, so a loaded
+/// spring finishes its transformation; 20 K below [`SPRING_MAX_K`].
+pub const SPRING_HOT_K: f32 = 363.0;
+/// The springs' over-temperature limit by the estimate, K (issue 19's default).
+pub const SPRING_MAX_K: f32 = 383.0;
 
 /// The controller's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,11 +34,6 @@ pub struct Settings {
     pub hot_k: f32,
     /// Forming ends once the hotter target is at or below this, K.
     pub form_end_k: f32,
-    /// Stepping (and recovery's pulse) starts once Tc has reached `hot_k` and has stayed
-    /// within `ready_band_k` below it for `ready_dwell_s`, K.
-    pub ready_band_k: f32,
-    /// See `ready_band_k`, s.
-    pub ready_dwell_s: f32,
     /// PID gains of the heater/fan loop.
     pub gains: PidGains,
     /// Gains of the cascade's outer loop (where Tc weighs the colder region): K of film
@@ -97,18 +83,13 @@ pub struct Settings {
     pub recover_pulse_s: f32,
     /// Recovery: time held at `hot_k` after the pulse before standby, s.
     pub recover_hold_s: f32,
-    /// Springs' heat model ([`crate::control::SpringHeat`]): full-current on-time that takes a
-    /// spring from room temperature to austenite, s.
-    pub spring_heat_s: f32,
-    /// Springs' heat model: still-air cooling time constant, s.
-    pub spring_cool_s: f32,
-    /// Springs' heat model: a new stepping waits (holding `hot_k`) until every spring's heat
-    /// estimate is at most this (martensite again), fraction of the heat to austenite.
+    /// A new stepping waits (holding `hot_k`, phase `rest`) until every spring's estimated
+    /// austenite fraction is at most this (martensite again), fraction — or, on a day too warm
+    /// for martensite, until the spring has cooled to within 3 K of the estimated ambient.
     pub spring_rest: f32,
-    /// Recovery balances the springs up to this heat estimate, fraction of the heat to
-    /// austenite: above 1, because a loaded spring's transformation temperatures rise with its
-    /// stress (a spring stretched by the bend needs more heat to pull back).
-    pub spring_recover_heat: f32,
+    /// Recovery's pulse waits until every spring's estimated austenite fraction is at least
+    /// this, fraction.
+    pub spring_recover: f32,
     /// Recovery drives the springs in windows of this on, s (at most `spring_on_max_s`).
     pub recover_on_s: f32,
     /// ... and this off, which ends each continuous on-time, s.
@@ -155,12 +136,46 @@ pub struct Settings {
     /// Idle timeout of the holding phases (stepping's hold and pause): after this the block
     /// returns to standby with a `log` event, s.
     pub hold_timeout_s: f32,
-    /// The springs' heat limit: no planned sequence may take a spring's heat estimate past
-    /// this, and a spring past it at run time is a fault (`spring-heat`), fraction of the heat
-    /// to austenite. It bounds the wire's temperature where on-time and duty do not: ten 6 s
-    /// phases with 2 s pulses pass both (75 % duty for 80 s averages below 60 % over the
-    /// window) and took the simulated spring to 453 K.
-    pub spring_heat_max: f32,
+    /// Readiness by softness: stepping and recovery start the springs once the estimated
+    /// wall's frozen fraction is at most this, fraction.
+    pub soft_frozen_max: f32,
+    /// A soak whose wall is not soft this long after the mode began says so (`# warning`
+    /// with the estimate), and ends at once if the model says the heater cannot soften it, s.
+    pub soft_warn_s: f32,
+    /// The springs' temperature band: a driven spring is on while its estimate is below this,
+    /// K.
+    pub spring_hot_k: f32,
+    /// ... and, once off, on again below `spring_hot_k` − this (the band), K.
+    pub spring_band_k: f32,
+    /// The springs' pre-warm drives each spring to this (just below A_s), at most `prewarm_s`,
+    /// K.
+    pub spring_prewarm_k: f32,
+    /// A spring whose estimate passes this is a fault (`spring-over-temperature`), K.
+    pub spring_max_k: f32,
+    /// Observer: heater power at full duty, W.
+    pub obs_heater_w: f32,
+    /// Observer: the SMP wall's heat capacity (both layers), J/K.
+    pub obs_wall_j_per_k: f32,
+    /// Observer: one spring's Joule power at full current (martensite), W.
+    pub obs_spring_w: f32,
+    /// Observer: one spring's heat capacity, J/K.
+    pub obs_spring_j_per_k: f32,
+    /// Observer: one spring's latent heat of transformation, J.
+    pub obs_spring_latent_j: f32,
+    /// Observer: one spring's loss to still air, W/K.
+    pub obs_spring_loss_w_per_k: f32,
+    /// Observer: the springs' austenite start, K (thesis 6.3.1).
+    pub sma_as_k: f32,
+    /// Observer: the springs' austenite finish, K.
+    pub sma_af_k: f32,
+    /// Observer: the springs' martensite start, K.
+    pub sma_ms_k: f32,
+    /// Observer: the springs' martensite finish, K.
+    pub sma_mf_k: f32,
+    /// Observer: centre of the wall's frozen fraction, K (PLA's transition).
+    pub smp_frozen_centre_k: f32,
+    /// Observer: width of the frozen fraction's logistic, K.
+    pub smp_frozen_width_k: f32,
 }
 
 impl Settings {
@@ -169,8 +184,6 @@ impl Settings {
         standby_k: 323.0,
         hot_k: 358.0,
         form_end_k: 323.0,
-        ready_band_k: 0.5,
-        ready_dwell_s: 2.0,
         gains: DEFAULT_GAINS,
         outer_gains: PidGains {
             kp_per_k: 8.0,
@@ -195,10 +208,8 @@ impl Settings {
         large_steps: 4,
         recover_pulse_s: 1.0,
         recover_hold_s: 15.0,
-        spring_heat_s: SPRING_HEAT_S,
-        spring_cool_s: SPRING_COOL_S,
-        spring_rest: SPRING_REST,
-        spring_recover_heat: 1.4,
+        spring_rest: 0.1,
+        spring_recover: 0.95,
         recover_on_s: 7.0,
         recover_off_s: 1.0,
         form_fan: 1.0,
@@ -220,8 +231,50 @@ impl Settings {
         no_response_s: 60.0,
         unresolved_s: 30.0,
         hold_timeout_s: 600.0,
-        spring_heat_max: 1.6,
+        soft_frozen_max: 0.05,
+        soft_warn_s: 120.0,
+        spring_hot_k: SPRING_HOT_K,
+        spring_band_k: 2.0,
+        spring_prewarm_k: 336.0,
+        spring_max_k: SPRING_MAX_K,
+        obs_heater_w: ObserverParams::DEFAULT.heater_full_power_w,
+        obs_wall_j_per_k: ObserverParams::DEFAULT.layer_capacity_j_per_k[0]
+            + ObserverParams::DEFAULT.layer_capacity_j_per_k[1],
+        obs_spring_w: ObserverParams::DEFAULT.springs.power_w,
+        obs_spring_j_per_k: ObserverParams::DEFAULT.springs.capacity_j_per_k,
+        obs_spring_latent_j: ObserverParams::DEFAULT.springs.latent_j,
+        obs_spring_loss_w_per_k: ObserverParams::DEFAULT.springs.ambient_w_per_k,
+        sma_as_k: ObserverParams::DEFAULT.springs.as_k,
+        sma_af_k: ObserverParams::DEFAULT.springs.af_k,
+        sma_ms_k: ObserverParams::DEFAULT.springs.ms_k,
+        sma_mf_k: ObserverParams::DEFAULT.springs.mf_k,
+        smp_frozen_centre_k: ObserverParams::DEFAULT.frozen_centre_k,
+        smp_frozen_width_k: ObserverParams::DEFAULT.frozen_width_k,
     };
+
+    /// The observer's parameters: its defaults ([`ObserverParams::DEFAULT`]) with the ones
+    /// this table holds (`obs_…`, `sma_…`, `smp_…`). The wall's capacity keeps the default
+    /// split between its layers.
+    pub fn observer_params(&self) -> ObserverParams {
+        let mut p = ObserverParams::DEFAULT;
+        p.heater_full_power_w = self.obs_heater_w;
+        let default_wall: f32 = p.layer_capacity_j_per_k.iter().sum();
+        let scale = self.obs_wall_j_per_k / default_wall;
+        for c in p.layer_capacity_j_per_k.iter_mut() {
+            *c *= scale;
+        }
+        p.springs.power_w = self.obs_spring_w;
+        p.springs.capacity_j_per_k = self.obs_spring_j_per_k;
+        p.springs.latent_j = self.obs_spring_latent_j;
+        p.springs.ambient_w_per_k = self.obs_spring_loss_w_per_k;
+        p.springs.as_k = self.sma_as_k;
+        p.springs.af_k = self.sma_af_k;
+        p.springs.ms_k = self.sma_ms_k;
+        p.springs.mf_k = self.sma_mf_k;
+        p.frozen_centre_k = self.smp_frozen_centre_k;
+        p.frozen_width_k = self.smp_frozen_width_k;
+        p
+    }
 
     /// Return Tc weights with `w1` for T1.
     pub fn weights(w1: f32) -> Weights {
@@ -262,11 +315,18 @@ impl Settings {
         if self.recover_pulse_s > self.recover_on_s {
             return Err(ConflictError::RecoverPulseOutsideWindow);
         }
-        if self.spring_recover_heat + 0.1 > self.spring_heat_max {
-            return Err(ConflictError::RecoverHeatNearMax);
+        if self.spring_hot_k + 10.0 > self.spring_max_k {
+            return Err(ConflictError::SpringBandNearMax);
         }
-        if self.spring_plan_heat() > self.spring_heat_max {
-            return Err(ConflictError::SteppingOverheatsSpring);
+        if self.spring_prewarm_k > self.spring_hot_k - self.spring_band_k {
+            return Err(ConflictError::PrewarmAboveBand);
+        }
+        if !(self.sma_mf_k < self.sma_ms_k
+            && self.sma_ms_k < self.sma_as_k
+            && self.sma_as_k < self.sma_af_k
+            && self.sma_af_k < self.spring_hot_k - self.spring_band_k)
+        {
+            return Err(ConflictError::TransformationOrder);
         }
         if self.spring_plan_peak_s() > self.spring_on_max_s {
             return Err(ConflictError::SteppingOnTimePastMax);
@@ -291,27 +351,6 @@ impl Settings {
             ]
         });
         prewarm.chain(stepping)
-    }
-
-    /// The highest heat estimate ([`SpringHeat`]) a spring reaches over a planned stepping
-    /// from rest, fraction of the heat to austenite. (Recovery tops the springs up to
-    /// `spring_recover_heat`.)
-    pub fn spring_plan_heat(&self) -> f32 {
-        let mut h = SpringHeat::COLD;
-        let mut peak = 0.0f32;
-        for (on, s) in self.stepping_plan() {
-            let mask = if on {
-                SpringMask::ALL
-            } else {
-                SpringMask::NONE
-            };
-            // A NaN span would leave the estimate as it was, as `update` does with any bad one.
-            if let Some(dt) = Seconds::new(s) {
-                h.update(mask, dt, self.spring_heat_s, self.spring_cool_s);
-            }
-            peak = peak.max(h.heat(0));
-        }
-        peak
     }
 
     /// The longest continuous on-time any planned sequence of spring phases reaches, as the
@@ -438,16 +477,6 @@ pub const PARAMS: &[Param] = &[
         "forming ends at or below this",
         |s| s.form_end_k
     ),
-    param!(
-        "ready_band_k",
-        "K",
-        0.0,
-        5.0,
-        "ready once Tc reaches hot_k and stays within this",
-        |s| s.ready_band_k
-    ),
-    param!("ready_dwell_s", "s", 0.0, 30.0, "...held this long", |s| s
-        .ready_dwell_s),
     param!(
         "kp",
         "1/K",
@@ -599,35 +628,19 @@ pub const PARAMS: &[Param] = &[
         "recovery hold after the pulse",
         |s| s.recover_hold_s
     ),
-    param!(
-        "spring_heat_s",
-        "s",
-        5.0,
-        120.0,
-        "spring model: on-time from cold to austenite",
-        |s| s.spring_heat_s
-    ),
-    param!(
-        "spring_cool_s",
-        "s",
-        20.0,
-        2000.0,
-        "spring model: cooling time constant",
-        |s| s.spring_cool_s
-    ),
     pct!(
         "spring_rest_pct",
         1.0,
-        90.0,
-        "spring model: rested below, before stepping",
+        50.0,
+        "stepping rests springs to this austenite",
         |s| s.spring_rest
     ),
     pct!(
         "spring_recover_pct",
         50.0,
-        250.0,
-        "recovery heats the springs to this",
-        |s| s.spring_recover_heat
+        100.0,
+        "recovery pulses once springs are this austenite",
+        |s| s.spring_recover
     ),
     param!(
         "recover_on_s",
@@ -788,11 +801,123 @@ pub const PARAMS: &[Param] = &[
         |s| s.hold_timeout_s
     ),
     pct!(
-        "spring_heat_max_pct",
+        "soft_frozen_max_pct",
+        0.5,
+        50.0,
+        "springs start once the wall is this frozen at most",
+        |s| s.soft_frozen_max
+    ),
+    param!(
+        "soft_warn_s",
+        "s",
+        10.0,
+        900.0,
+        "warn if the wall is not soft after",
+        |s| s.soft_warn_s
+    ),
+    param!(
+        "spring_hot_k",
+        "K",
+        345.0,
+        393.0,
+        "springs driven up to this estimate",
+        |s| s.spring_hot_k
+    ),
+    param!(
+        "spring_band_k",
+        "K",
+        0.5,
+        10.0,
+        "...and on again this far below it",
+        |s| s.spring_band_k
+    ),
+    param!(
+        "spring_prewarm_k",
+        "K",
+        300.0,
+        360.0,
+        "springs' pre-warm target",
+        |s| s.spring_prewarm_k
+    ),
+    param!(
+        "spring_max_k",
+        "K",
+        360.0,
+        403.0,
+        "spring over-temperature limit (estimate)",
+        |s| s.spring_max_k
+    ),
+    param!(
+        "obs_heater_w",
+        "W",
+        5.0,
         100.0,
+        "observer: heater power at full duty",
+        |s| s.obs_heater_w
+    ),
+    param!(
+        "obs_wall_j_per_k",
+        "J/K",
+        5.0,
         200.0,
-        "spring heat limit (planned and at run time)",
-        |s| s.spring_heat_max
+        "observer: wall heat capacity",
+        |s| s.obs_wall_j_per_k
+    ),
+    param!(
+        "obs_spring_w",
+        "W",
+        5.0,
+        150.0,
+        "observer: spring power at full current",
+        |s| s.obs_spring_w
+    ),
+    param!(
+        "obs_spring_j_per_k",
+        "J/K",
+        2.0,
+        100.0,
+        "observer: spring heat capacity",
+        |s| s.obs_spring_j_per_k
+    ),
+    param!(
+        "obs_spring_latent_j",
+        "J",
+        0.0,
+        5000.0,
+        "observer: spring latent heat",
+        |s| s.obs_spring_latent_j
+    ),
+    param!(
+        "obs_spring_loss_w_per_k",
+        "W/K",
+        0.01,
+        2.0,
+        "observer: spring loss to still air",
+        |s| s.obs_spring_loss_w_per_k
+    ),
+    param!("sma_as_k", "K", 300.0, 380.0, "springs' austenite start", |s| s
+        .sma_as_k),
+    param!("sma_af_k", "K", 300.0, 380.0, "springs' austenite finish", |s| s
+        .sma_af_k),
+    param!("sma_ms_k", "K", 280.0, 370.0, "springs' martensite start", |s| s
+        .sma_ms_k),
+    param!("sma_mf_k", "K", 280.0, 370.0, "springs' martensite finish", |s| s
+        .sma_mf_k),
+    param!(
+        "smp_frozen_centre_k",
+        "K",
+        300.0,
+        370.0,
+        "wall's frozen fraction: centre",
+        |s| s.smp_frozen_centre_k
+    ),
+    param!(
+        "smp_frozen_width_k",
+        "K",
+        0.5,
+        10.0,
+        "wall's frozen fraction: width",
+        |s| s.smp_frozen_width_k
     ),
 ];
 
@@ -821,10 +946,12 @@ pub enum ConflictError {
     TuneRelayTooStrong,
     /// `recover_pulse_s` longer than `recover_on_s`.
     RecoverPulseOutsideWindow,
-    /// `spring_recover_pct` less than 10 % below `spring_heat_max_pct`.
-    RecoverHeatNearMax,
-    /// The stepping's phases would heat a spring past `spring_heat_max_pct`.
-    SteppingOverheatsSpring,
+    /// `spring_hot_k` less than 10 K below `spring_max_k`.
+    SpringBandNearMax,
+    /// `spring_prewarm_k` above the band's bottom (`spring_hot_k` − `spring_band_k`).
+    PrewarmAboveBand,
+    /// The transformation temperatures out of order: Mf < Ms < As < Af < the band's bottom.
+    TransformationOrder,
     /// The springs' phases add up past `spring_on_max_s`.
     SteppingOnTimePastMax,
 }
@@ -848,11 +975,12 @@ impl ConflictError {
             Self::RecoverPulseOutsideWindow => {
                 "recover_pulse_s must not exceed recover_on_s (the pulse runs inside a window)"
             }
-            Self::RecoverHeatNearMax => {
-                "spring_recover_pct must be at least 10 % below spring_heat_max_pct"
+            Self::SpringBandNearMax => "spring_hot_k must be at least 10 K below spring_max_k",
+            Self::PrewarmAboveBand => {
+                "spring_prewarm_k must not exceed spring_hot_k - spring_band_k"
             }
-            Self::SteppingOverheatsSpring => {
-                "the stepping's phases would heat a spring past spring_heat_max_pct (fewer or shorter phases, longer pulses)"
+            Self::TransformationOrder => {
+                "need sma_mf_k < sma_ms_k < sma_as_k < sma_af_k < spring_hot_k - spring_band_k"
             }
             Self::SteppingOnTimePastMax => {
                 "the springs' phases add up past spring_on_max_s: a gap shorter than 1 s (or 1/8 of the on-time before it) does not end an on-time"

@@ -72,7 +72,10 @@ const HOT_PARAMS: &[&str] = &[
     "t_max_k",
     "t_heater_max_k",
     "hot_k",
-    "ready_dwell_s",
+    "spring_hot_k",
+    "spring_max_k",
+    "obs_spring_w",
+    "soft_frozen_max_pct",
     "spring_rest_pct",
     "hold_timeout_s",
     "no_response_s",
@@ -286,6 +289,20 @@ fn check(
             return Err(format!(
                 "heater {} above the cap's {allowed} (film {film}): {}",
                 o.heater.fraction(),
+                ctx()
+            ));
+        }
+    }
+    // The springs' temperature band: a spring is decided on only while its estimate is
+    // below the band's top (of the settings before or after this step's `set`), so never
+    // past `spring_max_k`.
+    let e = sup.estimate();
+    for i in 0..SPRINGS {
+        let top = s.spring_hot_k.max(s_before.spring_hot_k);
+        if o.springs.contains(i) && !(e.springs_k[i] < top) {
+            return Err(format!(
+                "spring {i} on at an estimated {} K (band top {top} K): {}",
+                e.springs_k[i],
                 ctx()
             ));
         }

@@ -8,6 +8,7 @@
 use host_sim::plant::{Inputs, ModelOptions, Plant, PlantConfig};
 use host_sim::sensor::virtual_mlx::Rng;
 use thermorph::observer::{Observer, ObserverParams};
+use thermorph::outputs::SpringMask;
 use thermorph::units::{Kelvin, Seconds};
 
 const DT_S: f64 = 0.25;
@@ -49,7 +50,7 @@ fn run(ambient_k: f64, pmma_plates: bool) -> (f64, f64) {
             ..Inputs::default()
         };
         plant.step(&inputs, DT_S);
-        obs.predict(heater_duty as f32, fan_duty as f32, dt);
+        obs.predict(heater_duty as f32, fan_duty as f32, SpringMask::NONE, dt);
         let o = plant.observe();
         let mut measure = |k: f64| Kelvin::new(k as f32 + (noise.gauss() * NOISE_K as f64) as f32);
         let (t1, t2, t5) = (

@@ -11,8 +11,6 @@
 //! - [`SplitRange`]: one loop output in [−1, 1] to heater and fan duty, never both on.
 //! - [`RelayAutotune`]: the Åström–Hägglund relay test, giving `Ku`, `Tu` and gains by a
 //!   [`TuneRule`].
-//! - [`SpringHeat`]: the springs' heat estimate from their switching history (recovery's
-//!   balancing, stepping's rest).
 //! - [`OnTimer`]: a spring's continuous on-time as the safety limit counts it (short gaps
 //!   pause it, only a long enough rest clears it).
 //!
@@ -39,7 +37,6 @@ mod autotune;
 mod on_time;
 mod pid;
 mod split;
-mod spring_heat;
 
 pub use autotune::{
     AbortReason, AutotuneConfig, AutotuneResult, AutotuneStep, RelayAutotune, TuneRule,
@@ -47,7 +44,6 @@ pub use autotune::{
 pub use on_time::{OFF_MIN_S, OFF_RATIO, OnTimer};
 pub use pid::{Pid, PidConfig, PidError, PidGains, PidTerms};
 pub use split::{HeatCool, SplitRange};
-pub use spring_heat::SpringHeat;
 
 #[cfg(test)]
 mod tests;

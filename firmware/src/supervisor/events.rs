@@ -1,6 +1,8 @@
 //! The supervisor's event ring: mode changes, faults, resets and autotune results, newest last,
 //! the oldest dropped when full. The console's `log` prints it.
 
+use core::fmt;
+
 use heapless::Deque;
 
 use super::safety::Fault;
@@ -39,7 +41,7 @@ pub enum EventKind {
     /// A stepping's soak was done but a spring was still warm: it waits for the springs to rest.
     SpringsResting,
     /// A warning also printed on the console (`# warning: …`).
-    Warning(&'static str),
+    Warning(Warning),
     /// A phase that waits for a temperature gave up (`soak`, `reheat`, `form` or `recover`,
     /// recovery's cooling) and the mode
     /// ended in standby; Tc when it did, K.
@@ -49,6 +51,74 @@ pub enum EventKind {
         /// Tc then, K.
         tc_k: f32,
     },
+}
+
+/// A warning the console prints as `# warning: …` (its [`fmt::Display`]) and the `log` keeps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Warning {
+    /// Frames unresolved for `unresolved_s` while heating: the loop holds the film region.
+    Unresolved,
+    /// Frames resolved again after a fallback.
+    Resolved,
+    /// The wall is not soft `soft_warn_s` into a soak, but the model says the heater can
+    /// soften it: the soak goes on (up to `soak_timeout_s`).
+    SoakSlow {
+        /// The estimated frozen fraction now.
+        frozen: f32,
+        /// The inner layer's estimate now, K.
+        inner_k: f32,
+        /// The frozen fraction the heater can reach at best.
+        best: f32,
+        /// The estimated ambient, K.
+        ambient_k: f32,
+    },
+    /// The wall cannot soften: even with the film held at its ceiling the model's steady
+    /// state stays above `soft_frozen_max`. The soak ends.
+    CannotSoften {
+        /// The estimated frozen fraction now.
+        frozen: f32,
+        /// The frozen fraction the heater can reach at best.
+        best: f32,
+        /// The film's best steady temperature, K.
+        film_k: f32,
+        /// The estimated ambient, K.
+        ambient_k: f32,
+    },
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Warning::Unresolved => f.write_str(
+                "frames unresolved for unresolved_s while heating: the loop holds the film region",
+            ),
+            Warning::Resolved => f.write_str("frames resolved again: the loop holds the mode's region"),
+            Warning::SoakSlow {
+                frozen,
+                inner_k,
+                best,
+                ambient_k,
+            } => write!(
+                f,
+                "wall still {:.0} % frozen (inner layer {inner_k:.1} K, ambient {ambient_k:.1} K); \
+                 the heater can bring it to {:.1} %: soaking on",
+                frozen * 100.0,
+                best * 100.0
+            ),
+            Warning::CannotSoften {
+                frozen,
+                best,
+                film_k,
+                ambient_k,
+            } => write!(
+                f,
+                "wall cannot soften: {:.0} % frozen, {:.0} % at best with the film at {film_k:.1} K \
+                 (ambient {ambient_k:.1} K): soak ended",
+                frozen * 100.0,
+                best * 100.0
+            ),
+        }
+    }
 }
 
 /// One event with its time.

@@ -99,18 +99,20 @@ pub mod stepping;
 pub mod store;
 
 use crate::command::Command;
-use crate::control::{Pid, PidConfig, SplitRange, SpringHeat};
+use crate::control::{Pid, PidConfig, SplitRange};
 use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
 use crate::outputs::{Duty, Outputs, SpringMask};
 use crate::settings::{PARAMS, SetError, Settings};
 use crate::units::{Kelvin, Millis, Seconds};
+use crate::observer::{Estimate, Observer, SpringState};
 use events::{EventKind, EventLog};
 use report::Reply;
 use safety::{Fault, FaultKind, LoopState, Safety};
 
 pub use autotune::Tuning;
+pub use events::Warning;
 pub use forming::Forming;
-pub use memory::SpringMemory;
+pub use memory::{SpringMemory, SpringRecord};
 pub use mode::{Mode, ModeId, PauseError};
 pub use recovery::{RecoverPhase, Recovering};
 pub use stepping::{StepKind, StepPhase, Stepping};
@@ -127,10 +129,9 @@ pub const VALID_K: (f32, f32) = (200.0, 500.0);
 pub const CEILING_MARGIN_K: f32 = 1.0;
 
 /// The warning when the loop falls back to the film region.
-pub const WARN_UNRESOLVED: &str =
-    "frames unresolved for unresolved_s while heating: the loop holds the film region";
+pub const WARN_UNRESOLVED: Warning = Warning::Unresolved;
 /// The warning when frames resolve again after a fallback.
-pub const WARN_RESOLVED: &str = "frames resolved again: the loop holds the mode's region";
+pub const WARN_RESOLVED: Warning = Warning::Resolved;
 
 /// Telemetry: on, and when the next line is due.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -139,8 +140,9 @@ struct Stream {
     next_at: Millis,
 }
 
-/// Fastest telemetry rate, Hz.
-pub const STREAM_MAX_HZ: f32 = 20.0;
+/// Fastest telemetry rate, Hz: a line with the observer's fields is ≈ 560 bytes, so 10 Hz
+/// takes half of the console's 115 200 baud.
+pub const STREAM_MAX_HZ: f32 = 10.0;
 /// Telemetry rate when `stream on` names none, Hz.
 pub const STREAM_DEFAULT_HZ: f32 = 4.0;
 
@@ -165,7 +167,7 @@ pub struct Decision {
     /// [`Supervisor::finish_store`] for the command's reply ([`store`]).
     pub store: Option<store::StoreRequest>,
     /// A warning to print on the console as `# warning: …` (it is also in the `log`).
-    pub warning: Option<&'static str>,
+    pub warning: Option<Warning>,
 }
 
 /// The supervisor.
@@ -187,7 +189,9 @@ pub struct Supervisor {
     last_step: Millis,
     started: Millis,
     springs: SpringMask,
-    spring_heat: SpringHeat,
+    /// The estimate of what the camera cannot see: the wall through its thickness, the
+    /// springs, the ambient.
+    observer: Observer,
     stream: Option<Stream>,
     button_pressed: bool,
     store: Option<store::StoreRequest>,
@@ -201,7 +205,21 @@ pub struct Supervisor {
     /// `stop` was asked with a fault latched: the fan is off too, until `reset`.
     quiet: bool,
     /// A warning for this step's decision.
-    warning: Option<&'static str>,
+    warning: Option<Warning>,
+}
+
+/// The observer for `settings`, with the springs of `memory` (or at the first measured
+/// ambient, rested, where the memory says so).
+fn observer_with(settings: &Settings, memory: &SpringMemory) -> Observer {
+    let params = settings.observer_params();
+    let mut o = Observer::new(&params, f32::NAN);
+    match memory.springs {
+        Some(records) => o.set_springs(&records.map(|r| {
+            SpringState::from_parts(r.temp_k, r.austenite, crate::settings::SPRING_HOT_K)
+        })),
+        None => o.rest_springs_at_ambient(),
+    }
+    o
 }
 
 fn pid_config(s: &Settings) -> PidConfig {
@@ -260,7 +278,7 @@ impl Supervisor {
             last_step: now,
             started: now,
             springs: SpringMask::from_bits(1),
-            spring_heat: springs.heat,
+            observer: observer_with(&settings, &springs),
             stream: None,
             button_pressed: false,
             store: None,
@@ -277,7 +295,7 @@ impl Supervisor {
     pub fn spring_memory(&self) -> SpringMemory {
         let (duty, on_time) = self.safety.springs();
         SpringMemory {
-            heat: self.spring_heat,
+            springs: Some(self.observer.springs().map(|s| SpringRecord::of(&s))),
             duty,
             on_time,
         }
@@ -356,9 +374,15 @@ impl Supervisor {
         self.outputs
     }
 
-    /// Return the springs' heat estimate ([`SpringHeat`]), up to this step's start.
-    pub fn spring_heat(&self) -> &SpringHeat {
-        &self.spring_heat
+    /// Return the observer's estimate (the wall, the springs, the ambient), up to this
+    /// step's start and its measurement.
+    pub fn estimate(&self) -> Estimate {
+        self.observer.estimate()
+    }
+
+    /// Return the observer.
+    pub fn observer(&self) -> &Observer {
+        &self.observer
     }
 
     /// Return the sensing hint of the mode.
@@ -378,19 +402,21 @@ impl Supervisor {
         let elapsed_ms = now.0.saturating_sub(self.last_step.0).min(u32::MAX as u64) as u32;
         self.last_step = now;
         self.warning = None;
-        // The interval since the last step ran with the last decision's outputs: credit it to
-        // the springs that were on during it (heat estimate, on-time, duty).
+        // The interval since the last step ran with the last decision's outputs: the
+        // observer predicts over it, and the springs that were on are credited (on-time, duty).
         let ran = self.outputs;
-        self.spring_heat.update(
+        self.observer.predict(
+            ran.heater.fraction(),
+            ran.fan.fraction(),
             ran.springs,
             Seconds::from_ms(elapsed_ms),
-            self.settings.spring_heat_s,
-            self.settings.spring_cool_s,
         );
         if let Some(f) = self
             .safety
             .credit_springs(ran.springs, elapsed_ms, &self.settings)
-            .or_else(|| Safety::spring_heat_fault(ran.springs, &self.spring_heat, &self.settings))
+            .or_else(|| {
+                Safety::spring_temperature_fault(&self.observer.estimate(), &self.settings)
+            })
         {
             self.latch(now, f);
         }
@@ -415,6 +441,7 @@ impl Supervisor {
             // the frame with).
             self.tc_k =
                 controlled_temperature(&m, &self.sensing_hint()).map_or(f32::NAN, Kelvin::k);
+            self.correct_observer(&m);
             self.last = Some(m);
         }
 
@@ -457,13 +484,7 @@ impl Supervisor {
         let mut outputs = self.run_mode(now, elapsed_ms, fresh.as_ref(), dt);
 
         // 5. Spring limits on what would be applied: a spring past its limit is never on.
-        if let Some(f) = self
-            .safety
-            .spring_fault(outputs.springs, &self.settings)
-            .or_else(|| {
-                Safety::spring_heat_fault(outputs.springs, &self.spring_heat, &self.settings)
-            })
-        {
+        if let Some(f) = self.safety.spring_fault(outputs.springs, &self.settings) {
             self.latch(now, f);
         }
         if self.fault.is_some() {
@@ -609,6 +630,7 @@ impl Supervisor {
             return;
         }
         self.settings = s;
+        self.observer.set_params(&s.observer_params());
         self.split = SplitRange::new(s.fan_deadband);
         let u = self.pid.output();
         self.pid = Pid::new(pid_config(&s), self.target_k);
@@ -626,6 +648,7 @@ impl Supervisor {
     ) -> Outputs {
         let s = self.settings;
         let hotter = self.last.map(|m| m.hotter().map_or(f32::NAN, Kelvin::k));
+        let estimate = self.observer.estimate();
         let mut c = Ctx {
             now,
             elapsed_ms,
@@ -635,9 +658,12 @@ impl Supervisor {
             mode_since: self.mode_since,
             fresh,
             last_heater: self.outputs.heater,
-            spring_heat: &self.spring_heat,
+            last_springs: self.outputs.springs,
+            estimate: &estimate,
+            observer: &self.observer,
             safety: &self.safety,
             events: &mut self.events,
+            warning: &mut self.warning,
         };
         let Some(step) = self.mode.advance(&mut c) else {
             return self.safe_outputs();
@@ -734,7 +760,7 @@ impl Supervisor {
             Command::Stream(true, hz) => {
                 let hz = hz.unwrap_or(STREAM_DEFAULT_HZ);
                 if !(hz > 0.0 && hz <= STREAM_MAX_HZ) {
-                    return Reply::err("out-of-range", "stream rate must be in (0, 20] Hz");
+                    return Reply::err("out-of-range", "stream rate must be in (0, 10] Hz");
                 }
                 self.stream = Some(Stream {
                     period_ms: mode::ms(1.0 / hz).max(1),
@@ -811,10 +837,13 @@ impl Supervisor {
                         Safety::over_temperature(&cooler, s).is_none()
                     })
             }
-            FaultKind::SpringOnTime(_) | FaultKind::SpringDuty(_) | FaultKind::SpringHeat(_) => {
+            FaultKind::SpringOnTime(_)
+            | FaultKind::SpringDuty(_)
+            | FaultKind::SpringOverTemperature(_) => {
+                let est = self.observer.estimate();
                 (0..crate::outputs::SPRINGS).all(|i| {
                     self.safety.spring_duty(i) < 0.5 * s.spring_duty_max
-                        && self.spring_heat.heat(i) < 1.0
+                        && est.springs_k[i] < s.spring_hot_k - s.spring_band_k
                 })
             }
             FaultKind::RunawayHeating | FaultKind::RunawayHolding | FaultKind::NoResponse => fresh,
@@ -829,6 +858,21 @@ impl Supervisor {
         self.outputs = Outputs::OFF;
         self.enter(now, Mode::Stopped);
         Reply::ok("fault cleared, stopped: every output off until a `mode` command")
+    }
+
+    /// Fuse a new valid measurement into the observer: T1 the film, T2 the outer surface, T5
+    /// the background (≈ the ambient). A frame that did not separate T1 and T2 (merged or
+    /// fallback) gives both the same mean: its bound is added to their noise.
+    fn correct_observer(&mut self, m: &Measurement) {
+        let region = |i: usize| m.regions.get(i).copied().flatten();
+        let extra = if m.quality == Quality::Resolved {
+            0.0
+        } else {
+            let b = m.bound.k();
+            if b.is_finite() { b * b } else { 100.0 }
+        };
+        self.observer
+            .correct_with(m.t1(), m.t2(), region(4), extra);
     }
 
     /// Write the telemetry line (with its `#` and CR LF).

@@ -8,15 +8,15 @@
 //! one [`ModeId`] row and one [`Mode`] variant, and the compiler lists what else it needs.
 
 use super::autotune::Tuning;
-use super::events::{EventKind, EventLog};
+use super::events::{EventKind, EventLog, Warning};
 use super::forming::Forming;
 use super::recovery::{RecoverPhase, Recovering};
 use super::safety::Safety;
 use super::stepping::{StepKind, StepPhase, Stepping};
-use crate::control::SpringHeat;
 use crate::measurement::{Measurement, SensingHint};
+use crate::observer::{Estimate, Observer};
 use crate::mtts::Prior;
-use crate::outputs::{Duty, SpringMask};
+use crate::outputs::{Duty, SPRINGS, SpringMask};
 use crate::settings::Settings;
 use crate::units::Millis;
 
@@ -316,12 +316,18 @@ pub(super) struct Ctx<'a> {
     pub fresh: Option<&'a Measurement>,
     /// The heater duty of the last decision.
     pub last_heater: Duty,
-    /// The springs' heat estimate.
-    pub spring_heat: &'a SpringHeat,
+    /// The springs switched on by the last decision (the temperature band's memory).
+    pub last_springs: SpringMask,
+    /// The observer's estimate at this step (the wall's softness, the springs).
+    pub estimate: &'a Estimate,
+    /// The observer (for what the heater can make of the wall, [`Observer::softest`]).
+    pub observer: &'a Observer,
     /// The fault checks (spring on-time and duty).
     pub safety: &'a Safety,
     /// The event log.
     pub events: &'a mut EventLog,
+    /// This step's warning, if any.
+    pub warning: &'a mut Option<Warning>,
 }
 
 /// What the mode wants of the heater and the fan.
@@ -384,26 +390,6 @@ impl Ctx<'_> {
         self.now.seconds_since(self.mode_since).s() > self.s.soak_timeout_s
     }
 
-    /// Ready: Tc has reached `hot_k` (with the stepping weights, the colder region: the whole
-    /// cross-section) and has not fallen more than `ready_band_k` below it since, for
-    /// `ready_dwell_s`; a wait past `soak_timeout_s` gives up. Returns the new `ready_since`.
-    pub fn ready(&self, since: Option<Millis>) -> (Option<Millis>, Soak) {
-        let (s, tc, now) = (&self.s, self.tc_k, self.now);
-        let (since, go) = match since {
-            Some(t0) if tc >= s.hot_k - s.ready_band_k => {
-                (Some(t0), now.seconds_since(t0).s() >= s.ready_dwell_s)
-            }
-            None if tc >= s.hot_k => (Some(now), s.ready_dwell_s <= 0.0),
-            _ => (None, false),
-        };
-        let outcome = match (go, self.soak_timed_out()) {
-            (true, _) => Soak::Go,
-            (false, true) => Soak::GiveUp,
-            (false, false) => Soak::Wait,
-        };
-        (since, outcome)
-    }
-
     /// Forming's end, and recovery's cooling's: the hotter target at `form_end_k` is done
     /// (Go), past `form_timeout_s` from `since` it gives up.
     pub fn cooled(&self, since: Millis) -> Soak {
@@ -419,6 +405,85 @@ impl Ctx<'_> {
     /// Log `kind` now.
     pub fn event(&mut self, kind: EventKind) {
         self.events.push(self.now, kind);
+    }
+
+    /// Say `w` on the console (`# warning: …`) and log it.
+    pub fn warn(&mut self, w: Warning) {
+        self.events.push(self.now, EventKind::Warning(w));
+        *self.warning = Some(w);
+    }
+
+    /// The estimated wall is soft: its frozen fraction at most `soft_frozen_max`.
+    pub fn soft(&self) -> bool {
+        self.estimate.frozen <= self.s.soft_frozen_max
+    }
+
+    /// Readiness by softness: Go once the wall is soft. `soft_warn_s` into the mode with the
+    /// wall not soft yet, the model's best steady state (the film at the cascade's ceiling,
+    /// `heater_cap_k − heater_cap_band_k`) decides: above `soft_frozen_max` the soak ends now
+    /// with a warning ([`Warning::CannotSoften`]); otherwise a warning says how far it is
+    /// ([`Warning::SoakSlow`], once: `warned`) and the soak goes on to `soak_timeout_s`.
+    pub fn softened(&mut self, warned: &mut bool) -> Soak {
+        if self.soft() {
+            return Soak::Go;
+        }
+        let s = self.s;
+        if !*warned && self.now.seconds_since(self.mode_since).s() >= s.soft_warn_s {
+            *warned = true;
+            let best = self.observer.softest(s.heater_cap_k - s.heater_cap_band_k);
+            let e = *self.estimate;
+            if best.frozen > s.soft_frozen_max {
+                self.warn(Warning::CannotSoften {
+                    frozen: e.frozen,
+                    best: best.frozen,
+                    film_k: best.film_k,
+                    ambient_k: e.ambient_k,
+                });
+                return Soak::GiveUp;
+            }
+            self.warn(Warning::SoakSlow {
+                frozen: e.frozen,
+                inner_k: e.layers_k[0],
+                best: best.frozen,
+                ambient_k: e.ambient_k,
+            });
+        }
+        if self.soak_timed_out() {
+            Soak::GiveUp
+        } else {
+            Soak::Wait
+        }
+    }
+
+    /// Of `springs`, the ones the temperature band drives now: a spring is on while its
+    /// estimate is below `top_k`; once off it comes on again below `top_k − spring_band_k`.
+    pub fn band(&self, springs: SpringMask, top_k: f32) -> SpringMask {
+        let bits = (0..SPRINGS)
+            .filter(|&i| springs.contains(i))
+            .filter(|&i| {
+                let t = self.estimate.springs_k[i];
+                let limit = if self.last_springs.contains(i) {
+                    top_k
+                } else {
+                    top_k - self.s.spring_band_k
+                };
+                t < limit
+            })
+            .fold(0u8, |b, i| b | 1 << i);
+        SpringMask::from_bits(bits)
+    }
+
+    /// Spring `i` has rested: its estimated austenite fraction is at most `spring_rest`, or
+    /// it has cooled to within 3 K of the estimated ambient (on a day too warm for martensite
+    /// it can do no more).
+    pub fn rested(&self, i: usize) -> bool {
+        let e = self.estimate;
+        e.austenite[i] <= self.s.spring_rest || e.springs_k[i] <= e.ambient_k + 3.0
+    }
+
+    /// Every spring has rested ([`Ctx::rested`]).
+    pub fn all_rested(&self) -> bool {
+        (0..SPRINGS).all(|i| self.rested(i))
     }
 }
 

@@ -1,27 +1,24 @@
-//! Mode 4, recovery: reheat to `hot_k` while the springs are balanced to austenite together,
-//! pulse them all, hold, then cool as forming does with the springs still balanced, so the
-//! column locks straight.
+//! Mode 4, recovery: reheat to `hot_k` while every spring is driven to its temperature band
+//! (so all three reach austenite together), pulse them all once the wall is soft, hold, then
+//! cool as forming does with the springs still held in their band, so the column locks
+//! straight.
 
 use super::events::EventKind;
 use super::mode::{Ctx, Drive, ModeStep, Next, Soak, ms};
 use super::safety::Safety;
-use crate::control::SpringHeat;
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::settings::Settings;
 use crate::units::Millis;
 
-/// Recovery's balancing drives the springs whose heat estimate is within this of the
-/// coldest's ([`SpringHeat::balance`]): one 0.25 s frame at full current adds ≈0.01.
-pub(super) const BALANCE_BAND: f32 = 0.05;
-
 /// Where recovery is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RecoverPhase {
-    /// Heating to `hot_k` (as stepping's soak) while the springs are balanced. Ends once Tc is
-    /// ready and every spring's heat estimate has reached `spring_recover_heat`.
+    /// Heating to `hot_k` (as stepping's soak) while the springs are driven to their band.
+    /// Ends once the estimated wall is soft and every spring's estimated austenite fraction
+    /// has reached `spring_recover`.
     Heat {
-        /// The first time Tc was within the ready band, if it still is.
-        ready_since: Option<Millis>,
+        /// The `soft_warn_s` warning has been given.
+        warned: bool,
     },
     /// All springs on to clear stress-induced martensite (the thesis's pulse); time left, ms.
     Pulse {
@@ -44,12 +41,13 @@ pub enum RecoverPhase {
 
 /// Recovery's state: its phase and the springs' drive windows.
 ///
-/// Throughout recovery the springs are balanced ([`SpringHeat::balance`]) in windows of
-/// `recover_on_s` on and `recover_off_s` off (within the on-time limit): the coldest springs by
-/// their heat estimate are driven first, until all three have reached `spring_recover_heat`,
-/// and topped up after. Three austenite springs pull the soft column straight together; a spring that stayed
-/// austenite from the stepping would otherwise hold the bend (in still air it takes minutes to
-/// turn martensite again), and the stored strain's release alone cannot undo that.
+/// Throughout recovery the springs are driven in windows of `recover_on_s` on and
+/// `recover_off_s` off (within the on-time limit), each by its estimated temperature to the
+/// band (`spring_hot_k`): the colder ones run longer, so all three reach austenite together,
+/// and none passes the band. Three austenite springs pull the soft column straight together;
+/// a spring that stayed austenite from the stepping would otherwise hold the bend (in still
+/// air it takes minutes to turn martensite again), and the stored strain's release alone
+/// cannot undo that.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Recovering {
     /// Where recovery is.
@@ -64,7 +62,7 @@ impl Recovering {
     /// Recovery from its start: heating, in an on window.
     pub fn new(s: &Settings) -> Recovering {
         Recovering {
-            phase: RecoverPhase::Heat { ready_since: None },
+            phase: RecoverPhase::Heat { warned: false },
             window_on: true,
             window_left_ms: ms(s.recover_on_s).max(1),
         }
@@ -74,14 +72,13 @@ impl Recovering {
     pub(super) fn advance(&mut self, c: &mut Ctx) -> ModeStep {
         let s = c.s;
         let now = c.now;
-        // A spring near its duty or heat limit, or whose on-time what is left of the window
-        // would take past the limit, sits the window out.
-        let may_run = |safety: &Safety, heat: &SpringHeat, left_ms: u32| -> SpringMask {
+        // A spring near its duty limit, or whose on-time what is left of the window would
+        // take past the limit, sits the window out.
+        let may_run = |safety: &Safety, left_ms: u32| -> SpringMask {
             let bits = (0..SPRINGS)
                 .filter(|&i| {
                     safety.spring_duty(i) < 0.9 * s.spring_duty_max
                         && safety.spring_may_run(i, left_ms as f32 * 1e-3, &s)
-                        && heat.heat(i) < s.spring_heat_max - BALANCE_BAND
                 })
                 .fold(0u8, |b, i| b | 1 << i);
             SpringMask::from_bits(bits)
@@ -96,17 +93,16 @@ impl Recovering {
             })
             .max(1);
         }
-        let balanced = c.spring_heat.all_at(s.spring_recover_heat);
+        let balanced = (0..SPRINGS).all(|i| c.estimate.austenite[i] >= s.spring_recover);
         let mut next = None;
         match &mut self.phase {
-            RecoverPhase::Heat { ready_since } => {
-                let (since, go) = c.ready(*ready_since);
-                *ready_since = since;
+            RecoverPhase::Heat { warned } => {
+                let go = c.softened(warned);
                 // The pulse runs inside an on window (it fits in what is left of it), so a
                 // spring's continuous on-time stays within the window's.
                 let pulse_fits = self.window_on
                     && self.window_left_ms >= ms(s.recover_pulse_s)
-                    && may_run(c.safety, c.spring_heat, self.window_left_ms) == SpringMask::ALL;
+                    && may_run(c.safety, self.window_left_ms) == SpringMask::ALL;
                 match go {
                     Soak::Go if balanced && pulse_fits => {
                         self.phase = RecoverPhase::Pulse {
@@ -114,7 +110,7 @@ impl Recovering {
                         }
                     }
                     Soak::GiveUp => next = Some(Next::GiveUp("reheat")),
-                    // Ready but the springs not yet balanced: the heat phase still ends by
+                    // Soft but the springs not yet austenite: the heat phase still ends by
                     // soak_timeout_s.
                     Soak::Go | Soak::Wait if c.soak_timed_out() => {
                         next = Some(Next::GiveUp("reheat"))
@@ -143,20 +139,14 @@ impl Recovering {
                 Soak::Wait => {}
             },
         }
-        let allowed = may_run(c.safety, c.spring_heat, self.window_left_ms);
+        let allowed = may_run(c.safety, self.window_left_ms);
+        let in_band = c.band(SpringMask::ALL, s.spring_hot_k);
         let springs = match self.phase {
-            RecoverPhase::Pulse { .. } => {
-                SpringMask::from_bits(SpringMask::ALL.bits() & allowed.bits())
-            }
+            RecoverPhase::Pulse { .. } => SpringMask::from_bits(in_band.bits() & allowed.bits()),
             RecoverPhase::Heat { .. } | RecoverPhase::Hold { .. } | RecoverPhase::Cool { .. }
                 if self.window_on =>
             {
-                SpringMask::from_bits(
-                    c.spring_heat
-                        .balance(s.spring_recover_heat, BALANCE_BAND)
-                        .bits()
-                        & allowed.bits(),
-                )
+                SpringMask::from_bits(in_band.bits() & allowed.bits())
             }
             RecoverPhase::Heat { .. } | RecoverPhase::Hold { .. } | RecoverPhase::Cool { .. } => {
                 SpringMask::NONE

@@ -10,7 +10,8 @@ use super::events::{EventKind, EventLog};
 use super::safety::Fault;
 use super::{Mode, Supervisor};
 use crate::command::COMMANDS;
-use crate::outputs::SpringMask;
+use crate::observer::Estimate;
+use crate::outputs::{SPRINGS, SpringMask};
 use crate::settings::{PARAMS, Param, Settings};
 use crate::units::{Kelvin, Millis};
 
@@ -151,6 +152,7 @@ impl Reply {
                 s.outputs.springs
             )?;
             write!(r, " select={}", s.springs)?;
+            write_estimate(r, &s.observer.estimate())?;
             match s.fault {
                 Some(f) => write!(r, " fault={} reason=\"{}\"", f.code(), f.reason()),
                 None => r.write_str(" fault=none"),
@@ -279,10 +281,64 @@ fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
     }
 }
 
-/// The telemetry line's fields, in order (docs/console.md's table is checked against this).
-pub const TELEMETRY_FIELDS: [&str; 11] = [
+/// The observer's fields (`status` and telemetry), in order: the wall's frozen fraction and
+/// inner layer, the ambient, each spring's temperature and austenite fraction, each with its
+/// standard deviation.
+pub const ESTIMATE_FIELDS: [&str; 18] = [
+    "frozen_pct",
+    "frozen_std_pct",
+    "inner_k",
+    "inner_std_k",
+    "ambient_est_k",
+    "ambient_std_k",
+    "spring_a_k",
+    "spring_a_std_k",
+    "spring_b_k",
+    "spring_b_std_k",
+    "spring_c_k",
+    "spring_c_std_k",
+    "aus_a_pct",
+    "aus_a_std_pct",
+    "aus_b_pct",
+    "aus_b_std_pct",
+    "aus_c_pct",
+    "aus_c_std_pct",
+];
+
+/// Write the observer's fields ([`ESTIMATE_FIELDS`]), each as ` name=value`.
+fn write_estimate(r: &mut impl Write, e: &Estimate) -> fmt::Result {
+    let pct = |x: f32| x * 100.0;
+    let mut values = [0.0f32; 18];
+    values[..6].copy_from_slice(&[
+        pct(e.frozen),
+        pct(e.frozen_std),
+        e.layers_k[0],
+        e.layers_std_k[0],
+        e.ambient_k,
+        e.ambient_std_k,
+    ]);
+    for i in 0..SPRINGS {
+        values[6 + 2 * i] = e.springs_k[i];
+        values[7 + 2 * i] = e.springs_std_k[i];
+        values[12 + 2 * i] = pct(e.austenite[i]);
+        values[13 + 2 * i] = pct(e.austenite_std[i]);
+    }
+    for (name, v) in ESTIMATE_FIELDS.iter().zip(values) {
+        if v.is_finite() {
+            write!(r, " {name}={v:.2}")?;
+        } else {
+            write!(r, " {name}=-")?;
+        }
+    }
+    Ok(())
+}
+
+/// The telemetry line's fields, in order (docs/console.md's table is checked against this):
+/// the loop's, then the observer's ([`ESTIMATE_FIELDS`]).
+pub const TELEMETRY_FIELDS: [&str; 12 + 18] = [
     "t_s",
     "mode",
+    "phase",
     "t1_k",
     "t2_k",
     "tc_k",
@@ -292,16 +348,35 @@ pub const TELEMETRY_FIELDS: [&str; 11] = [
     "springs",
     "quality",
     "fault",
+    "frozen_pct",
+    "frozen_std_pct",
+    "inner_k",
+    "inner_std_k",
+    "ambient_est_k",
+    "ambient_std_k",
+    "spring_a_k",
+    "spring_a_std_k",
+    "spring_b_k",
+    "spring_b_std_k",
+    "spring_c_k",
+    "spring_c_std_k",
+    "aus_a_pct",
+    "aus_a_std_pct",
+    "aus_b_pct",
+    "aus_b_std_pct",
+    "aus_c_pct",
+    "aus_c_std_pct",
 ];
 
-/// Write one telemetry line: `# t_s=… mode=… t1_k=… t2_k=… tc_k=… target_k=… heater_pct=…
-/// fan_pct=… springs=… quality=… fault=…` and CR LF.
+/// Write one telemetry line: `# t_s=… mode=… phase=… t1_k=… t2_k=… tc_k=… target_k=…
+/// heater_pct=… fan_pct=… springs=… quality=… fault=…`, the observer's fields, and CR LF.
 pub fn telemetry(s: &Supervisor, now: Millis, out: &mut impl Write) -> fmt::Result {
     write!(
         out,
-        "# t_s={:.3} mode={}",
+        "# t_s={:.3} mode={} phase={}",
         now.ms() as f64 * 1e-3,
-        s.mode.name()
+        s.mode.name(),
+        s.mode.phase_name()
     )?;
     let (t1, t2) = s.last.map_or((f32::NAN, f32::NAN), |m| {
         let k = |t: Option<Kelvin>| t.map_or(f32::NAN, Kelvin::k);
@@ -313,11 +388,13 @@ pub fn telemetry(s: &Supervisor, now: Millis, out: &mut impl Write) -> fmt::Resu
     write_k(out, "target_k", s.target_k())?;
     write!(
         out,
-        " heater_pct={:.1} fan_pct={:.1} springs={} quality={} fault={}\r\n",
+        " heater_pct={:.1} fan_pct={:.1} springs={} quality={} fault={}",
         s.outputs.heater.pct(),
         s.outputs.fan.pct(),
         s.outputs.springs,
         s.last.map_or("-", |m| m.quality.name()),
         s.fault.map_or("none", |f| f.code())
-    )
+    )?;
+    write_estimate(out, &s.observer.estimate())?;
+    out.write_str("\r\n")
 }

@@ -15,7 +15,8 @@
 
 use core::fmt;
 
-use crate::control::{OnTimer, SpringHeat};
+use crate::control::OnTimer;
+use crate::observer::Estimate;
 use crate::measurement::{Measurement, Quality};
 use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
 use crate::settings::Settings;
@@ -35,8 +36,8 @@ pub enum FaultKind {
     SpringOnTime(u8),
     /// A spring's duty over the window exceeded `spring_duty_max_pct` (index 0 = A).
     SpringDuty(u8),
-    /// A spring's heat estimate exceeded `spring_heat_max_pct` (index 0 = A).
-    SpringHeat(u8),
+    /// A spring's estimated temperature exceeded `spring_max_k` (index 0 = A).
+    SpringOverTemperature(u8),
     /// No valid measurement within `sensor_timeout_s`.
     SensorLoss,
     /// The heater ran hard with too little rise.
@@ -72,12 +73,12 @@ pub enum Fault {
         /// Its duty, a fraction.
         duty: f32,
     },
-    /// A spring's heat estimate passed `spring_heat_max_pct`.
-    SpringHeat {
+    /// A spring's estimated temperature passed `spring_max_k`.
+    SpringOverTemperature {
         /// Spring index, 0 = A.
         spring: u8,
-        /// Its heat estimate, a fraction of the heat to austenite.
-        heat: f32,
+        /// Its estimated temperature, K.
+        estimate_k: f32,
     },
     /// No valid measurement for `for_s`.
     SensorLoss {
@@ -110,7 +111,7 @@ impl FaultKind {
             FaultKind::OverTemperature => "over-temperature",
             FaultKind::SpringOnTime(_) => "spring-on-time",
             FaultKind::SpringDuty(_) => "spring-duty",
-            FaultKind::SpringHeat(_) => "spring-heat",
+            FaultKind::SpringOverTemperature(_) => "spring-over-temperature",
             FaultKind::SensorLoss => "sensor-loss",
             FaultKind::RunawayHeating => "runaway-heating",
             FaultKind::RunawayHolding => "runaway-holding",
@@ -127,7 +128,7 @@ impl Fault {
             Fault::OverTemperature { .. } => FaultKind::OverTemperature,
             Fault::SpringOnTime { spring, .. } => FaultKind::SpringOnTime(spring),
             Fault::SpringDuty { spring, .. } => FaultKind::SpringDuty(spring),
-            Fault::SpringHeat { spring, .. } => FaultKind::SpringHeat(spring),
+            Fault::SpringOverTemperature { spring, .. } => FaultKind::SpringOverTemperature(spring),
             Fault::SensorLoss { .. } => FaultKind::SensorLoss,
             Fault::RunawayHeating { .. } => FaultKind::RunawayHeating,
             Fault::RunawayHolding { .. } => FaultKind::RunawayHolding,
@@ -170,11 +171,10 @@ impl fmt::Display for Reason {
                 name(spring),
                 duty * 100.0
             ),
-            Fault::SpringHeat { spring, heat } => write!(
+            Fault::SpringOverTemperature { spring, estimate_k } => write!(
                 f,
-                "spring {} heat estimate {:.0} % of the heat to austenite",
-                name(spring),
-                heat * 100.0
+                "spring {} estimated at {estimate_k:.1} K",
+                name(spring)
             ),
             Fault::SensorLoss { for_s } => write!(f, "no valid measurement for {for_s:.2} s"),
             Fault::RunawayHeating { rise_k } => write!(
@@ -338,20 +338,15 @@ impl Safety {
         })
     }
 
-    /// Return a fault if one of `springs` has a heat estimate past `spring_heat_max` (the
-    /// supervisor checks the springs that ran over the last interval, and the ones about to be
-    /// switched on).
-    pub fn spring_heat_fault(
-        springs: SpringMask,
-        heat: &SpringHeat,
-        s: &Settings,
-    ) -> Option<Fault> {
+    /// Return a fault if a spring's estimated temperature is past `spring_max_k` (the
+    /// observer's [`Estimate`]: whether the spring is on or not, a spring that hot got there by
+    /// being driven).
+    pub fn spring_temperature_fault(est: &Estimate, s: &Settings) -> Option<Fault> {
         (0..SPRINGS)
-            .filter(|&i| springs.contains(i))
-            .find(|&i| heat.heat(i) > s.spring_heat_max)
-            .map(|i| Fault::SpringHeat {
+            .find(|&i| est.springs_k[i] > s.spring_max_k)
+            .map(|i| Fault::SpringOverTemperature {
                 spring: i as u8,
-                heat: heat.heat(i),
+                estimate_k: est.springs_k[i],
             })
     }
 

@@ -1,6 +1,8 @@
-//! Modes 1 and 2, small and large stepping: soak until the whole cross-section is at `hot_k`,
-//! rest the springs if they are still warm, pre-warm them, then the stepping phases with pulses
-//! between, then hold.
+//! Modes 1 and 2, small and large stepping: soak until the estimated wall is soft, rest the
+//! springs if they are still austenite, pre-warm them to just below A_s, then the stepping
+//! phases with pulses between, then hold. Every spring phase drives each selected spring by
+//! its estimated temperature: full current below the band, switched at the control period's
+//! rate to hold it (`spring_hot_k`, `spring_band_k`).
 
 use super::events::EventKind;
 use super::mode::{Ctx, Drive, ModeStep, Next, PauseError, Soak, ms};
@@ -20,18 +22,18 @@ pub enum StepKind {
 /// Where a stepping mode is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StepPhase {
-    /// Heating until the colder target is ready; since when it has been ready.
+    /// Heating until the estimated wall is soft (frozen fraction ≤ `soft_frozen_max`).
     Soak {
-        /// The first time the colder target was within the ready band, if it still is.
-        ready_since: Option<Millis>,
+        /// The `soft_warn_s` warning has been given.
+        warned: bool,
     },
-    /// The soak is done but a spring is still warm from an earlier cycle: holding `hot_k` with
-    /// the springs off until every spring's heat estimate is at most `spring_rest` (a passive
+    /// The soak is done but a spring is still austenite from an earlier cycle: holding
+    /// `hot_k` with the springs off until every spring has rested by its estimate (a passive
     /// spring that is still austenite would hold the column against the stepping).
     Rest,
-    /// The springs' pre-warm: on for `prewarm_s` (from room temperature to just below their
-    /// transformation, so the first stepping phase loads at once), then off for
-    /// `prewarm_gap_s` (which also ends the continuous on-time).
+    /// The springs' pre-warm: each selected spring driven to `spring_prewarm_k` (just below
+    /// its transformation, so the first stepping phase loads at once), for at most
+    /// `prewarm_s`, then off for `prewarm_gap_s` (which also ends the continuous on-time).
     Prewarm {
         /// Springs on (the pulse) or off (the gap).
         on: bool,
@@ -73,7 +75,7 @@ pub struct Stepping {
 }
 
 /// The first springs-on phase of a stepping: the pre-warm, or the first stepping phase.
-fn first_spring_phase(s: &Settings) -> StepPhase {
+pub(super) fn first_spring_phase(s: &Settings) -> StepPhase {
     if s.prewarm_s > 0.0 {
         StepPhase::Prewarm {
             on: true,
@@ -94,7 +96,7 @@ impl Stepping {
         Stepping {
             kind,
             springs,
-            phase: StepPhase::Soak { ready_since: None },
+            phase: StepPhase::Soak { warned: false },
             paused: false,
             idle_since: None,
         }
@@ -125,9 +127,8 @@ impl Stepping {
         let run_ms = if self.paused { 0 } else { c.elapsed_ms };
         let mut next = None;
         match &mut self.phase {
-            StepPhase::Soak { ready_since } => {
-                let (since, mut go) = c.ready(*ready_since);
-                *ready_since = since;
+            StepPhase::Soak { warned } => {
+                let mut go = c.softened(warned);
                 // A spring whose on-time a gap has not yet cleared (a mode changed straight
                 // from its phase) waits: it would trip the on-time limit.
                 let cleared = (0..SPRINGS)
@@ -136,7 +137,7 @@ impl Stepping {
                     go = Soak::Wait;
                 }
                 match go {
-                    Soak::Go if !c.spring_heat.rested(s.spring_rest) => {
+                    Soak::Go if !c.all_rested() => {
                         c.event(EventKind::SpringsResting);
                         self.phase = StepPhase::Rest;
                     }
@@ -146,12 +147,19 @@ impl Stepping {
                 }
             }
             StepPhase::Rest => {
-                if c.spring_heat.rested(s.spring_rest) {
+                if c.all_rested() {
                     self.phase = first_spring_phase(&s);
                 }
             }
             StepPhase::Prewarm { on, left_ms } => {
                 *left_ms = left_ms.saturating_sub(run_ms);
+                // The pulse ends once every selected spring is at its pre-warm temperature.
+                let warm = (0..SPRINGS).all(|i| {
+                    !self.springs.contains(i) || c.estimate.springs_k[i] >= s.spring_prewarm_k
+                });
+                if *on && warm && !self.paused {
+                    *left_ms = 0;
+                }
                 if *left_ms == 0 {
                     self.phase = if *on {
                         StepPhase::Prewarm {
@@ -196,24 +204,29 @@ impl Stepping {
             StepPhase::Hold => {}
         }
         // Hold and pause hold hot_k with nothing to run: an idle timeout ends them in standby.
-        // (Rest ends by the springs' model, within cool_s·ln(h/spring_rest).)
+        // (Rest ends by the springs' estimate: martensite, or as cool as the ambient allows.)
         let idle = self.paused || matches!(self.phase, StepPhase::Hold);
         if !idle {
             self.idle_since = None;
         } else if now.seconds_since(*self.idle_since.get_or_insert(now)).s() > s.hold_timeout_s {
             next = Some(Next::GiveUp("hold"));
         }
-        let on = matches!(
-            self.phase,
-            StepPhase::Spring { .. } | StepPhase::Prewarm { on: true, .. }
-        );
+        let springs = if self.paused {
+            SpringMask::NONE
+        } else {
+            match self.phase {
+            StepPhase::Spring { .. } => c.band(self.springs, s.spring_hot_k),
+            StepPhase::Prewarm { on: true, .. } => c.band(self.springs, s.spring_prewarm_k),
+            StepPhase::Soak { .. }
+            | StepPhase::Rest
+            | StepPhase::Prewarm { on: false, .. }
+            | StepPhase::Pulse { .. }
+            | StepPhase::Hold => SpringMask::NONE,
+        }
+        };
         ModeStep {
             drive: Drive::Hold(s.hot_k),
-            springs: if on && !self.paused {
-                self.springs
-            } else {
-                SpringMask::NONE
-            },
+            springs,
             next,
         }
     }

@@ -89,7 +89,7 @@ const TICK_US: u64 = TICK_MS * 1000;
 #[derive(Clone, Debug, PartialEq)]
 pub enum Said {
     /// A `# warning: …` line's text.
-    Warning(&'static str),
+    Warning(thermorph::supervisor::Warning),
     /// A telemetry line (with its `#` and CR LF).
     Telemetry(String),
 }

@@ -81,8 +81,8 @@ enum Out {
     Text(heapless::String<TELEMETRY_CAP>),
 }
 
-/// Longest `#` line (telemetry, a warning), bytes.
-const TELEMETRY_CAP: usize = 192;
+/// Longest `#` line (telemetry with the observer's fields ≈ 560 bytes, a warning), bytes.
+const TELEMETRY_CAP: usize = 640;
 /// Replies and `#` lines waiting to be written. The control loop takes a line only when a
 /// reply slot is free, so a reply always fits; `#` lines are dropped when the port is behind.
 static OUT: Channel<CriticalSectionRawMutex, Out, { OUTSTANDING + 2 }> = Channel::new();
@@ -320,9 +320,9 @@ async fn estop_task(mut button: ExtiInput<'static, Async>) {
 
 /// Queue a console line `# warning: {text}` (best effort, as telemetry: a port behind by a
 /// whole queue loses it; it is also in the supervisor's `log`).
-fn write_warning(text: &str) {
+fn write_warning(text: thermorph::supervisor::Warning) {
     use core::fmt::Write as _;
-    warn!("{}", text);
+    warn!("{}", defmt::Display2Format(&text));
     let mut line = heapless::String::<TELEMETRY_CAP>::new();
     if write!(line, "# warning: {text}\r\n").is_err() || OUT.try_send(Out::Text(line)).is_err() {
         warn!("console: warning line dropped");

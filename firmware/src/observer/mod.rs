@@ -5,8 +5,11 @@
 //! (T1), region 2 the lattice's outer surface (T2), region 5 the background (T5 ≈ ambient).
 //! The wall's inside, where the shape memory polymer must pass its transition, is never seen.
 //! This module owns the estimate of it: the model, its discretisation, the filter's state and
-//! covariance, and its parameters ([`ObserverParams`]). It is **not yet wired** into the
-//! supervisor or the app (the next step of issue 19): nothing the board does depends on it.
+//! covariance, the springs' temperatures and phases ([`springs`]), the wall's softness (its
+//! frozen fraction, and the best the heater can make of it, [`Observer::softest`]) and the
+//! parameters ([`ObserverParams`]; the ones a user may tune are in the settings table,
+//! [`crate::settings::Settings::observer_params`]). The supervisor owns one: it predicts
+//! every step with the outputs that ran and corrects with every new valid frame.
 //!
 //! # State and model
 //!
@@ -49,9 +52,13 @@
 //! non-positive period skips the prediction, a period above [`MAX_STEP_S`] is clamped, and a
 //! non-finite measurement is skipped like a missing one.
 
+pub mod springs;
+
 use nalgebra::{SMatrix, SVector};
 
+use crate::outputs::{SPRINGS, SpringMask};
 use crate::units::{Kelvin, Seconds};
+pub use springs::{SpringParams, SpringState, Springs};
 
 /// Number of wall layers through the lattice's thickness (inner = 0, outer = `LAYERS − 1`).
 pub const LAYERS: usize = 2;
@@ -105,6 +112,13 @@ const HEATER_FULL_A: f32 = if HEATER_SUPPLY_V / HEATER_RESISTANCE_OHM < HEATER_S
 } else {
     HEATER_SUPPLY_LIMIT_A
 };
+/// One spring's wire length, m: 25 coils of 18 mm mean diameter (host-sim `COIL_COUNT`,
+/// `COIL_DIAMETER_MM`).
+const SPRING_WIRE_M: f32 = PI * 18.0e-3 * 25.0;
+/// The wire's cross-section, m²: Ø 2.3 mm (thesis 6.3.2).
+const SPRING_WIRE_AREA_M2: f32 = PI / 4.0 * 2.3e-3 * 2.3e-3;
+/// One spring's mass, kg: NiTi at 6450 kg/m³.
+const SPRING_MASS_KG: f32 = SPRING_WIRE_AREA_M2 * SPRING_WIRE_M * 6450.0;
 /// Advective conductance ρ·c_p of one m³/s of air, W·s/(m³·K): 1.19 kg/m³ × 1005 J/(kg·K).
 const AIR_RHO_CP: f32 = 1.19 * 1005.0;
 
@@ -162,6 +176,13 @@ pub struct ObserverParams {
     pub t5_noise_k2: f32,
     /// Initial variance of every state, K² (the initial temperature is a guess).
     pub initial_variance_k2: f32,
+    /// Centre of the wall's frozen fraction φ = 1/(1 + e^{(T − centre)/width}), K (thesis
+    /// 2.3.2's two-phase model: the glassy share of the SMP; PLA's transition, T_g = 334 K).
+    pub frozen_centre_k: f32,
+    /// Width of the frozen fraction's logistic, K: its 10–90 % span is 4.4 widths (329–349 K).
+    pub frozen_width_k: f32,
+    /// The springs' model.
+    pub springs: SpringParams,
 }
 
 impl ObserverParams {
@@ -188,6 +209,25 @@ impl ObserverParams {
         t2_noise_k2: 0.25,
         t5_noise_k2: 0.25,
         initial_variance_k2: 100.0,
+        frozen_centre_k: 335.5,
+        frozen_width_k: 3.0,
+        springs: SpringParams {
+            // 15 A (the channel's limit) through 80 µΩ·cm × 1.414 m / 4.155 mm² = 0.272 Ω.
+            power_w: 15.0 * 15.0 * 80e-8 * SPRING_WIRE_M / SPRING_WIRE_AREA_M2,
+            // 37.9 g of NiTi (6450 kg/m³) at 480 J/(kg·K).
+            capacity_j_per_k: SPRING_MASS_KG * 480.0,
+            // 22 J/g (trained two-way wire: 15–35 J/g).
+            latent_j: SPRING_MASS_KG * 22_000.0,
+            // 12 W/(m²·K) over the wire's 0.0102 m².
+            ambient_w_per_k: 12.0 * PI * 2.3e-3 * SPRING_WIRE_M,
+            column_w_per_k: 0.017,
+            as_k: 341.0,
+            af_k: 351.0,
+            ms_k: 325.0,
+            mf_k: 315.0,
+            on_process_k2_per_s: 0.5,
+            off_process_k2_per_s: 0.02,
+        },
     };
 
     /// Film → ambient conductance through the duct at a fan duty (0…1), W/K: the wall
@@ -200,6 +240,36 @@ impl ObserverParams {
         let flow = self.duct_flow_still_w_per_k + self.duct_flow_fan_w_per_k * d;
         let sum = wall + flow;
         if sum > 0.0 { wall * flow / sum } else { 0.0 }
+    }
+
+    /// The frozen fraction of one layer at `t_k` (the logistic of [`Self::frozen_centre_k`]).
+    pub fn layer_frozen(&self, t_k: f32) -> f32 {
+        let w = self.frozen_width_k.max(1e-3);
+        let x = ((t_k - self.frozen_centre_k) / w).clamp(-60.0, 60.0);
+        1.0 / (1.0 + libm::expf(x))
+    }
+
+    /// The wall's frozen fraction: the layers' weighted by their capacities.
+    pub fn frozen_fraction(&self, layers_k: &[f32; LAYERS]) -> f32 {
+        let (mut sum, mut weight) = (0.0f32, 0.0f32);
+        for (&t, &c) in layers_k.iter().zip(&self.layer_capacity_j_per_k) {
+            sum += c.max(0.0) * self.layer_frozen(t);
+            weight += c.max(0.0);
+        }
+        if weight > 0.0 { sum / weight } else { 1.0 }
+    }
+
+    /// Standard deviation of the frozen fraction: each layer's temperature deviation through
+    /// the logistic's slope (layers taken as fully correlated: a bound), at most 0.5.
+    fn frozen_std(&self, layers_k: &[f32; LAYERS], std_k: &[f32; LAYERS]) -> f32 {
+        let w = self.frozen_width_k.max(1e-3);
+        let (mut sum, mut weight) = (0.0f32, 0.0f32);
+        for ((&t, &s), &c) in layers_k.iter().zip(std_k).zip(&self.layer_capacity_j_per_k) {
+            let f = self.layer_frozen(t);
+            sum += c.max(0.0) * f * (1.0 - f) / w * s;
+            weight += c.max(0.0);
+        }
+        if weight > 0.0 { (sum / weight).min(0.5) } else { 0.5 }
     }
 
     /// The continuous system `dx/dt = A·x + b·duty` at a fan duty: `A` (1/s) and `b` (K/s at
@@ -261,6 +331,32 @@ pub struct Estimate {
     pub layers_std_k: [f32; LAYERS],
     /// Standard deviation of the ambient's estimate, K.
     pub ambient_std_k: f32,
+    /// The wall's frozen (glassy) fraction, 0…1: the layers' fractions weighted by their
+    /// capacities.
+    pub frozen: f32,
+    /// Standard deviation of the frozen fraction (the layers' deviations through the
+    /// logistic's slope, at most 0.5).
+    pub frozen_std: f32,
+    /// Each spring's temperature, K (A, B, C).
+    pub springs_k: [f32; SPRINGS],
+    /// Standard deviation of each spring's temperature, K.
+    pub springs_std_k: [f32; SPRINGS],
+    /// Each spring's austenite fraction, 0…1.
+    pub austenite: [f32; SPRINGS],
+    /// Standard deviation of each spring's austenite fraction.
+    pub austenite_std: [f32; SPRINGS],
+}
+
+/// The best the heater can do for the wall ([`Observer::softest`]): the steady state with the
+/// film at its ceiling (or at what full power holds, if lower) and the fan off.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Softest {
+    /// The film's steady temperature, K.
+    pub film_k: f32,
+    /// The wall layers' steady temperatures, inner first, K.
+    pub layers_k: [f32; LAYERS],
+    /// The wall's steady frozen fraction, 0…1.
+    pub frozen: f32,
 }
 
 /// The cached zero-order hold for one (fan duty, period, parameters).
@@ -280,6 +376,11 @@ pub struct Observer {
     x: Vec,
     p: Mat,
     zoh: Option<Zoh>,
+    springs: Springs,
+    /// No measurement has been fused yet: the first one sets the thermal states.
+    fresh: bool,
+    /// The first measurement places the springs at the ambient, martensite.
+    springs_at_ambient: bool,
 }
 
 impl Observer {
@@ -291,12 +392,32 @@ impl Observer {
         } else {
             298.15
         };
+        let var = params.initial_variance_k2.max(0.0);
         Observer {
             params: *params,
             x: Vec::repeat(t0),
-            p: Mat::identity() * params.initial_variance_k2.max(0.0),
+            p: Mat::identity() * var,
             zoh: None,
+            springs: [SpringState::at(&params.springs, t0, var); SPRINGS],
+            fresh: true,
+            springs_at_ambient: false,
         }
+    }
+
+    /// Let the first measurement place the springs at the ambient it shows (T5), martensite:
+    /// springs known to be at rest, at a temperature not yet known.
+    pub fn rest_springs_at_ambient(&mut self) {
+        self.springs_at_ambient = true;
+    }
+
+    /// Return the springs' states (for the memory kept across a reset).
+    pub fn springs(&self) -> &Springs {
+        &self.springs
+    }
+
+    /// Set the springs' states (restored from the memory kept across a reset).
+    pub fn set_springs(&mut self, springs: &Springs) {
+        self.springs = *springs;
     }
 
     /// The parameters in use.
@@ -314,7 +435,7 @@ impl Observer {
     /// Advance the estimate by `dt` with the heater and fan duties (0…1) held: the model's
     /// zero-order hold, the covariance `Φ·P·Φᵀ + Q·dt`. A NaN duty counts as 0; a
     /// non-finite or non-positive `dt` does nothing; `dt` above [`MAX_STEP_S`] is clamped.
-    pub fn predict(&mut self, heater_duty: f32, fan_duty: f32, dt: Seconds) {
+    pub fn predict(&mut self, heater_duty: f32, fan_duty: f32, springs: SpringMask, dt: Seconds) {
         let dt_s = dt.s();
         if !dt_s.is_finite() || dt_s <= 0.0 {
             return;
@@ -344,14 +465,67 @@ impl Observer {
         q[(AMBIENT, AMBIENT)] = self.params.ambient_process_k2_per_s.max(0.0) * dt_s;
         self.p = zoh.phi * self.p * zoh.phi.transpose() + q;
         self.symmetrise();
+        // The springs, from the start-of-step ambient and outer wall (their coupling to the
+        // wall is ≈ 0.017 W/K against the wall's ≈ 2 W/K: one-way).
+        let outer = ambient + dev[OUTER];
+        for (i, sp) in self.springs.iter_mut().enumerate() {
+            sp.predict(&self.params.springs, springs.contains(i), ambient, outer, dt_s);
+        }
     }
 
     /// Fuse the camera's region temperatures: T1 → the film, T2 → the outer layer, T5 → the
     /// ambient. A missing (`None`) or non-finite one is skipped.
+    ///
+    /// The first measurement with T1 and T2 sets the thermal states instead (the film at T1,
+    /// the layers from T1 to T2, the ambient at T5 or T2) with the measurements' variances:
+    /// a block switched on warm is not taken for one at 298 K.
     pub fn correct(&mut self, t1: Option<Kelvin>, t2: Option<Kelvin>, t5: Option<Kelvin>) {
+        self.correct_with(t1, t2, t5, 0.0);
+    }
+
+    /// [`Observer::correct`] with `extra_k2` added to the noise variances of T1 and T2 (a
+    /// frame whose regions were not separated: both are the same mean, within its bound).
+    pub fn correct_with(
+        &mut self,
+        t1: Option<Kelvin>,
+        t2: Option<Kelvin>,
+        t5: Option<Kelvin>,
+        extra_k2: f32,
+    ) {
+        let extra = if extra_k2.is_finite() { extra_k2.max(0.0) } else { 1e6 };
+        let finite = |t: Option<Kelvin>| t.map(Kelvin::k).filter(|z| z.is_finite());
+        if self.fresh
+            && let (Some(z1), Some(z2)) = (finite(t1), finite(t2))
+        {
+            self.fresh = false;
+            let z5 = finite(t5).unwrap_or(z2);
+            self.x[FILM] = z1;
+            for l in 0..LAYERS {
+                let w = (l + 1) as f32 / LAYERS as f32;
+                self.x[INNER + l] = z1 + (z2 - z1) * w;
+            }
+            self.x[AMBIENT] = z5;
+            if self.springs_at_ambient {
+                self.springs_at_ambient = false;
+                let v = self.params.t5_noise_k2;
+                self.springs = [SpringState::at(&self.params.springs, z5, v); SPRINGS];
+                for s in self.springs.iter_mut() {
+                    s.austenite = 0.0;
+                }
+            }
+            let r = (self.params.t1_noise_k2.max(self.params.t2_noise_k2) + extra).max(1e-3);
+            let mut p = Mat::identity() * r;
+            // The inner layers are interpolated: as uncertain as the gap they span.
+            for l in 0..LAYERS - 1 {
+                p[(INNER + l, INNER + l)] += (z1 - z2) * (z1 - z2) * 0.25 + 1.0;
+            }
+            p[(AMBIENT, AMBIENT)] = self.params.t5_noise_k2.max(1e-3);
+            self.p = p;
+            return;
+        }
         let r = [
-            self.params.t1_noise_k2,
-            self.params.t2_noise_k2,
+            self.params.t1_noise_k2 + extra,
+            self.params.t2_noise_k2 + extra,
             self.params.t5_noise_k2,
         ];
         for ((t, idx), r) in [(t1, FILM), (t2, OUTER), (t5, AMBIENT)].into_iter().zip(r) {
@@ -364,13 +538,62 @@ impl Observer {
     /// The current estimate.
     pub fn estimate(&self) -> Estimate {
         let std = |i: usize| libm::sqrtf(self.p[(i, i)].max(0.0));
+        let layers_k: [f32; LAYERS] = core::array::from_fn(|l| self.x[INNER + l]);
+        let layers_std_k: [f32; LAYERS] = core::array::from_fn(|l| std(INNER + l));
+        let sp = &self.params.springs;
         Estimate {
             film_k: self.x[FILM],
-            layers_k: core::array::from_fn(|l| self.x[INNER + l]),
+            layers_k,
             ambient_k: self.x[AMBIENT],
             film_std_k: std(FILM),
-            layers_std_k: core::array::from_fn(|l| std(INNER + l)),
+            layers_std_k,
             ambient_std_k: std(AMBIENT),
+            frozen: self.params.frozen_fraction(&layers_k),
+            frozen_std: self.params.frozen_std(&layers_k, &layers_std_k),
+            springs_k: self.springs.map(|s| s.temp_k),
+            springs_std_k: self.springs.map(|s| libm::sqrtf(s.var_k2.max(0.0))),
+            austenite: self.springs.map(|s| s.austenite),
+            austenite_std: self.springs.map(|s| s.austenite_std(sp)),
+        }
+    }
+
+    /// The softest the wall can become from here ([`Softest`]): the steady state of the
+    /// model with the film held at `film_ceiling_k` (where the heater cap holds it) — or at
+    /// the most full power can hold it at, if lower — the fan off, at the estimated ambient.
+    pub fn softest(&self, film_ceiling_k: f32) -> Softest {
+        let p = &self.params;
+        let ambient = self.x[AMBIENT];
+        // The wall is a chain film → layers → outside: in the steady state one heat flow q
+        // passes every link.
+        let mut resist = 0.0f32;
+        let mut links = [0.0f32; LAYERS + 1];
+        links[0] = p.film_layer_w_per_k;
+        links[1..LAYERS].copy_from_slice(&p.layer_layer_w_per_k);
+        links[LAYERS] = p.outer_ambient_w_per_k;
+        for g in links {
+            resist += if g > 0.0 { 1.0 / g } else { f32::INFINITY };
+        }
+        let g_wall = if resist.is_finite() && resist > 0.0 { 1.0 / resist } else { 0.0 };
+        let g_all = g_wall + p.duct_conductance_w_per_k(0.0);
+        let full = if g_all > 0.0 {
+            ambient + p.heater_full_power_w.max(0.0) / g_all
+        } else {
+            f32::INFINITY
+        };
+        let film_k = if film_ceiling_k.is_finite() { film_ceiling_k.min(full) } else { full };
+        let q = g_wall * (film_k - ambient);
+        let mut layers_k = [0.0f32; LAYERS];
+        let mut t = film_k;
+        for (l, out) in layers_k.iter_mut().enumerate() {
+            if links[l] > 0.0 {
+                t -= q / links[l];
+            }
+            *out = t;
+        }
+        Softest {
+            film_k,
+            layers_k,
+            frozen: p.frozen_fraction(&layers_k),
         }
     }
 
@@ -516,7 +739,7 @@ mod tests {
         let mut obs = Observer::new(&p, ambient);
         let mut worst = 0.0f32;
         for i in 1..=2400 {
-            obs.predict(0.5, 0.0, secs(0.25));
+            obs.predict(0.5, 0.0, SpringMask::NONE, secs(0.25));
             let t = i as f32 * 0.25;
             let want = ambient + power / g * (1.0 - libm::expf(-t * g / c));
             let e = obs.estimate();
@@ -547,11 +770,11 @@ mod tests {
                 0.1
             };
             let fan = if (t as u32 / 90) % 2 == 1 { 1.0 } else { 0.0 };
-            truth.predict(heater, fan, secs(0.25));
+            truth.predict(heater, fan, SpringMask::NONE, secs(0.25));
             for s in 0..STATES - 1 {
                 truth.x[s] += noise.gauss(0.02);
             }
-            obs.predict(heater, fan, secs(0.25));
+            obs.predict(heater, fan, SpringMask::NONE, secs(0.25));
             let m = truth.x;
             obs.correct(
                 k(m[FILM] + noise.gauss(0.5)),
@@ -575,12 +798,12 @@ mod tests {
         let p = ObserverParams::DEFAULT;
         let mut obs = Observer::new(&p, 298.15);
         for _ in 0..200 {
-            obs.predict(0.3, 0.0, secs(0.25));
+            obs.predict(0.3, 0.0, SpringMask::NONE, secs(0.25));
             obs.correct(k(300.0), k(299.0), k(298.0));
         }
         let settled = obs.estimate();
         for _ in 0..40 {
-            obs.predict(0.3, 0.0, secs(0.25));
+            obs.predict(0.3, 0.0, SpringMask::NONE, secs(0.25));
             obs.correct(None, k(299.0), None);
         }
         let later = obs.estimate();
@@ -588,7 +811,7 @@ mod tests {
         assert!(later.ambient_std_k > settled.ambient_std_k);
         let trace = |o: &Observer| o.p.trace();
         let before = trace(&obs);
-        obs.predict(0.3, 0.0, secs(0.25));
+        obs.predict(0.3, 0.0, SpringMask::NONE, secs(0.25));
         obs.correct(None, None, None);
         assert!(trace(&obs) > before);
     }
@@ -602,7 +825,7 @@ mod tests {
             for &f in &odd {
                 for &dt in &odd {
                     if let Some(dt) = Seconds::new(dt) {
-                        obs.predict(h, f, dt);
+                        obs.predict(h, f, SpringMask::NONE, dt);
                     }
                     for &z in &odd {
                         obs.correct(Kelvin::new(z), Kelvin::new(z * 300.0), Kelvin::new(z));
@@ -624,8 +847,8 @@ mod tests {
         bad.t2_noise_k2 = -1.0;
         bad.film_capacity_j_per_k = 0.0;
         obs.set_params(&bad);
-        obs.predict(1.0, 1.0, Seconds::new(f32::INFINITY).unwrap());
-        obs.predict(1.0, 1.0, secs(1e9));
+        obs.predict(1.0, 1.0, SpringMask::NONE, Seconds::new(f32::INFINITY).unwrap());
+        obs.predict(1.0, 1.0, SpringMask::NONE, secs(1e9));
         obs.correct(k(350.0), k(340.0), k(298.0));
         assert!(obs.estimate().film_k.is_finite());
     }

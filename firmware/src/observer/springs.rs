@@ -1,0 +1,231 @@
+//! The springs' part of the observer: each SMA spring's temperature and austenite fraction,
+//! propagated from its known switching and supply, its loss to the estimated ambient and its
+//! gain from the estimated outer wall. Nothing measures a spring (the camera does not resolve
+//! the 2.3 mm wire), so these are model states with a variance that grows while nothing
+//! corrects them and shrinks as the spring settles to the (estimated) ambient.
+//!
+//! Each spring is an enthalpy node, `H = C·T + L·a` (a the austenite fraction: forming
+//! austenite absorbs the latent heat `L`), with linear hysteretic branches:
+//!
+//! ```text
+//! heating:  a_h(T) = clamp((T − As)/(Af − As), 0, 1)   (austenite forms between As and Af)
+//! cooling:  a_c(T) = clamp((T − Mf)/(Ms − Mf), 0, 1)   (martensite forms between Ms and Mf)
+//! a ← clamp(a_old, a_h(T), a_c(T))                      (inner loops are flat)
+//! ```
+//!
+//! A step first moves the sensible temperature exactly for the held inputs (an exponential
+//! towards the node's equilibrium), then settles `(T, a)` on the same enthalpy: the branches
+//! are linear, so the settling is solved in closed form, and the latent heat is never skipped
+//! however long the step. The Joule power follows the phase (NiTi's resistivity rises
+//! ≈ 12.5 % from martensite to austenite, Dynalloy: 80 → 90 µΩ·cm) at the channel's current
+//! limit.
+
+use crate::outputs::SPRINGS;
+
+/// Austenite's resistance over martensite's (Dynalloy: 90 / 80 µΩ·cm): the Joule power at a
+/// current-limited channel rises by this much as the spring transforms.
+pub const AUSTENITE_RESISTANCE_RATIO: f32 = 90.0 / 80.0;
+
+/// The springs' model parameters (every spring alike).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringParams {
+    /// Joule power in one martensite spring at full current, W (15 A through ≈0.27 Ω).
+    pub power_w: f32,
+    /// One spring's heat capacity, J/K.
+    pub capacity_j_per_k: f32,
+    /// One spring's latent heat of a full transformation, J.
+    pub latent_j: f32,
+    /// One spring's loss to the still ambient air, W/K.
+    pub ambient_w_per_k: f32,
+    /// Heat path from the column's outer surface to a spring, W/K.
+    pub column_w_per_k: f32,
+    /// Austenite start, K.
+    pub as_k: f32,
+    /// Austenite finish, K.
+    pub af_k: f32,
+    /// Martensite start, K.
+    pub ms_k: f32,
+    /// Martensite finish, K.
+    pub mf_k: f32,
+    /// Process noise of a switched-on spring's temperature, K²/s (the supply, the wire's
+    /// resistance, the load's shift of the transformation).
+    pub on_process_k2_per_s: f32,
+    /// Process noise of a switched-off spring's temperature, K²/s (the air around it).
+    pub off_process_k2_per_s: f32,
+}
+
+/// One spring's estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringState {
+    /// Temperature, K.
+    pub temp_k: f32,
+    /// Austenite fraction, 0…1.
+    pub austenite: f32,
+    /// Variance of the temperature, K².
+    pub var_k2: f32,
+}
+
+impl SpringState {
+    /// A spring at `temp_k` in the phase the branches give it coming from martensite (below
+    /// As: martensite; above Af: austenite), with variance `var_k2`.
+    pub fn at(p: &SpringParams, temp_k: f32, var_k2: f32) -> SpringState {
+        let t = if temp_k.is_finite() { temp_k } else { 298.15 };
+        SpringState {
+            temp_k: t,
+            austenite: heating_branch(p, t),
+            var_k2: if var_k2.is_finite() {
+                var_k2.max(0.0)
+            } else {
+                100.0
+            },
+        }
+    }
+
+    /// A spring's state from stored parts (temperature, austenite fraction): non-finite parts
+    /// become a hot austenite spring at `hot_k` (the safe assumption: it rests before use).
+    pub fn from_parts(temp_k: f32, austenite: f32, hot_k: f32) -> SpringState {
+        let ok = temp_k.is_finite() && austenite.is_finite();
+        SpringState {
+            temp_k: if ok { temp_k } else { hot_k },
+            austenite: if ok { austenite.clamp(0.0, 1.0) } else { 1.0 },
+            var_k2: 25.0,
+        }
+    }
+
+    /// Standard deviation of the austenite fraction: the temperature's, through the slope of
+    /// the branch the spring is on or near (0 well outside both bands), at most 0.5.
+    pub fn austenite_std(&self, p: &SpringParams) -> f32 {
+        let std = libm::sqrtf(self.var_k2.max(0.0));
+        let near = |lo: f32, hi: f32| self.temp_k > lo - 2.0 * std && self.temp_k < hi + 2.0 * std;
+        let slope = if near(p.as_k, p.af_k) && self.austenite < 1.0 {
+            1.0 / (p.af_k - p.as_k).max(0.1)
+        } else if near(p.mf_k, p.ms_k) && self.austenite > 0.0 {
+            1.0 / (p.ms_k - p.mf_k).max(0.1)
+        } else {
+            0.0
+        };
+        (std * slope).min(0.5)
+    }
+
+    /// Advance by `dt_s` with the spring switched `on`, the ambient at `ambient_k` and the
+    /// column's outer surface at `outer_k`.
+    pub fn predict(&mut self, p: &SpringParams, on: bool, ambient_k: f32, outer_k: f32, dt_s: f32) {
+        let c = p.capacity_j_per_k.max(1e-3);
+        let g = p.ambient_w_per_k.max(0.0) + p.column_w_per_k.max(0.0);
+        let power = if on {
+            p.power_w.max(0.0) * (1.0 + (AUSTENITE_RESISTANCE_RATIO - 1.0) * self.austenite)
+        } else {
+            0.0
+        };
+        let drive = power + p.ambient_w_per_k.max(0.0) * ambient_k + p.column_w_per_k.max(0.0) * outer_k;
+        // The sensible step: exact for the held inputs (dT/dt = (drive − g·T)/C).
+        let sensible = if g > 0.0 {
+            let eq = drive / g;
+            let decay = libm::expf(-dt_s * g / c);
+            eq + (self.temp_k - eq) * decay
+        } else {
+            self.temp_k + drive * dt_s / c
+        };
+        let h = c * sensible + p.latent_j.max(0.0) * self.austenite;
+        let (t, a) = settle(p, h, self.austenite);
+        if t.is_finite() && a.is_finite() {
+            self.temp_k = t;
+            self.austenite = a;
+        }
+        let decay2 = if g > 0.0 { libm::expf(-2.0 * dt_s * g / c) } else { 1.0 };
+        let q = if on { p.on_process_k2_per_s } else { p.off_process_k2_per_s };
+        self.var_k2 = self.var_k2 * decay2 + q.max(0.0) * dt_s;
+    }
+}
+
+/// The austenite fraction the heating branch reaches at `t_k`.
+pub fn heating_branch(p: &SpringParams, t_k: f32) -> f32 {
+    ((t_k - p.as_k) / (p.af_k - p.as_k).max(0.1)).clamp(0.0, 1.0)
+}
+
+/// The austenite fraction the cooling branch keeps at `t_k`.
+pub fn cooling_branch(p: &SpringParams, t_k: f32) -> f32 {
+    ((t_k - p.mf_k) / (p.ms_k - p.mf_k).max(0.1)).clamp(0.0, 1.0)
+}
+
+/// The `(T, a)` with enthalpy `h_j` (`C·T + L·a`) reached from austenite fraction `old`, in
+/// closed form on the linear branches.
+pub fn settle(p: &SpringParams, h_j: f32, old: f32) -> (f32, f32) {
+    let c = p.capacity_j_per_k.max(1e-3);
+    let l = p.latent_j.max(0.0);
+    let frozen_t = (h_j - l * old) / c;
+    if heating_branch(p, frozen_t) > old {
+        // Transforming to austenite: C·T + L·(T − As)/w = H.
+        let w = (p.af_k - p.as_k).max(0.1);
+        let t = (h_j + l * p.as_k / w) / (c + l / w);
+        let a = (t - p.as_k) / w;
+        if a >= 1.0 {
+            return ((h_j - l) / c, 1.0);
+        }
+        return (t, a.max(old));
+    }
+    if cooling_branch(p, frozen_t) < old {
+        // Transforming to martensite: C·T + L·(T − Mf)/w = H.
+        let w = (p.ms_k - p.mf_k).max(0.1);
+        let t = (h_j + l * p.mf_k / w) / (c + l / w);
+        let a = (t - p.mf_k) / w;
+        if a <= 0.0 {
+            return (h_j / c, 0.0);
+        }
+        return (t, a.min(old));
+    }
+    (frozen_t, old)
+}
+
+/// Every spring's state.
+pub type Springs = [SpringState; SPRINGS];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> SpringParams {
+        crate::observer::ObserverParams::DEFAULT.springs
+    }
+
+    #[test]
+    fn settling_keeps_the_enthalpy_and_the_hysteresis() {
+        let p = params();
+        for &(t, a) in &[(330.0, 0.0), (346.0, 0.0), (346.0, 1.0), (320.0, 1.0), (360.0, 0.3)] {
+            for dh in [-500.0, -50.0, 0.0, 50.0, 500.0, 2000.0] {
+                let h = p.capacity_j_per_k * t + p.latent_j * a + dh;
+                let (t2, a2) = settle(&p, h, a);
+                let back = p.capacity_j_per_k * t2 + p.latent_j * a2;
+                assert!((back - h).abs() < 1e-3 * h.abs(), "{t} {a} {dh}: {t2} {a2}");
+                assert!((0.0..=1.0).contains(&a2));
+                // The phase is on or between its branches.
+                assert!(a2 >= heating_branch(&p, t2) - 1e-4, "{t2} {a2}");
+                assert!(a2 <= cooling_branch(&p, t2) + 1e-4, "{t2} {a2}");
+            }
+        }
+        // Between Ms and As nothing transforms: a half-austenite spring stays half.
+        let h = p.capacity_j_per_k * 333.0 + p.latent_j * 0.5;
+        assert_eq!(settle(&p, h, 0.5), (333.0, 0.5));
+    }
+
+    #[test]
+    fn a_driven_spring_passes_its_transformation_and_cools_back() {
+        let p = params();
+        let mut s = SpringState::at(&p, 298.15, 1.0);
+        let mut t_af = None;
+        for i in 1..=1200 {
+            s.predict(&p, true, 298.15, 298.15, 0.05);
+            if t_af.is_none() && s.austenite >= 1.0 {
+                t_af = Some(i as f32 * 0.05);
+            }
+        }
+        let t_af = t_af.expect("austenite within 60 s");
+        // Sensible heat to Af and the latent heat at ≈62–69 W: ≈26 s.
+        let want = (p.capacity_j_per_k * (p.af_k - 298.15) + p.latent_j) / p.power_w;
+        assert!((t_af - want).abs() < 0.2 * want, "austenite after {t_af} s, want ≈{want}");
+        for _ in 0..20_000 {
+            s.predict(&p, false, 298.15, 298.15, 0.1);
+        }
+        assert!(s.austenite == 0.0 && (s.temp_k - 298.15).abs() < 0.5, "{s:?}");
+    }
+}
