@@ -9,6 +9,7 @@ use thermorph::mtts::{Config, Method, Mtts, Scratch};
 use thermorph::units::k_or_nan;
 
 mod control;
+mod observer;
 
 mod data {
     include!(concat!(env!("OUT_DIR"), "/data.rs"));
@@ -274,6 +275,7 @@ fn main() -> ! {
     });
     hprintln!("root4_vsqrt insns_per_call={}", t / n as u64);
     control::bench(overhead);
+    observer::bench(overhead);
     finish(debug::EXIT_SUCCESS)
 }
 

@@ -4,7 +4,8 @@
 //! takes 2^10 ns of virtual time, and the FPGAIO counter (0x4002_8018) ticks at 25 MHz, so
 //! instructions = ticks · 40 / 1024, exact to a fraction of an instruction. A loop of known
 //! length checks that. Output goes through semihosting, one line per stage:
-//! `<stage> insns=<N>`, plus the work-precision lines `host-sim mtts-wp --m4` reads:
+//! `<stage> insns=<N>` (the MTTS stages, the control step, the state observer's calls), plus
+//! the work-precision lines `host-sim mtts-wp --m4` reads:
 //! `wp_mtts scale=S method=M insns=N` and `wp_roots variant=V to768_insns=N`.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 

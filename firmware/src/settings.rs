@@ -18,10 +18,11 @@ pub const DEFAULT_GAINS: PidGains = PidGains {
     kd_s_per_k: 0.061,
 };
 
-/// The springs' temperature band's top, K: the thesis's A_f (351 K) plus the shift of a
-/// spring loaded by the bend (≈ 14 N: σ/C_A ≈ +8 K, Brinson's slope), plus 4 K, so a loaded
-/// spring finishes its transformation; 20 K below [`SPRING_MAX_K`].
-pub const SPRING_HOT_K: f32 = 363.0;
+/// The springs' temperature band's top, K: the thesis's A_f (351 K) plus the Clausius–Clapeyron
+/// shift of a spring stretched by the bend (a spring pulling ≈ 35 N carries ≈ 280 MPa:
+/// +20 K at Brinson's 13.8 MPa/K), so a loaded spring still finishes its transformation; 10 K
+/// below [`SPRING_MAX_K`], the margin the observer's spring error needs (docs/observer.md).
+pub const SPRING_HOT_K: f32 = 373.0;
 /// The springs' over-temperature limit by the estimate, K (issue 19's default).
 pub const SPRING_MAX_K: f32 = 383.0;
 
@@ -49,9 +50,11 @@ pub struct Settings {
     /// Weight of T1 in Tc in stepping: 0 brings the colder region (the whole cross-section) to
     /// `hot_k`.
     pub w1_step: f32,
-    /// Weight of T1 in Tc in recovery: 0.5 — on the film alone (1) the outer layer stays below
-    /// 340 K and the column cannot come back straight; on the colder alone (0) the reheat is
-    /// slow (measured on the simulated block, docs/control-and-safety.md).
+    /// Weight of T1 in Tc in recovery: 0, as in stepping — the reheat drives the film to its
+    /// ceiling until the colder region is at `hot_k`, the fastest the heater can soften the
+    /// wall (and what the soak's "can it soften" projection assumes); the observer's inner-layer
+    /// cap keeps the unseen inner layer below `t_max_k`. (With readiness by Tc, 0.5 was faster;
+    /// readiness is now by softness.)
     pub w1_recover: f32,
     /// Weight of T1 in Tc in forming (ordering: T1 = the colder, heater side): 0 cools until the
     /// hotter region is at `form_end_k`.
@@ -147,8 +150,9 @@ pub struct Settings {
     pub spring_hot_k: f32,
     /// ... and, once off, on again below `spring_hot_k` − this (the band), K.
     pub spring_band_k: f32,
-    /// The springs' pre-warm drives each spring to this (just below A_s), at most `prewarm_s`,
-    /// K.
+    /// The springs' pre-warm drives each spring to this, K: 322 K is what the thesis's 7 s
+    /// pre-warm gives at 298 K, so the first step loads as it did there, on any day (on a cold
+    /// one in several `prewarm_s` pulses, on a warm one with none).
     pub spring_prewarm_k: f32,
     /// A spring whose estimate passes this is a fault (`spring-over-temperature`), K.
     pub spring_max_k: f32,
@@ -235,7 +239,7 @@ impl Settings {
         soft_warn_s: 120.0,
         spring_hot_k: SPRING_HOT_K,
         spring_band_k: 2.0,
-        spring_prewarm_k: 336.0,
+        spring_prewarm_k: 326.0,
         spring_max_k: SPRING_MAX_K,
         obs_heater_w: ObserverParams::DEFAULT.heater_full_power_w,
         obs_wall_j_per_k: ObserverParams::DEFAULT.layer_capacity_j_per_k[0]

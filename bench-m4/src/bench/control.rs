@@ -1,7 +1,9 @@
 //! The control step's cost: `Supervisor::step` with a new measurement (PID, cascade, safety
-//! checks, spring timing), the dearest path — large stepping with two springs, the cascade on
-//! the colder region — measured over a simulated run and reported as its worst step
-//! (`control insns=N`; `scripts/bench-m4` holds it to 20 000).
+//! checks, spring timing, the state observer's prediction, correction and estimates), the
+//! dearest path — large stepping with two springs, the cascade on the colder region — measured
+//! over a simulated run and reported as its worst step (`control insns=N`; `scripts/bench-m4`
+//! holds it to 20 000). The worst is a step after the split-range output moved the fan duty:
+//! the observer then recomputes its discretisation (`observer_predict_new_fan`).
 
 use core::hint::black_box;
 

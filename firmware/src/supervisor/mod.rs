@@ -133,6 +133,11 @@ pub const WARN_UNRESOLVED: Warning = Warning::Unresolved;
 /// The warning when frames resolve again after a fallback.
 pub const WARN_RESOLVED: Warning = Warning::Resolved;
 
+/// The heater is cut in proportion as the estimated inner wall layer comes within
+/// `heater_cap_band_k` of `t_max_k` − this, K: the estimate's error allowance (its mean error
+/// over the cycle is ≈ 0.1 K, docs/observer.md).
+pub const INNER_MARGIN_K: f32 = 1.0;
+
 /// Telemetry: on, and when the next line is due.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Stream {
@@ -685,10 +690,19 @@ impl Supervisor {
             return self.run_mode(now, 0, None, Seconds::ZERO);
         }
         // The heater cap, an override on the hotter region: whatever the loop or the relay
-        // wants, the film is not driven past heater_cap_k.
+        // wants, the film is not driven past heater_cap_k. And the same on the observer's
+        // inner wall layer, which the camera cannot see: it is not driven past t_max_k −
+        // INNER_MARGIN_K.
         let cap = hotter
             .map_or(1.0, |h| (s.heater_cap_k - h) / s.heater_cap_band_k)
             .clamp(0.0, 1.0);
+        let inner = estimate.layers_k[0];
+        let inner_cap = if inner.is_finite() {
+            ((s.t_max_k - INNER_MARGIN_K - inner) / s.heater_cap_band_k).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        let cap = cap.min(inner_cap);
         let capped = |d: Duty| Duty::from_fraction(d.fraction().min(cap));
         let target = match step.drive {
             Drive::Cool => {

@@ -32,8 +32,9 @@ pub enum StepPhase {
     /// spring that is still austenite would hold the column against the stepping).
     Rest,
     /// The springs' pre-warm: each selected spring driven to `spring_prewarm_k` (just below
-    /// its transformation, so the first stepping phase loads at once), for at most
-    /// `prewarm_s`, then off for `prewarm_gap_s` (which also ends the continuous on-time).
+    /// its transformation, so the first stepping phase loads at once), in pulses of at most
+    /// `prewarm_s` with `prewarm_gap_s` off after each (which also ends the continuous
+    /// on-time), until every selected spring is warm.
     Prewarm {
         /// Springs on (the pulse) or off (the gap).
         on: bool,
@@ -153,18 +154,30 @@ impl Stepping {
             }
             StepPhase::Prewarm { on, left_ms } => {
                 *left_ms = left_ms.saturating_sub(run_ms);
-                // The pulse ends once every selected spring is at its pre-warm temperature.
-                let warm = (0..SPRINGS).all(|i| {
-                    !self.springs.contains(i) || c.estimate.springs_k[i] >= s.spring_prewarm_k
-                });
-                if *on && warm && !self.paused {
+                // A pulse ends once every selected spring has reached its pre-warm
+                // temperature; after the gap the stepping goes on if every one is still in
+                // the band below it.
+                let at = |floor_k: f32| {
+                    (0..SPRINGS).all(|i| {
+                        !self.springs.contains(i) || c.estimate.springs_k[i] >= floor_k
+                    })
+                };
+                if *on && at(s.spring_prewarm_k) && !self.paused {
                     *left_ms = 0;
                 }
+                let warm = at(s.spring_prewarm_k - s.spring_band_k);
                 if *left_ms == 0 {
+                    // After a gap, another pulse if a spring is not yet warm (a cold day: one
+                    // `prewarm_s` pulse, bounded by the on-time limit, is not enough).
                     self.phase = if *on {
                         StepPhase::Prewarm {
                             on: false,
                             left_ms: ms(s.prewarm_gap_s).max(1),
+                        }
+                    } else if !warm {
+                        StepPhase::Prewarm {
+                            on: true,
+                            left_ms: ms(s.prewarm_s).max(1),
                         }
                     } else {
                         StepPhase::Spring {
@@ -216,7 +229,15 @@ impl Stepping {
         } else {
             match self.phase {
             StepPhase::Spring { .. } => c.band(self.springs, s.spring_hot_k),
-            StepPhase::Prewarm { on: true, .. } => c.band(self.springs, s.spring_prewarm_k),
+            StepPhase::Prewarm { on: true, .. } => {
+                // A spring near its duty limit sits a pre-warm pulse out (the duty check would
+                // otherwise latch on a long cold-day pre-warm).
+                let bits = (0..SPRINGS)
+                    .filter(|&i| c.safety.spring_duty(i) < 0.9 * s.spring_duty_max)
+                    .fold(0u8, |b, i| b | 1 << i);
+                let band = c.band(self.springs, s.spring_prewarm_k);
+                SpringMask::from_bits(band.bits() & bits)
+            }
             StepPhase::Soak { .. }
             | StepPhase::Rest
             | StepPhase::Prewarm { on: false, .. }

@@ -285,6 +285,7 @@ fn record(at_s: f64, line: &str, reply: Option<Reply>) -> ReplyRecord {
 /// The supervisor's state for the time series.
 pub fn control_row(s: &Supervisor) -> ControlRow {
     ControlRow {
+        estimate: s.estimate(),
         mode: s.mode().name(),
         phase: s.mode().phase_name(),
         target_k: s.target_k() as f64,

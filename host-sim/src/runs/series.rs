@@ -5,6 +5,7 @@
 use std::io::Write;
 
 use thermorph::mtts::REGIONS;
+use thermorph::observer::Estimate;
 
 use crate::plant::{Inputs, Observation};
 
@@ -41,13 +42,21 @@ pub struct ControlRow {
     pub tc_k: f64,
     /// The latched fault's code, if any.
     pub fault: Option<&'static str>,
+    /// The observer's estimate at the period's start (the wall, the springs, the ambient).
+    pub estimate: Estimate,
 }
 
 /// The CSV header.
 pub const CSV_HEADER: &str = "time_s,heater_duty_pct,fan_duty_pct,spring_a,spring_b,spring_c,\
 heater_k,smp_inner_k,smp_outer_k,duct_air_k,spring_a_k,spring_b_k,spring_c_k,\
 austenite_a,austenite_b,austenite_c,frozen_fraction,bend_deg,bend_plane_deg,k_b_nmm_per_rad,\
-heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_k,tc_k,fault";
+heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_k,tc_k,fault,\
+est_frozen_fraction,est_frozen_std,est_inner_k,est_inner_std_k,est_outer_k,est_ambient_k,\
+est_spring_a_k,est_spring_b_k,est_spring_c_k,est_spring_a_std_k,est_spring_b_std_k,\
+est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c";
+
+/// The estimate's columns in an open-loop run (no observer).
+const NO_ESTIMATE: &str = ",nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan";
 
 /// Write the time series as CSV (`nan` where there is no measurement).
 pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
@@ -99,7 +108,7 @@ pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
                         "nan".into()
                     }
                 };
-                writeln!(
+                write!(
                     out,
                     ",{},{},{},{},{}",
                     c.mode,
@@ -107,9 +116,22 @@ pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
                     k(c.target_k),
                     k(c.tc_k),
                     c.fault.unwrap_or("none")
-                )?
+                )?;
+                // Austenite (the estimate's) beside the plant's `austenite_*` columns, which
+                // are austenite fractions too.
+                let e = &c.estimate;
+                let values = [e.frozen, e.frozen_std, e.layers_k[0], e.layers_std_k[0]]
+                    .into_iter()
+                    .chain([e.layers_k[e.layers_k.len() - 1], e.ambient_k])
+                    .chain(e.springs_k)
+                    .chain(e.springs_std_k)
+                    .chain(e.austenite);
+                for v in values {
+                    write!(out, ",{}", k(v as f64))?;
+                }
+                writeln!(out)?
             }
-            None => writeln!(out, ",-,-,nan,nan,none")?,
+            None => writeln!(out, ",-,-,nan,nan,none{NO_ESTIMATE}")?,
         }
     }
     Ok(())
