@@ -7,8 +7,8 @@
 //! seconds, `_pct` percent, gains per Kelvin of error on a duty fraction).
 
 use crate::control::{OnTimer, PidGains};
-use crate::observer::ObserverParams;
 use crate::mtts::Weights;
+use crate::observer::ObserverParams;
 
 /// The PID gains the block ships with: what `autotune` (relay around 340 K, Ziegler–Nichols'
 /// classic rule) measured on the simulated block at 298 K ambient — Ku = 0.231 /K, Tu = 3.5 s.
@@ -899,14 +899,38 @@ pub const PARAMS: &[Param] = &[
         "observer: spring loss to still air",
         |s| s.obs_spring_loss_w_per_k
     ),
-    param!("sma_as_k", "K", 300.0, 380.0, "springs' austenite start", |s| s
-        .sma_as_k),
-    param!("sma_af_k", "K", 300.0, 380.0, "springs' austenite finish", |s| s
-        .sma_af_k),
-    param!("sma_ms_k", "K", 280.0, 370.0, "springs' martensite start", |s| s
-        .sma_ms_k),
-    param!("sma_mf_k", "K", 280.0, 370.0, "springs' martensite finish", |s| s
-        .sma_mf_k),
+    param!(
+        "sma_as_k",
+        "K",
+        300.0,
+        380.0,
+        "springs' austenite start",
+        |s| s.sma_as_k
+    ),
+    param!(
+        "sma_af_k",
+        "K",
+        300.0,
+        380.0,
+        "springs' austenite finish",
+        |s| s.sma_af_k
+    ),
+    param!(
+        "sma_ms_k",
+        "K",
+        280.0,
+        370.0,
+        "springs' martensite start",
+        |s| s.sma_ms_k
+    ),
+    param!(
+        "sma_mf_k",
+        "K",
+        280.0,
+        370.0,
+        "springs' martensite finish",
+        |s| s.sma_mf_k
+    ),
     param!(
         "smp_frozen_centre_k",
         "K",

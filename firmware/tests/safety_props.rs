@@ -299,7 +299,9 @@ fn check(
     let e = sup.estimate();
     for i in 0..SPRINGS {
         let top = s.spring_hot_k.max(s_before.spring_hot_k);
-        if o.springs.contains(i) && !(e.springs_k[i] < top) {
+        if o.springs.contains(i)
+            && e.springs_k[i].partial_cmp(&top) != Some(core::cmp::Ordering::Less)
+        {
             return Err(format!(
                 "spring {i} on at an estimated {} K (band top {top} K): {}",
                 e.springs_k[i],

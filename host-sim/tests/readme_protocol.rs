@@ -248,7 +248,7 @@ fn fault_codes() -> Vec<&'static str> {
         FaultKind::OverTemperature,
         FaultKind::SpringOnTime(0),
         FaultKind::SpringDuty(0),
-        FaultKind::SpringHeat(0),
+        FaultKind::SpringOverTemperature(0),
         FaultKind::SensorLoss,
         FaultKind::RunawayHeating,
         FaultKind::RunawayHolding,
@@ -263,7 +263,7 @@ fn fault_codes() -> Vec<&'static str> {
                 FaultKind::OverTemperature
                 | FaultKind::SpringOnTime(_)
                 | FaultKind::SpringDuty(_)
-                | FaultKind::SpringHeat(_)
+                | FaultKind::SpringOverTemperature(_)
                 | FaultKind::SensorLoss
                 | FaultKind::RunawayHeating
                 | FaultKind::RunawayHolding

@@ -269,7 +269,11 @@ impl ObserverParams {
             sum += c.max(0.0) * f * (1.0 - f) / w * s;
             weight += c.max(0.0);
         }
-        if weight > 0.0 { (sum / weight).min(0.5) } else { 0.5 }
+        if weight > 0.0 {
+            (sum / weight).min(0.5)
+        } else {
+            0.5
+        }
     }
 
     /// The continuous system `dx/dt = A·x + b·duty` at a fan duty: `A` (1/s) and `b` (K/s at
@@ -469,7 +473,13 @@ impl Observer {
         // wall is ≈ 0.017 W/K against the wall's ≈ 2 W/K: one-way).
         let outer = ambient + dev[OUTER];
         for (i, sp) in self.springs.iter_mut().enumerate() {
-            sp.predict(&self.params.springs, springs.contains(i), ambient, outer, dt_s);
+            sp.predict(
+                &self.params.springs,
+                springs.contains(i),
+                ambient,
+                outer,
+                dt_s,
+            );
         }
     }
 
@@ -492,7 +502,11 @@ impl Observer {
         t5: Option<Kelvin>,
         extra_k2: f32,
     ) {
-        let extra = if extra_k2.is_finite() { extra_k2.max(0.0) } else { 1e6 };
+        let extra = if extra_k2.is_finite() {
+            extra_k2.max(0.0)
+        } else {
+            1e6
+        };
         let finite = |t: Option<Kelvin>| t.map(Kelvin::k).filter(|z| z.is_finite());
         if self.fresh
             && let (Some(z1), Some(z2)) = (finite(t1), finite(t2))
@@ -573,14 +587,22 @@ impl Observer {
         for g in links {
             resist += if g > 0.0 { 1.0 / g } else { f32::INFINITY };
         }
-        let g_wall = if resist.is_finite() && resist > 0.0 { 1.0 / resist } else { 0.0 };
+        let g_wall = if resist.is_finite() && resist > 0.0 {
+            1.0 / resist
+        } else {
+            0.0
+        };
         let g_all = g_wall + p.duct_conductance_w_per_k(0.0);
         let full = if g_all > 0.0 {
             ambient + p.heater_full_power_w.max(0.0) / g_all
         } else {
             f32::INFINITY
         };
-        let film_k = if film_ceiling_k.is_finite() { film_ceiling_k.min(full) } else { full };
+        let film_k = if film_ceiling_k.is_finite() {
+            film_ceiling_k.min(full)
+        } else {
+            full
+        };
         let q = g_wall * (film_k - ambient);
         let mut layers_k = [0.0f32; LAYERS];
         let mut t = film_k;
@@ -847,7 +869,12 @@ mod tests {
         bad.t2_noise_k2 = -1.0;
         bad.film_capacity_j_per_k = 0.0;
         obs.set_params(&bad);
-        obs.predict(1.0, 1.0, SpringMask::NONE, Seconds::new(f32::INFINITY).unwrap());
+        obs.predict(
+            1.0,
+            1.0,
+            SpringMask::NONE,
+            Seconds::new(f32::INFINITY).unwrap(),
+        );
         obs.predict(1.0, 1.0, SpringMask::NONE, secs(1e9));
         obs.correct(k(350.0), k(340.0), k(298.0));
         assert!(obs.estimate().film_k.is_finite());

@@ -117,7 +117,8 @@ impl SpringState {
         } else {
             0.0
         };
-        let drive = power + p.ambient_w_per_k.max(0.0) * ambient_k + p.column_w_per_k.max(0.0) * outer_k;
+        let drive =
+            power + p.ambient_w_per_k.max(0.0) * ambient_k + p.column_w_per_k.max(0.0) * outer_k;
         // The sensible step: exact for the held inputs (dT/dt = (drive − g·T)/C).
         let sensible = if g > 0.0 {
             let eq = drive / g;
@@ -132,8 +133,16 @@ impl SpringState {
             self.temp_k = t;
             self.austenite = a;
         }
-        let decay2 = if g > 0.0 { libm::expf(-2.0 * dt_s * g / c) } else { 1.0 };
-        let q = if on { p.on_process_k2_per_s } else { p.off_process_k2_per_s };
+        let decay2 = if g > 0.0 {
+            libm::expf(-2.0 * dt_s * g / c)
+        } else {
+            1.0
+        };
+        let q = if on {
+            p.on_process_k2_per_s
+        } else {
+            p.off_process_k2_per_s
+        };
         self.var_k2 = self.var_k2 * decay2 + q.max(0.0) * dt_s;
     }
 }
@@ -191,7 +200,13 @@ mod tests {
     #[test]
     fn settling_keeps_the_enthalpy_and_the_hysteresis() {
         let p = params();
-        for &(t, a) in &[(330.0, 0.0), (346.0, 0.0), (346.0, 1.0), (320.0, 1.0), (360.0, 0.3)] {
+        for &(t, a) in &[
+            (330.0, 0.0),
+            (346.0, 0.0),
+            (346.0, 1.0),
+            (320.0, 1.0),
+            (360.0, 0.3),
+        ] {
             for dh in [-500.0, -50.0, 0.0, 50.0, 500.0, 2000.0] {
                 let h = p.capacity_j_per_k * t + p.latent_j * a + dh;
                 let (t2, a2) = settle(&p, h, a);
@@ -222,10 +237,16 @@ mod tests {
         let t_af = t_af.expect("austenite within 60 s");
         // Sensible heat to Af and the latent heat at ≈62–69 W: ≈26 s.
         let want = (p.capacity_j_per_k * (p.af_k - 298.15) + p.latent_j) / p.power_w;
-        assert!((t_af - want).abs() < 0.2 * want, "austenite after {t_af} s, want ≈{want}");
+        assert!(
+            (t_af - want).abs() < 0.2 * want,
+            "austenite after {t_af} s, want ≈{want}"
+        );
         for _ in 0..20_000 {
             s.predict(&p, false, 298.15, 298.15, 0.1);
         }
-        assert!(s.austenite == 0.0 && (s.temp_k - 298.15).abs() < 0.5, "{s:?}");
+        assert!(
+            s.austenite == 0.0 && (s.temp_k - 298.15).abs() < 0.5,
+            "{s:?}"
+        );
     }
 }

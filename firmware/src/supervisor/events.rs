@@ -92,7 +92,9 @@ impl fmt::Display for Warning {
             Warning::Unresolved => f.write_str(
                 "frames unresolved for unresolved_s while heating: the loop holds the film region",
             ),
-            Warning::Resolved => f.write_str("frames resolved again: the loop holds the mode's region"),
+            Warning::Resolved => {
+                f.write_str("frames resolved again: the loop holds the mode's region")
+            }
             Warning::SoakSlow {
                 frozen,
                 inner_k,

@@ -14,19 +14,18 @@
 //!   |             hold standby_k (the idle state: no timeout)       |
 //!   |    mode step-small|step-large [SPRINGS]                       |
 //!   |                    v                                          |
-//!   |            [ Stepping: Soak ]  heat until the colder target   |
-//!   |                    |           reaches hot_k and holds it     |
-//!   |                    |           ready_dwell_s (and every spring |
-//!   |                    |           it drives has a cleared        |
-//!   |                    |           on-time); soak_timeout_s ----->+
+//!   |            [ Stepping: Soak ]  heat until the observer's wall |
+//!   |                    |           is soft (soft_frozen_max_pct)  |
+//!   |                    |           (and every spring it drives    |
+//!   |                    |           has a cleared on-time); warns  |
+//!   |                    |           at soft_warn_s; soak_timeout_s>+
 //!   |                    v                                          |
-//!   |            [ Stepping: Rest ]  (only if a spring is still warm|
-//!   |                    |           by its heat estimate) hold     |
-//!   |                    |           hot_k until spring_rest: ends  |
-//!   |                    |           within cool_s·ln(h/spring_rest)|
+//!   |            [ Stepping: Rest ]  (only if a spring is still     |
+//!   |                    |           austenite by the estimate)     |
+//!   |                    |           hold hot_k until martensite    |
 //!   |                    v                                          |
-//!   |            [ Stepping: Prewarm ] springs on prewarm_s, then   |
-//!   |                    |             off prewarm_gap_s            |
+//!   |            [ Stepping: Prewarm ] springs to spring_prewarm_k  |
+//!   |                    |   in pulses ≤ prewarm_s, off prewarm_gap_s|
 //!   |                    v                                          |
 //!   |   +--> [ Stepping: Spring i ] springs on for step_s           |
 //!   |   |                |  (pause: springs off, timer held, until  |
@@ -39,7 +38,7 @@
 //!   |  mode form --> [ Forming ] heater off, fan form_fan, until the |
 //!   |                hotter target ≤ form_end_k; form_timeout_s --->+
 //!   |  mode recover -> [ Recovery: Heat ] to hot_k (as Soak), springs |
-//!   |                   balanced to spring_recover_pct (throughout); |
+//!   |                   driven to their band (throughout); soft and |
 //!   |                   soak_timeout_s, ready or not --------------->+
 //!   |                   -> [ Pulse ] all springs, recover_pulse_s,  |
 //!   |                        inside an on window                    |
@@ -71,9 +70,13 @@
 //! supervisor is the one place Tc is computed — once per new valid measurement, with the hint
 //! of the mode at that step; a [`Measurement`] carries no Tc.
 //!
-//! The springs: nothing senses them, so the supervisor keeps a heat estimate of each from its
-//! own switching ([`SpringHeat`]). Recovery uses it to bring all three springs to austenite
-//! together — three equal pulls hold the softened column straight while it cools and locks,
+//! The springs and the wall's inside: nothing senses them, so the supervisor keeps an
+//! [`Observer`] (the wall through its thickness, each spring's temperature and phase, the
+//! ambient), predicted every step from the outputs that ran and corrected by every new frame.
+//! Every spring phase drives a spring by its estimate (`spring_hot_k`, `spring_band_k`);
+//! a spring estimated past `spring_max_k` latches `spring-over-temperature`; the heater is cut
+//! as the estimated inner layer nears `t_max_k` ([`INNER_MARGIN_K`]). Recovery uses the
+//! estimate to bring all three springs to austenite together — three equal pulls hold the softened column straight while it cools and locks,
 //! where a spring still austenite from the stepping would otherwise hold the bend for minutes —
 //! and a new stepping waits (phase `rest`) until every spring is martensite again.
 //!
@@ -101,10 +104,10 @@ pub mod store;
 use crate::command::Command;
 use crate::control::{Pid, PidConfig, SplitRange};
 use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
+use crate::observer::{Estimate, Observer, SpringState};
 use crate::outputs::{Duty, Outputs, SpringMask};
 use crate::settings::{PARAMS, SetError, Settings};
 use crate::units::{Kelvin, Millis, Seconds};
-use crate::observer::{Estimate, Observer, SpringState};
 use events::{EventKind, EventLog};
 use report::Reply;
 use safety::{Fault, FaultKind, LoopState, Safety};
@@ -419,9 +422,7 @@ impl Supervisor {
         if let Some(f) = self
             .safety
             .credit_springs(ran.springs, elapsed_ms, &self.settings)
-            .or_else(|| {
-                Safety::spring_temperature_fault(&self.observer.estimate(), &self.settings)
-            })
+            .or_else(|| Safety::spring_temperature_fault(&self.observer.estimate(), &self.settings))
         {
             self.latch(now, f);
         }
@@ -885,8 +886,7 @@ impl Supervisor {
             let b = m.bound.k();
             if b.is_finite() { b * b } else { 100.0 }
         };
-        self.observer
-            .correct_with(m.t1(), m.t2(), region(4), extra);
+        self.observer.correct_with(m.t1(), m.t2(), region(4), extra);
     }
 
     /// Write the telemetry line (with its `#` and CR LF).

@@ -16,8 +16,8 @@
 use core::fmt;
 
 use crate::control::OnTimer;
-use crate::observer::Estimate;
 use crate::measurement::{Measurement, Quality};
+use crate::observer::Estimate;
 use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
 use crate::settings::Settings;
 use crate::units::{Kelvin, Millis, Seconds};
@@ -171,11 +171,9 @@ impl fmt::Display for Reason {
                 name(spring),
                 duty * 100.0
             ),
-            Fault::SpringOverTemperature { spring, estimate_k } => write!(
-                f,
-                "spring {} estimated at {estimate_k:.1} K",
-                name(spring)
-            ),
+            Fault::SpringOverTemperature { spring, estimate_k } => {
+                write!(f, "spring {} estimated at {estimate_k:.1} K", name(spring))
+            }
             Fault::SensorLoss { for_s } => write!(f, "no valid measurement for {for_s:.2} s"),
             Fault::RunawayHeating { rise_k } => write!(
                 f,

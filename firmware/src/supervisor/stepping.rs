@@ -158,9 +158,8 @@ impl Stepping {
                 // temperature; after the gap the stepping goes on if every one is still in
                 // the band below it.
                 let at = |floor_k: f32| {
-                    (0..SPRINGS).all(|i| {
-                        !self.springs.contains(i) || c.estimate.springs_k[i] >= floor_k
-                    })
+                    (0..SPRINGS)
+                        .all(|i| !self.springs.contains(i) || c.estimate.springs_k[i] >= floor_k)
                 };
                 if *on && at(s.spring_prewarm_k) && !self.paused {
                     *left_ms = 0;
@@ -228,22 +227,22 @@ impl Stepping {
             SpringMask::NONE
         } else {
             match self.phase {
-            StepPhase::Spring { .. } => c.band(self.springs, s.spring_hot_k),
-            StepPhase::Prewarm { on: true, .. } => {
-                // A spring near its duty limit sits a pre-warm pulse out (the duty check would
-                // otherwise latch on a long cold-day pre-warm).
-                let bits = (0..SPRINGS)
-                    .filter(|&i| c.safety.spring_duty(i) < 0.9 * s.spring_duty_max)
-                    .fold(0u8, |b, i| b | 1 << i);
-                let band = c.band(self.springs, s.spring_prewarm_k);
-                SpringMask::from_bits(band.bits() & bits)
+                StepPhase::Spring { .. } => c.band(self.springs, s.spring_hot_k),
+                StepPhase::Prewarm { on: true, .. } => {
+                    // A spring near its duty limit sits a pre-warm pulse out (the duty check would
+                    // otherwise latch on a long cold-day pre-warm).
+                    let bits = (0..SPRINGS)
+                        .filter(|&i| c.safety.spring_duty(i) < 0.9 * s.spring_duty_max)
+                        .fold(0u8, |b, i| b | 1 << i);
+                    let band = c.band(self.springs, s.spring_prewarm_k);
+                    SpringMask::from_bits(band.bits() & bits)
+                }
+                StepPhase::Soak { .. }
+                | StepPhase::Rest
+                | StepPhase::Prewarm { on: false, .. }
+                | StepPhase::Pulse { .. }
+                | StepPhase::Hold => SpringMask::NONE,
             }
-            StepPhase::Soak { .. }
-            | StepPhase::Rest
-            | StepPhase::Prewarm { on: false, .. }
-            | StepPhase::Pulse { .. }
-            | StepPhase::Hold => SpringMask::NONE,
-        }
         };
         ModeStep {
             drive: Drive::Hold(s.hot_k),

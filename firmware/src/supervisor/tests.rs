@@ -109,6 +109,8 @@ fn standby_heats_and_holds() {
 #[test]
 fn large_stepping_runs_four_steps_and_three_pulses_in_30_s() {
     let mut r = Rig::new();
+    // One pre-warm pulse of the full 7 s (a target the crude block's springs reach in one).
+    assert!(r.line("set spring_prewarm_k 323").starts_with("ok"));
     r.run(60.0);
     assert!(
         r.line("mode step-large AB")
@@ -373,7 +375,12 @@ fn recovery_balances_the_springs_then_cools_and_a_new_stepping_waits_for_them_to
         if p == "pulse" && at_pulse.is_none() {
             at_pulse = Some(r.sup.estimate());
         }
-        hottest = r.sup.estimate().springs_k.into_iter().fold(hottest, f32::max);
+        hottest = r
+            .sup
+            .estimate()
+            .springs_k
+            .into_iter()
+            .fold(hottest, f32::max);
         r.run(0.25);
     }
     assert_eq!(phases, ["heat", "pulse", "hold", "cool"]);
@@ -417,7 +424,13 @@ fn recovery_balances_the_springs_then_cools_and_a_new_stepping_waits_for_them_to
         r.run(0.25);
     }
     let rest_from = rested_after.expect("it rests");
-    assert!(r.sup.estimate().austenite.iter().all(|&a| a <= s.spring_rest));
+    assert!(
+        r.sup
+            .estimate()
+            .austenite
+            .iter()
+            .all(|&a| a <= s.spring_rest)
+    );
     assert!(
         r.now_ms - rest_from > 100_000,
         "{} ms",

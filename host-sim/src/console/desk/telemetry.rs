@@ -156,7 +156,7 @@ mod tests {
         assert_eq!(t.get("t1_k"), None);
         assert_eq!(
             csv_row(0.0, &t, None),
-            format!("0.000,2,form{},-", ",".repeat(9))
+            format!("0.000,2,form{},-", ",".repeat(TELEMETRY_FIELDS.len() - 2))
         );
     }
 }
