@@ -333,9 +333,8 @@ fn write_estimate(r: &mut impl Write, e: &Estimate) -> fmt::Result {
     Ok(())
 }
 
-/// The telemetry line's fields, in order (docs/console.md's table is checked against this):
-/// the loop's, then the observer's ([`ESTIMATE_FIELDS`]).
-pub const TELEMETRY_FIELDS: [&str; 12 + 18] = [
+/// The loop's telemetry fields, the line's first ones.
+const LOOP_FIELDS: [&str; 12] = [
     "t_s",
     "mode",
     "phase",
@@ -348,25 +347,24 @@ pub const TELEMETRY_FIELDS: [&str; 12 + 18] = [
     "springs",
     "quality",
     "fault",
-    "frozen_pct",
-    "frozen_std_pct",
-    "inner_k",
-    "inner_std_k",
-    "ambient_est_k",
-    "ambient_std_k",
-    "spring_a_k",
-    "spring_a_std_k",
-    "spring_b_k",
-    "spring_b_std_k",
-    "spring_c_k",
-    "spring_c_std_k",
-    "aus_a_pct",
-    "aus_a_std_pct",
-    "aus_b_pct",
-    "aus_b_std_pct",
-    "aus_c_pct",
-    "aus_c_std_pct",
 ];
+
+/// The telemetry line's fields, in order (docs/console.md's table is checked against this):
+/// the loop's, then the observer's ([`ESTIMATE_FIELDS`]).
+pub const TELEMETRY_FIELDS: [&str; LOOP_FIELDS.len() + ESTIMATE_FIELDS.len()] = {
+    let mut out = [""; LOOP_FIELDS.len() + ESTIMATE_FIELDS.len()];
+    let mut i = 0;
+    while i < LOOP_FIELDS.len() {
+        out[i] = LOOP_FIELDS[i];
+        i += 1;
+    }
+    let mut j = 0;
+    while j < ESTIMATE_FIELDS.len() {
+        out[LOOP_FIELDS.len() + j] = ESTIMATE_FIELDS[j];
+        j += 1;
+    }
+    out
+};
 
 /// Write one telemetry line: `# t_s=… mode=… phase=… t1_k=… t2_k=… tc_k=… target_k=…
 /// heater_pct=… fan_pct=… springs=… quality=… fault=…`, the observer's fields, and CR LF.
