@@ -1,5 +1,5 @@
 //! A state observer of the block's hidden temperatures: a linear Kalman filter on the
-//! firmware's own reduced thermal model (issue 19, first step).
+//! firmware's own reduced thermal model, and the springs as model states beside it.
 //!
 //! The camera sees surfaces only: region 1 is the heater film through the lattice's gaps
 //! (T1), region 2 the lattice's outer surface (T2), region 5 the background (T5 ≈ ambient).
@@ -251,28 +251,25 @@ impl ObserverParams {
 
     /// The wall's frozen fraction: the layers' weighted by their capacities.
     pub fn frozen_fraction(&self, layers_k: &[f32; LAYERS]) -> f32 {
-        let (mut sum, mut weight) = (0.0f32, 0.0f32);
-        for (&t, &c) in layers_k.iter().zip(&self.layer_capacity_j_per_k) {
-            sum += c.max(0.0) * self.layer_frozen(t);
-            weight += c.max(0.0);
-        }
-        if weight > 0.0 { sum / weight } else { 1.0 }
+        self.frozen_with_std(layers_k, &[0.0; LAYERS]).0
     }
 
-    /// Standard deviation of the frozen fraction: each layer's temperature deviation through
-    /// the logistic's slope (layers taken as fully correlated: a bound), at most 0.5.
-    fn frozen_std(&self, layers_k: &[f32; LAYERS], std_k: &[f32; LAYERS]) -> f32 {
+    /// The frozen fraction ([`Self::frozen_fraction`]) and its standard deviation: each
+    /// layer's temperature deviation `std_k` through the logistic's slope (layers taken as
+    /// fully correlated: a bound), at most 0.5. Each layer's logistic is evaluated once.
+    fn frozen_with_std(&self, layers_k: &[f32; LAYERS], std_k: &[f32; LAYERS]) -> (f32, f32) {
         let w = self.frozen_width_k.max(1e-3);
-        let (mut sum, mut weight) = (0.0f32, 0.0f32);
+        let (mut sum, mut spread, mut weight) = (0.0f32, 0.0f32, 0.0f32);
         for ((&t, &s), &c) in layers_k.iter().zip(std_k).zip(&self.layer_capacity_j_per_k) {
             let f = self.layer_frozen(t);
-            sum += c.max(0.0) * f * (1.0 - f) / w * s;
+            sum += c.max(0.0) * f;
+            spread += c.max(0.0) * f * (1.0 - f) / w * s;
             weight += c.max(0.0);
         }
         if weight > 0.0 {
-            (sum / weight).min(0.5)
+            (sum / weight, (spread / weight).min(0.5))
         } else {
-            0.5
+            (1.0, 0.5)
         }
     }
 
@@ -543,7 +540,7 @@ impl Observer {
             self.params.t5_noise_k2,
         ];
         for ((t, idx), r) in [(t1, FILM), (t2, OUTER), (t5, AMBIENT)].into_iter().zip(r) {
-            if let Some(z) = t.map(Kelvin::k).filter(|z| z.is_finite()) {
+            if let Some(z) = finite(t) {
                 self.fuse(idx, z, r);
             }
         }
@@ -555,6 +552,7 @@ impl Observer {
         let layers_k: [f32; LAYERS] = core::array::from_fn(|l| self.x[INNER + l]);
         let layers_std_k: [f32; LAYERS] = core::array::from_fn(|l| std(INNER + l));
         let sp = &self.params.springs;
+        let (frozen, frozen_std) = self.params.frozen_with_std(&layers_k, &layers_std_k);
         Estimate {
             film_k: self.x[FILM],
             layers_k,
@@ -562,8 +560,8 @@ impl Observer {
             film_std_k: std(FILM),
             layers_std_k,
             ambient_std_k: std(AMBIENT),
-            frozen: self.params.frozen_fraction(&layers_k),
-            frozen_std: self.params.frozen_std(&layers_k, &layers_std_k),
+            frozen,
+            frozen_std,
             springs_k: self.springs.map(|s| s.temp_k),
             springs_std_k: self.springs.map(|s| libm::sqrtf(s.var_k2.max(0.0))),
             austenite: self.springs.map(|s| s.austenite),

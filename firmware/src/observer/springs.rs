@@ -120,9 +120,13 @@ impl SpringState {
         let drive =
             power + p.ambient_w_per_k.max(0.0) * ambient_k + p.column_w_per_k.max(0.0) * outer_k;
         // The sensible step: exact for the held inputs (dT/dt = (drive − g·T)/C).
+        let decay = if g > 0.0 {
+            libm::expf(-dt_s * g / c)
+        } else {
+            1.0
+        };
         let sensible = if g > 0.0 {
             let eq = drive / g;
-            let decay = libm::expf(-dt_s * g / c);
             eq + (self.temp_k - eq) * decay
         } else {
             self.temp_k + drive * dt_s / c
@@ -133,11 +137,8 @@ impl SpringState {
             self.temp_k = t;
             self.austenite = a;
         }
-        let decay2 = if g > 0.0 {
-            libm::expf(-2.0 * dt_s * g / c)
-        } else {
-            1.0
-        };
+        // The variance decays as the square of the temperature's deviation.
+        let decay2 = decay * decay;
         let q = if on {
             p.on_process_k2_per_s
         } else {

@@ -38,8 +38,9 @@
 //!   |  mode form --> [ Forming ] heater off, fan form_fan, until the |
 //!   |                hotter target ≤ form_end_k; form_timeout_s --->+
 //!   |  mode recover -> [ Recovery: Heat ] to hot_k (as Soak), springs |
-//!   |                   driven to their band (throughout); soft and |
-//!   |                   soak_timeout_s, ready or not --------------->+
+//!   |                   driven to their band (throughout); once the |
+//!   |                   wall is soft and they are austenite (as     |
+//!   |                   Soak, warns); soak_timeout_s --------------->+
 //!   |                   -> [ Pulse ] all springs, recover_pulse_s,  |
 //!   |                        inside an on window                    |
 //!   |                   -> [ Hold ] recover_hold_s at hot_k          |
@@ -76,7 +77,8 @@
 //! Every spring phase drives a spring by its estimate (`spring_hot_k`, `spring_band_k`);
 //! a spring estimated past `spring_max_k` latches `spring-over-temperature`; the heater is cut
 //! as the estimated inner layer nears `t_max_k` ([`INNER_MARGIN_K`]). Recovery uses the
-//! estimate to bring all three springs to austenite together — three equal pulls hold the softened column straight while it cools and locks,
+//! estimate to bring all three springs to austenite together — three equal pulls hold the
+//! softened column straight while it cools and locks,
 //! where a spring still austenite from the stepping would otherwise hold the bend for minutes —
 //! and a new stepping waits (phase `rest`) until every spring is martensite again.
 //!
@@ -422,7 +424,7 @@ impl Supervisor {
         if let Some(f) = self
             .safety
             .credit_springs(ran.springs, elapsed_ms, &self.settings)
-            .or_else(|| Safety::spring_temperature_fault(&self.observer.estimate(), &self.settings))
+            .or_else(|| Safety::spring_temperature_fault(self.observer.springs(), &self.settings))
         {
             self.latch(now, f);
         }
@@ -855,10 +857,10 @@ impl Supervisor {
             FaultKind::SpringOnTime(_)
             | FaultKind::SpringDuty(_)
             | FaultKind::SpringOverTemperature(_) => {
-                let est = self.observer.estimate();
+                let springs = self.observer.springs();
                 (0..crate::outputs::SPRINGS).all(|i| {
                     self.safety.spring_duty(i) < 0.5 * s.spring_duty_max
-                        && est.springs_k[i] < s.spring_hot_k - s.spring_band_k
+                        && springs[i].temp_k < s.spring_hot_k - s.spring_band_k
                 })
             }
             FaultKind::RunawayHeating | FaultKind::RunawayHolding | FaultKind::NoResponse => fresh,

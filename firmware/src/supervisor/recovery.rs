@@ -75,10 +75,10 @@ impl Recovering {
         // A spring near its duty limit, or whose on-time what is left of the window would
         // take past the limit, sits the window out.
         let may_run = |safety: &Safety, left_ms: u32| -> SpringMask {
+            let room = safety.duty_room(&s);
             let bits = (0..SPRINGS)
                 .filter(|&i| {
-                    safety.spring_duty(i) < 0.9 * s.spring_duty_max
-                        && safety.spring_may_run(i, left_ms as f32 * 1e-3, &s)
+                    room.contains(i) && safety.spring_may_run(i, left_ms as f32 * 1e-3, &s)
                 })
                 .fold(0u8, |b, i| b | 1 << i);
             SpringMask::from_bits(bits)

@@ -308,7 +308,7 @@ pub const ESTIMATE_FIELDS: [&str; 18] = [
 /// Write the observer's fields ([`ESTIMATE_FIELDS`]), each as ` name=value`.
 fn write_estimate(r: &mut impl Write, e: &Estimate) -> fmt::Result {
     let pct = |x: f32| x * 100.0;
-    let mut values = [0.0f32; 18];
+    let mut values = [0.0f32; ESTIMATE_FIELDS.len()];
     values[..6].copy_from_slice(&[
         pct(e.frozen),
         pct(e.frozen_std),
@@ -324,11 +324,7 @@ fn write_estimate(r: &mut impl Write, e: &Estimate) -> fmt::Result {
         values[13 + 2 * i] = pct(e.austenite_std[i]);
     }
     for (name, v) in ESTIMATE_FIELDS.iter().zip(values) {
-        if v.is_finite() {
-            write!(r, " {name}={v:.2}")?;
-        } else {
-            write!(r, " {name}=-")?;
-        }
+        write_k(r, name, v)?;
     }
     Ok(())
 }

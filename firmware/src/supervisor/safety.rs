@@ -17,7 +17,7 @@ use core::fmt;
 
 use crate::control::OnTimer;
 use crate::measurement::{Measurement, Quality};
-use crate::observer::Estimate;
+use crate::observer::Springs;
 use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
 use crate::settings::Settings;
 use crate::units::{Kelvin, Millis, Seconds};
@@ -25,6 +25,10 @@ use crate::units::{Kelvin, Millis, Seconds};
 /// How far a spring's on-time may pass `spring_on_max_s` before it trips, ms: one tick of the
 /// board's control loop (a phase ends on the first step after its time is up).
 pub const ON_TIME_SLACK_MS: u32 = 50;
+
+/// The share of `spring_duty_max` up to which the optional spring drives (recovery's
+/// windows, stepping's pre-warm) still use a spring ([`Safety::duty_room`]).
+pub const DUTY_ROOM: f32 = 0.9;
 
 /// Which check latched a fault (with the spring, where one did), without what tripped it: for
 /// matching and comparing ([`Fault::kind`]).
@@ -337,15 +341,26 @@ impl Safety {
     }
 
     /// Return a fault if a spring's estimated temperature is past `spring_max_k` (the
-    /// observer's [`Estimate`]: whether the spring is on or not, a spring that hot got there by
+    /// observer's [`Springs`]: whether the spring is on or not, a spring that hot got there by
     /// being driven).
-    pub fn spring_temperature_fault(est: &Estimate, s: &Settings) -> Option<Fault> {
-        (0..SPRINGS)
-            .find(|&i| est.springs_k[i] > s.spring_max_k)
+    pub fn spring_temperature_fault(springs: &Springs, s: &Settings) -> Option<Fault> {
+        springs
+            .iter()
+            .position(|sp| sp.temp_k > s.spring_max_k)
             .map(|i| Fault::SpringOverTemperature {
                 spring: i as u8,
-                estimate_k: est.springs_k[i],
+                estimate_k: springs[i].temp_k,
             })
+    }
+
+    /// The springs whose duty over the window is below `DUTY_ROOM` of `spring_duty_max`: the
+    /// ones recovery's windows and stepping's pre-warm may still drive (a spring nearer its
+    /// limit sits out rather than trip it).
+    pub fn duty_room(&self, s: &Settings) -> SpringMask {
+        let bits = (0..SPRINGS)
+            .filter(|&i| self.spring_duty(i) < DUTY_ROOM * s.spring_duty_max)
+            .fold(0u8, |b, i| b | 1 << i);
+        SpringMask::from_bits(bits)
     }
 
     /// Return spring `i`'s counted on-time, s.

@@ -1,5 +1,5 @@
 //! Modes 1 and 2, small and large stepping: soak until the estimated wall is soft, rest the
-//! springs if they are still austenite, pre-warm them to just below A_s, then the stepping
+//! springs if they are still austenite, pre-warm them (`spring_prewarm_k`), then the stepping
 //! phases with pulses between, then hold. Every spring phase drives each selected spring by
 //! its estimated temperature: full current below the band, switched at the control period's
 //! rate to hold it (`spring_hot_k`, `spring_band_k`).
@@ -31,8 +31,8 @@ pub enum StepPhase {
     /// `hot_k` with the springs off until every spring has rested by its estimate (a passive
     /// spring that is still austenite would hold the column against the stepping).
     Rest,
-    /// The springs' pre-warm: each selected spring driven to `spring_prewarm_k` (just below
-    /// its transformation, so the first stepping phase loads at once), in pulses of at most
+    /// The springs' pre-warm: each selected spring driven to `spring_prewarm_k` (below its
+    /// transformation, so the first stepping phase loads as the thesis's did), in pulses of at most
     /// `prewarm_s` with `prewarm_gap_s` off after each (which also ends the continuous
     /// on-time), until every selected spring is warm.
     Prewarm {
@@ -76,7 +76,7 @@ pub struct Stepping {
 }
 
 /// The first springs-on phase of a stepping: the pre-warm, or the first stepping phase.
-pub(super) fn first_spring_phase(s: &Settings) -> StepPhase {
+fn first_spring_phase(s: &Settings) -> StepPhase {
     if s.prewarm_s > 0.0 {
         StepPhase::Prewarm {
             on: true,
@@ -231,11 +231,8 @@ impl Stepping {
                 StepPhase::Prewarm { on: true, .. } => {
                     // A spring near its duty limit sits a pre-warm pulse out (the duty check would
                     // otherwise latch on a long cold-day pre-warm).
-                    let bits = (0..SPRINGS)
-                        .filter(|&i| c.safety.spring_duty(i) < 0.9 * s.spring_duty_max)
-                        .fold(0u8, |b, i| b | 1 << i);
                     let band = c.band(self.springs, s.spring_prewarm_k);
-                    SpringMask::from_bits(band.bits() & bits)
+                    SpringMask::from_bits(band.bits() & c.safety.duty_room(&s).bits())
                 }
                 StepPhase::Soak { .. }
                 | StepPhase::Rest
