@@ -785,3 +785,36 @@ fn save_turns_heater_and_springs_off_for_its_period_and_load_is_refused_while_st
     assert_eq!(mode(at(15.0)), "step-large");
     assert!(r.summary.faults.is_empty(), "{:?}", r.summary.faults);
 }
+
+/// A long stepping hold on a cold day (263 K, camera on): the estimated inner layer's cap
+/// holds the heater near 80 % with the film steady. That is the block at its limit, not a
+/// heater off its film: the no-response check rests (it latched at 413 s before the cap
+/// counted as a cap).
+#[test]
+fn a_cold_hold_at_the_inner_layer_cap_is_not_a_no_response() {
+    let text = "name = \"cold-hold\"\nduration = \"480 s\"\nambient = \"263 K\"\nperiod = \"0.25 s\"\n\
+                [fidelity]\ncamera = true\n[camera]\nnoise = \"0.1 K\"\n\
+                [[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+                [[command]]\nat = \"20 s\"\nline = \"mode step-large AB\"\n";
+    let sc = scenario::parse(text, "cold-hold", "cold-hold").unwrap();
+    let rows = run(&sc, &mut |_| {}).unwrap().rows;
+    let held: Vec<&Row> = rows.iter().filter(|r| phase(r) == "hold").collect();
+    assert!(
+        held.len() > 4 * 120,
+        "the stepping held for 2 min: {}",
+        held.len()
+    );
+    // The cap binds: the heater well below full, and not off.
+    let capped = held
+        .iter()
+        .filter(|r| (0.5..0.95).contains(&r.inputs.heater_duty))
+        .count();
+    assert!(capped > held.len() / 2, "{capped} of {}", held.len());
+    let trip = rows.iter().find(|r| fault(r).is_some());
+    assert!(
+        trip.is_none(),
+        "{:?} at {:?} s",
+        trip.and_then(fault),
+        trip.map(|r| r.obs.time_s)
+    );
+}

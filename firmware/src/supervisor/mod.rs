@@ -216,6 +216,9 @@ pub struct Supervisor {
     quiet: bool,
     /// A warning for this step's decision.
     warning: Option<Warning>,
+    /// The last decision's heater duty was cut by a cap (the film's or the estimated inner
+    /// layer's), below what the loop or the relay asked.
+    heater_capped: bool,
 }
 
 /// The observer for `settings`, with the springs of `memory` (or at the first measured
@@ -297,6 +300,7 @@ impl Supervisor {
             film_fallback: false,
             quiet: false,
             warning: None,
+            heater_capped: false,
         }
     }
 
@@ -469,10 +473,16 @@ impl Supervisor {
             let heater = ran.heater.fraction();
             let film_k = m.hotter().map_or(f32::NAN, Kelvin::k);
             // A film held at its ceiling (the heater cap, or the cascade's film limit below it)
-            // is visibly heated: the steady state of a long soak on a cold day.
+            // is visibly heated: the steady state of a long soak on a cold day. So is a heater
+            // whose duty a cap cut (the film's, or the estimated inner layer's): it runs as hard
+            // as the block allows, not as hard as the loop asks.
             let s = &self.settings;
             let at_ceiling = film_k >= s.heater_cap_k - s.heater_cap_band_k - CEILING_MARGIN_K;
-            let demand = if at_ceiling { 0.0 } else { heater };
+            let demand = if at_ceiling || self.heater_capped {
+                0.0
+            } else {
+                heater
+            };
             if let Some(f) = self.safety.no_response(now, film_k, demand, &self.settings) {
                 self.latch(now, f);
             }
@@ -655,6 +665,7 @@ impl Supervisor {
         dt: Seconds,
     ) -> Outputs {
         let s = self.settings;
+        self.heater_capped = false;
         let hotter = self.last.map(|m| m.hotter().map_or(f32::NAN, Kelvin::k));
         let estimate = self.observer.estimate();
         let mut c = Ctx {
@@ -716,6 +727,7 @@ impl Supervisor {
                 };
             }
             Drive::Relay(d) => {
+                self.heater_capped = d.fraction() > cap;
                 return Outputs {
                     heater: capped(d),
                     fan: Duty::OFF,
@@ -738,6 +750,7 @@ impl Supervisor {
             _ => self.pid.output(),
         };
         let hc = self.split.apply(u);
+        self.heater_capped = hc.heater.fraction() > cap;
         Outputs {
             heater: capped(hc.heater),
             fan: hc.fan,
