@@ -9,8 +9,10 @@ use serde::Serialize;
 
 use crate::runs::series::Row;
 
-/// The figures, keyed as `host-sim paper --json` prints them, in SPEC order.
-pub const KEYS: [&str; 13] = [
+/// The figures, keyed as `host-sim paper --json` prints them: SPEC section 8's in its order,
+/// then the three the observer's readiness and spring control answer for (the soak, the
+/// recovery's stiffness at 25 s, the springs' peak).
+pub const KEYS: [&str; 16] = [
     "preheat_time_s",
     "standby_overshoot_k",
     "standby_hold_band_k",
@@ -24,6 +26,9 @@ pub const KEYS: [&str; 13] = [
     "stiffness_ratio",
     "recovery_time_s",
     "cycle_time_s",
+    "stepping_soak_s",
+    "recovery_k_b_25s_ratio",
+    "spring_peak_k",
 ];
 
 /// One figure: the thesis's value beside the simulated one, judged where a tolerance is
@@ -265,6 +270,36 @@ pub fn judge(cycle: &CycleFigures, one_spring: Option<&CycleFigures>) -> Vec<Fig
             "±20 s",
             "first spring phase until recovery has restored the straight posture",
         ),
+        judged(
+            "stepping_soak_s",
+            "stepping soak",
+            "s",
+            25.0,
+            c.stepping_soak_s,
+            (0.0, 40.0),
+            "≤ 40 s",
+            "`mode step-large` in standby until the first spring phase",
+        ),
+        judged(
+            "recovery_k_b_25s_ratio",
+            "recovery stiffness at 25 s",
+            "",
+            1.0,
+            c.recovery_k_b_25s_ratio,
+            (0.0, 1.3),
+            "≤ 1.3",
+            "k_b 25 s after `mode recover` over k_b at the end of stepping (fig. 6.10(d))",
+        ),
+        judged(
+            "spring_peak_k",
+            "hottest spring",
+            "K",
+            383.0,
+            c.spring_peak_k,
+            (0.0, 383.0),
+            "≤ 383 K",
+            "the hottest any spring's wire gets over the whole run (the plant's truth)",
+        ),
     ]
 }
 
@@ -317,6 +352,13 @@ pub struct CycleFigures {
     /// thesis's cycle: stepping 30 s + forming 50 s + recovery 40 s; the cooling that locks the
     /// straight shape after that is not counted), s.
     pub cycle_time_s: Option<f64>,
+    /// `mode step-large` (from standby) until the first spring phase: the soak and the
+    /// springs' pre-warm, s.
+    pub stepping_soak_s: Option<f64>,
+    /// k_b 25 s after `mode recover` over k_b at the end of stepping (the heated column's).
+    pub recovery_k_b_25s_ratio: Option<f64>,
+    /// The hottest any spring's wire got over the whole run, K.
+    pub spring_peak_k: Option<f64>,
 }
 
 /// Measure SPEC section 8's figures on a cycle's rows.
@@ -348,9 +390,13 @@ pub fn measure(rows: &[Row]) -> CycleFigures {
     let springs: Vec<usize> = (step_cmd..rows.len())
         .filter(|&i| mode(&rows[i]) == "step-large" && phase(&rows[i]) == "spring")
         .collect();
+    f.spring_peak_k = rows.iter().flat_map(|r| r.obs.springs_k).reduce(f64::max);
     let (Some(&s0), Some(&s1)) = (springs.first(), springs.last()) else {
         return f;
     };
+    if step_cmd < rows.len() && mode(&rows[step_cmd.saturating_sub(1)]) == "standby" {
+        f.stepping_soak_s = Some(start(s0) - start(step_cmd));
+    }
     f.large_stepping_time_s = Some(rows[s1].obs.time_s - start(s0));
     f.full_loading_deg = Some(rows[s1].obs.bend_deg);
     let mut i = s0;
@@ -382,6 +428,8 @@ pub fn measure(rows: &[Row]) -> CycleFigures {
         return f;
     };
     let t_rec = start(rs);
+    f.recovery_k_b_25s_ratio =
+        first(rs, &|r| r.obs.time_s >= t_rec + 25.0).map(|i| rows[i].obs.k_b_nmm_per_rad / k_b_hot);
     // Settled: the bend is within 2° from then until recovery ends (a pass through straight
     // that swings out again does not count).
     let re = first(rs, &|r| mode(r) != "recover").unwrap_or(rows.len());
