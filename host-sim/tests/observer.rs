@@ -2,10 +2,12 @@
 //! for 60 s, 35 % for 120 s, then heater off and fan 100 % for 120 s, in steps of 0.25 s. The
 //! observer is fed the plant's true heater film (T1) and outer surface (T2) and the ambient
 //! (T5), each with ≈0.1 K of Gaussian-ish noise, every step; its inner layer (never measured)
-//! is compared with the plant's. At 298 K, 263 K and 323 K ambient.
+//! is compared with the plant's. At 298 K, 263 K and 323 K ambient, on the fitted plant, with
+//! its PMMA plates and on plants 20 % off the observer's parameters (`PlantScale`). Then the
+//! closed-loop error table of `docs/observer.md`.
 //! `cargo test -p host-sim --test observer -- --nocapture` prints the errors.
 
-use host_sim::plant::{Inputs, ModelOptions, Plant, PlantConfig};
+use host_sim::plant::{Inputs, ModelOptions, Plant, PlantConfig, PlantScale};
 use host_sim::sensor::virtual_mlx::Rng;
 use thermorph::observer::{Observer, ObserverParams};
 use thermorph::outputs::SpringMask;
@@ -16,17 +18,41 @@ const NOISE_K: f32 = 0.1;
 /// The errors are counted from this time on, s (the filter's start-up).
 const SETTLE_S: f64 = 10.0;
 
+/// The corner of a ±20 % block where everything heats faster than the observer believes:
+/// heater power +20 %, wall capacity −20 %, spring cooling −20 %, spring supply +20 %.
+const PLUS_20: PlantScale = PlantScale {
+    heater_power: 1.2,
+    wall_capacity: 0.8,
+    spring_cooling: 0.8,
+    spring_supply: 1.2,
+};
+
+/// The opposite corner: everything heats slower than the observer believes.
+const MINUS_20: PlantScale = PlantScale {
+    heater_power: 0.8,
+    wall_capacity: 1.2,
+    spring_cooling: 1.2,
+    spring_supply: 0.8,
+};
+
 /// Mean and max |inner layer error| after `SETTLE_S`, K, with the plant's PMMA end plates on
 /// or off (the observer does not model them).
 fn run(ambient_k: f64, pmma_plates: bool) -> (f64, f64) {
+    run_with(
+        ambient_k,
+        ModelOptions {
+            pmma_plates,
+            ..ModelOptions::default()
+        },
+    )
+}
+
+/// [`run`] on a plant with `options` (the observer keeps its default parameters).
+fn run_with(ambient_k: f64, options: ModelOptions) -> (f64, f64) {
     let config = PlantConfig {
         ambient_k,
         initial_k: ambient_k,
         ..PlantConfig::default()
-    };
-    let options = ModelOptions {
-        pmma_plates,
-        ..ModelOptions::default()
     };
     let mut plant = Plant::with_options(&config, options).expect("valid config");
     // The observer starts from a guess 5 K off (it does not know the ambient yet).
@@ -96,10 +122,39 @@ fn observer_with_unmodelled_plates() {
     }
 }
 
-/// Mean and max |error| of one estimate over a run.
+/// A plant whose heater power, wall capacity and spring factors are 20 % off the observer's
+/// (its parameters stay the defaults): the open-loop inner-layer error grows with the mismatch.
+#[test]
+fn observer_with_a_plant_20_percent_off() {
+    for (label, scale) in [("+20 %", PLUS_20), ("−20 %", MINUS_20)] {
+        for ambient_k in [298.15, 263.15, 323.15] {
+            let options = ModelOptions {
+                scale,
+                ..ModelOptions::default()
+            };
+            let (mean, max) = run_with(ambient_k, options);
+            println!(
+                "plant {label}, ambient {ambient_k:.2} K: inner layer |error| after {SETTLE_S} s: mean {mean:.3} K, max {max:.3} K"
+            );
+            // Measured (2026-11): +20 % mean 0.298 K, max 1.196 K; −20 % mean 0.438 K, max
+            // 1.260 K at each ambient (the network is linear); asserted with a margin of ≈2.
+            assert!(
+                max <= 2.5,
+                "{label}, ambient {ambient_k}: max error {max} K"
+            );
+            assert!(
+                mean <= 0.8,
+                "{label}, ambient {ambient_k}: mean error {mean} K"
+            );
+        }
+    }
+}
+
+/// Mean and max |error| (and the signed mean, estimate − plant) of one estimate over a run.
 #[derive(Default)]
 struct Err {
     sum: f64,
+    signed: f64,
     max: f64,
     n: u32,
 }
@@ -108,9 +163,13 @@ impl Err {
     fn add(&mut self, e: f64) {
         if e.is_finite() {
             self.sum += e.abs();
+            self.signed += e;
             self.max = self.max.max(e.abs());
             self.n += 1;
         }
+    }
+    fn signed_mean(&self) -> f64 {
+        self.signed / f64::from(self.n.max(1))
     }
     fn cell(&self, digits: usize) -> String {
         format!(
@@ -133,9 +192,43 @@ fn observer_error_table_over_the_cycle() {
         "| ambient | inner layer K | outer layer K | frozen fraction | springs K (A, B, C) | austenite fraction (A, B, C) |\n\
          |---|---|---|---|---|---|\n",
     );
-    for ambient_k in [273.15, 298.15, 323.15] {
-        let sc = paper::scene(900.0, ambient_k, true).unwrap();
+    let cases = [
+        ("273.15 K", 273.15, PlantScale::UNIT),
+        ("298.15 K", 298.15, PlantScale::UNIT),
+        ("323.15 K", 323.15, PlantScale::UNIT),
+        ("298.15 K, plant +20 %", 298.15, PLUS_20),
+        ("298.15 K, plant −20 %", 298.15, MINUS_20),
+    ];
+    for (label, ambient_k, scale) in cases {
+        let sc = paper::scene_with(900.0, ambient_k, true, &scale).unwrap();
         let rows = paper::cycle_in(&sc, "AB").unwrap();
+        let mut modes: Vec<&str> = Vec::new();
+        for r in &rows {
+            let c = r.control.expect("closed loop");
+            if modes.last() != Some(&c.mode) {
+                modes.push(c.mode);
+            }
+        }
+        let faults: Vec<_> = rows.iter().filter_map(|r| r.control?.fault).collect();
+        let max_bend_deg = rows.iter().map(|r| r.obs.bend_deg).fold(0.0, f64::max);
+        println!(
+            "{label}: modes {modes:?}, first fault {:?}, largest bend {max_bend_deg:.1}°",
+            faults.first()
+        );
+        // The whole cycle runs, on the mismatched plants too: no fault, every mode entered.
+        assert!(faults.is_empty(), "{label}: fault {:?}", faults.first());
+        assert_eq!(
+            modes,
+            [
+                "standby",
+                "step-large",
+                "form",
+                "standby",
+                "recover",
+                "standby"
+            ],
+            "{label}"
+        );
         let (mut inner, mut outer, mut frozen, mut spring, mut aus) = (
             Err::default(),
             Err::default(),
@@ -161,34 +254,59 @@ fn observer_error_table_over_the_cycle() {
             }
         }
         println!(
-            "{ambient_k} K: inner {} outer {} frozen {} springs {} austenite {}",
+            "{label}: inner {} outer {} frozen {} springs {} austenite {}",
             inner.cell(3),
             outer.cell(3),
             frozen.cell(4),
             spring.cell(2),
             aus.cell(3)
         );
+        println!(
+            "{label}: signed mean (estimate − plant): inner {:+.3} K, frozen {:+.4}, springs {:+.2} K, austenite {:+.3}",
+            inner.signed_mean(),
+            frozen.signed_mean(),
+            spring.signed_mean(),
+            aus.signed_mean()
+        );
         table.push_str(&format!(
-            "| {ambient_k:.2} K | {} | {} | {} | {} | {} |\n",
+            "| {label} | {} | {} | {} | {} | {} |\n",
             inner.cell(2),
             outer.cell(2),
             frozen.cell(3),
             spring.cell(1),
             aus.cell(2)
         ));
-        // The wall is what readiness reads: within 1 K and 0.05 of frozen fraction on average.
-        assert!(inner.sum / f64::from(inner.n) < 1.0, "{ambient_k}: inner");
-        assert!(
-            frozen.sum / f64::from(frozen.n) < 0.05,
-            "{ambient_k}: frozen"
-        );
-        // The springs are model states nothing corrects (measured 2026-11-25: max 14 K at
-        // 273 K, where the plant's loaded springs transform higher than the model's).
-        assert!(
-            spring.sum / f64::from(spring.n) < 6.0,
-            "{ambient_k}: springs mean"
-        );
-        assert!(spring.max < 20.0, "{ambient_k}: springs max {}", spring.max);
+        let mean = |e: &Err| e.sum / f64::from(e.n);
+        if scale == PlantScale::UNIT {
+            // The wall is what readiness reads: within 1 K and 0.05 of frozen fraction on
+            // average.
+            assert!(mean(&inner) < 1.0, "{label}: inner");
+            assert!(mean(&frozen) < 0.05, "{label}: frozen");
+            // The springs are model states nothing corrects (measured 2026-11-25: max 14 K at
+            // 273 K, where the plant's loaded springs transform higher than the model's).
+            assert!(mean(&spring) < 6.0, "{label}: springs mean");
+            assert!(spring.max < 20.0, "{label}: springs max {}", spring.max);
+        } else {
+            // A ±20 % plant with the observer's default parameters. Measured (2026-11), mean /
+            // max: +20 % inner 0.38 / 1.66 K, frozen 0.004 / 0.100, springs 5.2 / 17.8 K,
+            // austenite 0.08 / 0.29; −20 % inner 0.34 / 1.68 K, frozen 0.005 / 0.060, springs
+            // 10.0 / 26.5 K, austenite 0.39 / 0.83 (the springs get 0.78× the heat the model
+            // gives them and lose 1.2× as much: the model's are ahead). Asserted with ≈1.5–2×.
+            assert!(mean(&inner) < 0.8, "{label}: inner mean {}", mean(&inner));
+            assert!(inner.max < 3.0, "{label}: inner max {}", inner.max);
+            assert!(
+                mean(&frozen) < 0.01,
+                "{label}: frozen mean {}",
+                mean(&frozen)
+            );
+            assert!(
+                mean(&spring) < 16.0,
+                "{label}: springs mean {}",
+                mean(&spring)
+            );
+            assert!(spring.max < 40.0, "{label}: springs max {}", spring.max);
+            assert!(mean(&aus) < 0.6, "{label}: austenite mean {}", mean(&aus));
+        }
     }
     print!("{table}");
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/observer.md");

@@ -197,6 +197,7 @@ fn an_adiabatic_run_conserves_energy() {
                 adiabatic: true,
                 pmma_plates: true,
                 shared_spring_supply: false,
+                ..ModelOptions::default()
             };
             let mut plant = Plant::with_options(&config, options).expect("valid");
             let e0 = plant.stored_energy_j();

@@ -178,9 +178,63 @@ pub struct Observation {
     pub film_set_deg: f64,
 }
 
+/// Dimensionless factors on four of the block's quantities, for a plant that differs from the
+/// one the firmware's observer and controller were tuned on (a block built or supplied a little
+/// differently). Each multiplies the constant of `params` it names; 1.0 (the default) is the
+/// fitted block, and [`Plant::with_options`] accepts 0.5–2.0.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantScale {
+    /// Multiplies the heater's electrical power at every duty (`HEATER_SUPPLY_V`² /
+    /// `HEATER_RESISTANCE_OHM`, as if the film's supply voltage were √factor times: the 10 A
+    /// supply limit is far above the film's 2.3 A, so the power scales exactly).
+    pub heater_power: f64,
+    /// Multiplies the SMP wall's heat capacity (`WALL_AREAL_CAPACITY_J_PER_M2K`), both layers
+    /// (and the wall's share of the Lumped node); the heater film and the duct air keep theirs.
+    pub wall_capacity: f64,
+    /// Multiplies each spring's loss conductance to the still ambient air
+    /// (`H_SPRING_W_PER_M2K` × `SPRING_AREA_M2`); the column→spring path
+    /// (`G_COLUMN_SPRING_W_PER_K`) keeps its value.
+    pub spring_cooling: f64,
+    /// Multiplies the spring channels' supply voltage (`SPRING_SUPPLY_V`); the 15 A current
+    /// limit (`SPRING_SUPPLY_LIMIT_A`) stays, so above ≈1.0 a martensite spring's current stays
+    /// at the limit and only an austenite spring's (≈14.9 A unscaled) can rise, to 15 A.
+    pub spring_supply: f64,
+}
+
+/// The range [`Plant::with_options`] accepts for each factor of [`PlantScale`].
+pub const PLANT_SCALE_RANGE: (f64, f64) = (0.5, 2.0);
+
+impl Default for PlantScale {
+    /// Every factor 1.0: the fitted block.
+    fn default() -> Self {
+        PlantScale::UNIT
+    }
+}
+
+impl PlantScale {
+    /// Every factor 1.0: the fitted block.
+    pub const UNIT: PlantScale = PlantScale {
+        heater_power: 1.0,
+        wall_capacity: 1.0,
+        spring_cooling: 1.0,
+        spring_supply: 1.0,
+    };
+
+    /// The factors by name, in declaration order (`heater_power`, `wall_capacity`,
+    /// `spring_cooling`, `spring_supply`).
+    pub fn named(&self) -> [(&'static str, f64); 4] {
+        [
+            ("heater_power", self.heater_power),
+            ("wall_capacity", self.wall_capacity),
+            ("spring_cooling", self.spring_cooling),
+            ("spring_supply", self.spring_supply),
+        ]
+    }
+}
+
 /// Model options beyond the contract's [`PlantConfig`] (defaults: no plates, not adiabatic, one
-/// supply channel per spring).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// supply channel per spring, the fitted block's scale).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ModelOptions {
     /// Add the two PMMA end plates as a thermal node (Full thermal fidelity only).
     pub pmma_plates: bool,
@@ -189,6 +243,9 @@ pub struct ModelOptions {
     /// One 5 V / 15 A supply shared by the three springs instead of one channel each (the cost:
     /// two springs get 7.5 A each and heat ≈4× slower; see `docs/PLANT-API.md`).
     pub shared_spring_supply: bool,
+    /// Factors on the heater power, wall capacity, spring cooling and spring supply (default:
+    /// all 1.0).
+    pub scale: PlantScale,
 }
 
 /// One spring's thermal and phase state.
@@ -241,6 +298,18 @@ pub enum PlantError {
     /// The largest internal step is not positive and finite.
     #[error("max_step_s: {0} s must be positive and finite")]
     MaxStep(f64),
+    /// A factor of [`PlantScale`] is not finite or outside [`PLANT_SCALE_RANGE`].
+    #[error(
+        "scale.{field}: {value} is outside {}–{} (a dimensionless factor on the fitted block)",
+        PLANT_SCALE_RANGE.0,
+        PLANT_SCALE_RANGE.1
+    )]
+    Scale {
+        /// The factor (`heater_power`, `wall_capacity`, `spring_cooling`, `spring_supply`).
+        field: &'static str,
+        /// Its value.
+        value: f64,
+    },
 }
 
 fn check_k(field: &'static str, value_k: f64) -> Result<(), PlantError> {
@@ -268,8 +337,19 @@ impl Plant {
         if !config.max_step_s.is_finite() || config.max_step_s <= 0.0 {
             return Err(PlantError::MaxStep(config.max_step_s));
         }
+        for (field, value) in options.scale.named() {
+            if !value.is_finite() || !(PLANT_SCALE_RANGE.0..=PLANT_SCALE_RANGE.1).contains(&value) {
+                return Err(PlantError::Scale { field, value });
+            }
+        }
         let plates = options.pmma_plates && config.fidelity.thermal == ThermalFidelity::Full;
-        let net = Network::new(config.fidelity.thermal, 0.0, plates, options.adiabatic);
+        let net = Network::scaled(
+            config.fidelity.thermal,
+            0.0,
+            plates,
+            options.adiabatic,
+            options.scale.wall_capacity,
+        );
         let t0 = config.initial_k;
         let phase0 = sma::kinetics(
             config.fidelity.sma,
@@ -371,12 +451,7 @@ impl Plant {
     /// Heat stored in the cylinder network and the springs (sensible from 0 K plus the
     /// springs' latent heat of austenite), J.
     pub fn stored_energy_j(&self) -> f64 {
-        let net = Network::new(
-            self.config.fidelity.thermal,
-            0.0,
-            self.options.pmma_plates,
-            self.options.adiabatic,
-        );
+        let net = self.network(0.0);
         net.energy_j(&self.nodes_k)
             + self
                 .springs
@@ -402,20 +477,11 @@ impl Plant {
     /// [`Plant::electrical_energy_j`] (zero for an adiabatic plant).
     pub fn ambient_loss_w(&self, fan_duty: f64) -> f64 {
         let amb = self.config.ambient_k;
-        let net = Network::new(
-            self.config.fidelity.thermal,
-            duty(fan_duty),
-            self.options.pmma_plates,
-            self.options.adiabatic,
-        );
+        let net = self.network(duty(fan_duty));
         let cylinder: f64 = (0..net.n)
             .map(|i| net.g_amb_w_per_k[i] * (self.nodes_k[i] - amb))
             .sum();
-        let g_spring = if self.options.adiabatic {
-            0.0
-        } else {
-            sma::ambient_w_per_k()
-        };
+        let g_spring = self.spring_ambient_w_per_k();
         cylinder
             + self
                 .springs
@@ -440,6 +506,26 @@ impl Plant {
     pub fn stored_bend_deg(&self) -> f64 {
         let s = self.smp.stored_rad;
         (s[0] * s[0] + s[1] * s[1]).sqrt().to_degrees()
+    }
+
+    /// The cylinder's network at `fan_duty` (0…1) with this plant's options and scale.
+    fn network(&self, fan_duty: f64) -> Network {
+        Network::scaled(
+            self.config.fidelity.thermal,
+            fan_duty,
+            self.options.pmma_plates,
+            self.options.adiabatic,
+            self.options.scale.wall_capacity,
+        )
+    }
+
+    /// One spring's loss conductance to the ambient with this plant's options and scale, W/K.
+    fn spring_ambient_w_per_k(&self) -> f64 {
+        if self.options.adiabatic {
+            0.0
+        } else {
+            sma::ambient_w_per_k() * self.options.scale.spring_cooling
+        }
     }
 
     fn region_temps(&self) -> (f64, f64, f64, f64) {
@@ -501,10 +587,19 @@ impl Plant {
         } else {
             let full = (params::HEATER_SUPPLY_V / params::HEATER_RESISTANCE_OHM)
                 .min(params::HEATER_SUPPLY_LIMIT_A);
-            heater_duty * full * full * params::HEATER_RESISTANCE_OHM
+            heater_duty
+                * full
+                * full
+                * params::HEATER_RESISTANCE_OHM
+                * self.options.scale.heater_power
         };
         let xi = self.springs.map(|s| s.phase.xi());
-        let supply = sma::supply(inputs.springs_on, xi, self.options.shared_spring_supply);
+        let supply = sma::supply_at(
+            inputs.springs_on,
+            xi,
+            self.options.shared_spring_supply,
+            params::SPRING_SUPPLY_V * self.options.scale.spring_supply,
+        );
         let spring_w = supply.wire_w;
         self.heater_power_w = heater_w;
         self.supply = supply;
@@ -527,12 +622,7 @@ impl Plant {
         let key = fan.to_bits();
         let fresh = !matches!(&self.net_cache, Some((k, _, _)) if *k == key);
         if fresh {
-            let net = Network::new(
-                fid.thermal,
-                fan,
-                self.options.pmma_plates,
-                self.options.adiabatic,
-            );
+            let net = self.network(fan);
             self.net_cache = Some((key, net.system_matrix(), net));
         }
         let (_, a, net) = self.net_cache.as_ref().expect("filled above");
@@ -552,11 +642,7 @@ impl Plant {
 
         // Springs: sensible update, then settle the phase on the enthalpy.
         let c = sma::capacity_j_per_k();
-        let g = if self.options.adiabatic {
-            0.0
-        } else {
-            sma::ambient_w_per_k()
-        };
+        let g = self.spring_ambient_w_per_k();
         for (i, s) in self.springs.iter_mut().enumerate() {
             let source = spring_w[i] + exchange_w[i];
             let t_sens = if g > 0.0 {
@@ -632,5 +718,286 @@ impl Plant {
             self.smp.branch_rad = b;
         }
         self.bend_rad = b;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plant(config: &PlantConfig, scale: PlantScale) -> Plant {
+        Plant::with_options(
+            config,
+            ModelOptions {
+                scale,
+                ..ModelOptions::default()
+            },
+        )
+        .expect("valid")
+    }
+
+    /// Heater, fan and springs through a short cycle; the observation after each step.
+    fn trace(mut plant: Plant) -> Vec<Observation> {
+        let mut out = Vec::new();
+        for (heater_duty, fan_duty, springs_on, secs) in [
+            (1.0, 0.0, [false; 3], 40),
+            (0.4, 0.0, [true, true, false], 20),
+            (0.0, 1.0, [false, false, true], 20),
+            (0.0, 0.3, [false; 3], 30),
+        ] {
+            let inputs = Inputs {
+                heater_duty,
+                fan_duty,
+                springs_on,
+                ..Inputs::default()
+            };
+            for _ in 0..secs * 2 {
+                plant.step(&inputs, 0.5);
+                out.push(plant.observe());
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn factors_of_one_are_the_default_plant_exactly() {
+        let config = PlantConfig::default();
+        let ones = PlantScale {
+            heater_power: 1.0,
+            wall_capacity: 1.0,
+            spring_cooling: 1.0,
+            spring_supply: 1.0,
+        };
+        let a = Plant::new(&config).expect("valid");
+        let b = plant(&config, ones);
+        assert_eq!(a.stored_energy_j(), b.stored_energy_j());
+        assert_eq!(trace(a), trace(b));
+        // And a factor that is not 1 changes the trace (the comparison can fail).
+        let c = plant(
+            &config,
+            PlantScale {
+                spring_cooling: 1.01,
+                ..ones
+            },
+        );
+        assert_ne!(trace(Plant::new(&config).expect("valid")), trace(c));
+    }
+
+    #[test]
+    fn scale_factors_out_of_range_are_refused() {
+        let config = PlantConfig::default();
+        for (scale, field) in [
+            (
+                PlantScale {
+                    heater_power: 0.49,
+                    ..PlantScale::UNIT
+                },
+                "heater_power",
+            ),
+            (
+                PlantScale {
+                    wall_capacity: 2.01,
+                    ..PlantScale::UNIT
+                },
+                "wall_capacity",
+            ),
+            (
+                PlantScale {
+                    spring_cooling: f64::NAN,
+                    ..PlantScale::UNIT
+                },
+                "spring_cooling",
+            ),
+            (
+                PlantScale {
+                    spring_supply: f64::INFINITY,
+                    ..PlantScale::UNIT
+                },
+                "spring_supply",
+            ),
+        ] {
+            let options = ModelOptions {
+                scale,
+                ..ModelOptions::default()
+            };
+            let e = Plant::with_options(&config, options)
+                .err()
+                .expect("refused")
+                .to_string();
+            assert!(e.starts_with(&format!("scale.{field}: ")), "{e}");
+            assert!(e.contains("outside 0.5–2"), "{e}");
+        }
+        for edge in [0.5, 2.0] {
+            let scale = PlantScale {
+                heater_power: edge,
+                wall_capacity: edge,
+                spring_cooling: edge,
+                spring_supply: edge,
+            };
+            plant(&config, scale);
+        }
+    }
+
+    #[test]
+    fn heater_power_multiplies_the_heaters_power_at_any_duty() {
+        let config = PlantConfig::default();
+        for duty in [0.35, 1.0] {
+            let inputs = Inputs {
+                heater_duty: duty,
+                ..Inputs::default()
+            };
+            let mut a = Plant::new(&config).expect("valid");
+            let mut b = plant(
+                &config,
+                PlantScale {
+                    heater_power: 1.2,
+                    ..PlantScale::UNIT
+                },
+            );
+            a.step(&inputs, 10.0);
+            b.step(&inputs, 10.0);
+            let (oa, ob) = (a.observe(), b.observe());
+            assert!(oa.heater_power_w > 10.0 * duty, "{}", oa.heater_power_w);
+            assert!(
+                (ob.heater_power_w / oa.heater_power_w - 1.2).abs() < 1e-12,
+                "{} vs {}",
+                ob.heater_power_w,
+                oa.heater_power_w
+            );
+            assert!((b.electrical_energy_j() / a.electrical_energy_j() - 1.2).abs() < 1e-12);
+            assert!(ob.heater_k - 298.15 > 1.1 * (oa.heater_k - 298.15));
+        }
+    }
+
+    #[test]
+    fn wall_capacity_slows_the_walls_warm_up_and_holds_its_heat() {
+        let config = PlantConfig::default();
+        let full = Inputs {
+            heater_duty: 1.0,
+            ..Inputs::default()
+        };
+        let warm = |scale: f64| {
+            let mut p = plant(
+                &config,
+                PlantScale {
+                    wall_capacity: scale,
+                    ..PlantScale::UNIT
+                },
+            );
+            p.step(&full, 60.0);
+            let o = p.observe();
+            (o.smp_inner_k - 298.15, o.smp_outer_k - 298.15)
+        };
+        let (inner, outer) = warm(1.0);
+        let (inner_big, outer_big) = warm(1.2);
+        let (inner_small, _) = warm(0.8);
+        assert!(inner > 10.0, "{inner}");
+        assert!(inner_big < 0.9 * inner, "{inner_big} vs {inner}");
+        assert!(outer_big < 0.9 * outer, "{outer_big} vs {outer}");
+        assert!(inner_small > 1.1 * inner, "{inner_small} vs {inner}");
+        // The capacity is the plant's own: adiabatic, the stored heat rises by exactly the
+        // electrical energy delivered (it would not if the store used the fitted capacity).
+        let mut p = Plant::with_options(
+            &config,
+            ModelOptions {
+                adiabatic: true,
+                scale: PlantScale {
+                    wall_capacity: 1.2,
+                    ..PlantScale::UNIT
+                },
+                ..ModelOptions::default()
+            },
+        )
+        .expect("valid");
+        let e0 = p.stored_energy_j();
+        p.step(&full, 60.0);
+        let gained = p.stored_energy_j() - e0;
+        let delivered = p.electrical_energy_j();
+        assert!(
+            (gained - delivered).abs() < 1e-9 * e0,
+            "{gained} J stored, {delivered} J delivered"
+        );
+    }
+
+    #[test]
+    fn spring_cooling_multiplies_the_springs_loss_to_ambient() {
+        // Lumped: no column→spring path, so a spring cools as one exponential to the ambient
+        // and its decay exponent is its loss conductance over its capacity. From 330 K (below
+        // A_s: martensite, no transformation on the way down).
+        let config = PlantConfig {
+            initial_k: 330.0,
+            fidelity: Fidelity {
+                thermal: ThermalFidelity::Lumped,
+                ..Fidelity::default()
+            },
+            ..PlantConfig::default()
+        };
+        let cool = |scale: f64| {
+            let mut p = plant(
+                &config,
+                PlantScale {
+                    spring_cooling: scale,
+                    ..PlantScale::UNIT
+                },
+            );
+            let loss_w = p.ambient_loss_w(0.0);
+            p.step(&Inputs::default(), 60.0);
+            let o = p.observe();
+            assert_eq!(o.austenite, [0.0; 3]);
+            let excess = o.springs_k[0] - config.ambient_k;
+            (-(excess / (330.0 - config.ambient_k)).ln(), loss_w)
+        };
+        let (decay, loss_w) = cool(1.0);
+        let (decay_fast, loss_fast_w) = cool(1.2);
+        assert!(decay > 0.2, "{decay}");
+        assert!(
+            (decay_fast / decay - 1.2).abs() < 1e-6,
+            "{decay_fast} vs {decay}"
+        );
+        // The ambient loss counts the springs' scaled conductance (three springs, 31.85 K up).
+        let springs_w = 3.0 * sma::ambient_w_per_k() * (330.0 - config.ambient_k);
+        assert!(
+            ((loss_fast_w - loss_w) - 0.2 * springs_w).abs() < 1e-9,
+            "{loss_fast_w} vs {loss_w}"
+        );
+    }
+
+    #[test]
+    fn spring_supply_scales_the_channel_voltage_under_its_current_limit() {
+        let config = PlantConfig::default();
+        let on = Inputs {
+            springs_on: [true, false, false],
+            ..Inputs::default()
+        };
+        let drive = |scale: f64| {
+            let mut p = plant(
+                &config,
+                PlantScale {
+                    spring_supply: scale,
+                    ..PlantScale::UNIT
+                },
+            );
+            p.step(&on, 0.01);
+            let o = p.observe();
+            (o.spring_current_a[0], o.spring_power_w[0])
+        };
+        let r_wire = sma::wire_resistance_ohm(1.0);
+        let r = r_wire + params::SPRING_LEAD_RESISTANCE_OHM;
+        // Martensite, unscaled: 5 V over ≈0.30 Ω asks for more than 15 A; the limit holds.
+        let (amps, watts) = drive(1.0);
+        assert!(params::SPRING_SUPPLY_V / r > params::SPRING_SUPPLY_LIMIT_A);
+        assert_eq!(amps, params::SPRING_SUPPLY_LIMIT_A);
+        // 0.8: 4 V over the same resistance is below the limit; the current is V/R.
+        let (amps_low, watts_low) = drive(0.8);
+        let expected = 0.8 * params::SPRING_SUPPLY_V / r;
+        assert!(expected < params::SPRING_SUPPLY_LIMIT_A);
+        assert!(
+            (amps_low - expected).abs() < 1e-12,
+            "{amps_low} vs {expected}"
+        );
+        assert!((watts_low - expected * expected * r_wire).abs() < 1e-9);
+        assert!(watts_low < 0.8 * watts, "{watts_low} vs {watts}");
+        // 1.2: still at the limit.
+        assert_eq!(drive(1.2), (amps, watts));
     }
 }

@@ -182,6 +182,11 @@ pub struct Supply {
 /// 15 A channel per spring, I = min(V/(R_wire + R_lead), 15 A). `shared`: one 5 V supply feeds
 /// the switched-on springs in parallel and folds back to its 15 A limit when they draw more.
 pub fn supply(on: [bool; 3], xi: [f64; 3], shared: bool) -> Supply {
+    supply_at(on, xi, shared, p::SPRING_SUPPLY_V)
+}
+
+/// [`supply`] from a supply of `supply_v` instead of `SPRING_SUPPLY_V` (the 15 A limit stays).
+pub fn supply_at(on: [bool; 3], xi: [f64; 3], shared: bool, supply_v: f64) -> Supply {
     let r = [0, 1, 2].map(|i| wire_resistance_ohm(xi[i]) + p::SPRING_LEAD_RESISTANCE_OHM);
     let mut out = Supply::default();
     let v = if shared {
@@ -189,9 +194,9 @@ pub fn supply(on: [bool; 3], xi: [f64; 3], shared: bool) -> Supply {
         if g_total == 0.0 {
             return out;
         }
-        p::SPRING_SUPPLY_V.min(p::SPRING_SUPPLY_LIMIT_A / g_total)
+        supply_v.min(p::SPRING_SUPPLY_LIMIT_A / g_total)
     } else {
-        p::SPRING_SUPPLY_V
+        supply_v
     };
     for i in 0..3 {
         if on[i] {

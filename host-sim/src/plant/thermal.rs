@@ -53,6 +53,18 @@ impl Network {
     /// Assemble the network for a resolution and fan duty (0…1). `plates` adds the PMMA end
     /// plates (Full only); `adiabatic` cuts every path to ambient (for the energy test).
     pub fn new(fidelity: ThermalFidelity, fan_duty: f64, plates: bool, adiabatic: bool) -> Self {
+        Network::scaled(fidelity, fan_duty, plates, adiabatic, 1.0)
+    }
+
+    /// [`Network::new`] with the SMP wall's heat capacity multiplied by `wall_capacity` (both
+    /// layers; in the Lumped node only the wall's share).
+    pub fn scaled(
+        fidelity: ThermalFidelity,
+        fan_duty: f64,
+        plates: bool,
+        adiabatic: bool,
+        wall_capacity: f64,
+    ) -> Self {
         let mut net = Network {
             n: 0,
             c_j_per_k: [0.0; N],
@@ -60,7 +72,7 @@ impl Network {
             g_amb_w_per_k: [0.0; N],
         };
         let c_heater = p::HEATER_AREAL_CAPACITY_J_PER_M2K * p::INNER_AREA_M2;
-        let c_wall = p::WALL_AREAL_CAPACITY_J_PER_M2K * p::INNER_AREA_M2;
+        let c_wall = p::WALL_AREAL_CAPACITY_J_PER_M2K * p::INNER_AREA_M2 * wall_capacity;
         let c_air = p::DUCT_VOLUME_M3 * p::AIR_DENSITY_KG_PER_M3 * p::AIR_CP_J_PER_KGK;
         let g_heater_air = duct_h_w_per_m2k(fan_duty) * p::INNER_AREA_M2;
         let g_flow = duct_flow_w_per_k(fan_duty);

@@ -62,7 +62,7 @@ use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::{SpringMemory, Supervisor};
 use thermorph::units::Millis;
 
-use crate::plant::{Inputs, Observation, Plant, PlantConfig};
+use crate::plant::{Inputs, ModelOptions, Observation, Plant, PlantConfig};
 
 /// What a simulated board is built from: the block's plant, its camera, the faults to inject
 /// and the sample period of camera-off measurements.
@@ -70,6 +70,8 @@ use crate::plant::{Inputs, Observation, Plant, PlantConfig};
 pub struct BlockSpec {
     /// The plant.
     pub plant: PlantConfig,
+    /// The plant's model options (its [`PlantScale`](crate::plant::PlantScale) among them).
+    pub options: ModelOptions,
     /// The camera (off: true temperatures every `sample_period_s`).
     pub camera: CameraSettings,
     /// Injected faults.
@@ -175,7 +177,7 @@ impl SimBoard {
         settings: Settings,
         flash: SimFlash,
     ) -> Result<Self, RigError> {
-        let plant = Plant::new(&block.plant)?;
+        let plant = Plant::with_options(&block.plant, block.options)?;
         let camera = if block.camera.enabled {
             Some(Camera::new(block.camera.seed, block.camera.noise_k)?)
         } else {

@@ -11,6 +11,7 @@
 use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::events::EventKind;
 
+use crate::plant::PlantScale;
 pub use crate::runs::cycle_figures::{CycleFigures, Figure, KEYS, judge, measure};
 use crate::runs::run::{RunError, run_with};
 use crate::runs::scenario;
@@ -26,7 +27,20 @@ pub fn scene(
     ambient_k: f64,
     camera: bool,
 ) -> Result<scenario::Scenario, scenario::ScenarioError> {
-    let text = format!(
+    scene_with(duration_s, ambient_k, camera, &PlantScale::UNIT)
+}
+
+/// [`scene`] on a block whose heater power, wall capacity, spring cooling and spring supply are
+/// `scale` times the fitted block's (the scene's `[plant]` table, written as percentages; the
+/// firmware keeps its own parameters). Factors outside 0.5–2.0 are refused as a scene file's
+/// would be.
+pub fn scene_with(
+    duration_s: f64,
+    ambient_k: f64,
+    camera: bool,
+    scale: &PlantScale,
+) -> Result<scenario::Scenario, scenario::ScenarioError> {
+    let mut text = format!(
         "name = \"paper\"\n\
          description = \"the thesis's experiments, real supervisor\"\n\
          duration = \"{duration_s} s\"\n\
@@ -34,9 +48,15 @@ pub fn scene(
          initial = \"{ambient_k} K\"\n\
          period = \"0.25 s\"\n\
          [fidelity]\ncamera = {camera}\n\
-         [camera]\nnoise = \"0.1 K\"\nseed = 1\n\
-         [[command]]\nat = \"0 s\"\nline = \"mode standby\"\n"
+         [camera]\nnoise = \"0.1 K\"\nseed = 1\n"
     );
+    if *scale != PlantScale::UNIT {
+        text.push_str("[plant]\n");
+        for (key, factor) in scale.named() {
+            text.push_str(&format!("{key} = \"{} %\"\n", 100.0 * factor));
+        }
+    }
+    text.push_str("[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n");
     scenario::parse(&text, "<paper>", "paper")
 }
 
@@ -135,4 +155,59 @@ pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> anyhow::R
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_scene_carries_a_plant_scale() {
+        let plain = scene(900.0, 298.15, true).unwrap();
+        assert_eq!(plain.plant_scale, PlantScale::UNIT);
+        assert_eq!(
+            scene_with(900.0, 298.15, true, &PlantScale::UNIT).unwrap(),
+            plain
+        );
+        for scale in [
+            PlantScale {
+                heater_power: 1.2,
+                wall_capacity: 0.8,
+                spring_cooling: 0.8,
+                spring_supply: 1.2,
+            },
+            PlantScale {
+                heater_power: 0.8,
+                wall_capacity: 1.2,
+                spring_cooling: 1.2,
+                spring_supply: 0.8,
+            },
+        ] {
+            let sc = scene_with(900.0, 298.15, true, &scale).unwrap();
+            assert_eq!(sc.plant_scale, scale);
+            assert_eq!(sc.block().options.scale, scale);
+            assert_eq!(
+                scenario::Scenario {
+                    plant_scale: PlantScale::UNIT,
+                    ..sc
+                },
+                plain
+            );
+        }
+        let e = scene_with(
+            900.0,
+            298.15,
+            true,
+            &PlantScale {
+                wall_capacity: 2.5,
+                ..PlantScale::UNIT
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("`plant.wall_capacity`: 250 % is out of range"),
+            "{e}"
+        );
+    }
 }

@@ -25,6 +25,13 @@
 //! noise = "0.1 K"                # sensor noise rms (NETD)
 //! seed = 1                       # noise and sensor-calibration seed
 //!
+//! [plant]                        # optional; every key optional (default "100 %": the fitted
+//!                                # block); each 50–200 % of the fitted value (`PlantScale`)
+//! heater_power = "120 %"         # the heater's electrical power at every duty
+//! wall_capacity = "80 %"         # the SMP wall's heat capacity (both layers)
+//! spring_cooling = "80 %"        # each spring's loss to the still ambient air
+//! spring_supply = "120 %"        # the spring channels' supply voltage (the 15 A limit stays)
+//!
 //! [[action]]                     # any number, in any order; each sets only what it names
 //! at = "0 s"
 //! heater = "100 %"               # heater PWM duty, 0–100 %
@@ -42,7 +49,9 @@
 //! ```
 //!
 //! A `camera` fault changes what the camera sees, not the plant; it needs `fidelity.camera =
-//! true` ([`CameraFault`] says what each shows).
+//! true` ([`CameraFault`] says what each shows). `[plant]` changes the simulated block only:
+//! the firmware's observer and controller keep their own (fitted) parameters, so a scaled
+//! plant is a model mismatch for them.
 //!
 //! Quantities carry their unit in the string, so `ambient = 298` or `duration = "90"` is an
 //! error, as is an unknown key, a value out of range, a malformed time or an action after the
@@ -53,7 +62,10 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use crate::plant::{Fidelity, Integrator, SmaFidelity, SmpFidelity, ThermalFidelity};
+use crate::plant::{
+    Fidelity, Integrator, ModelOptions, PLANT_SCALE_RANGE, PlantScale, SmaFidelity, SmpFidelity,
+    ThermalFidelity,
+};
 use crate::sensor::virtual_mlx::SensorFault;
 
 pub use crate::rig::faults::{
@@ -123,6 +135,9 @@ pub struct Scenario {
     pub max_step_s: f64,
     /// Camera settings.
     pub camera: CameraSettings,
+    /// Factors on the simulated block's heater power, wall capacity, spring cooling and spring
+    /// supply (`[plant]`; default all 1.0).
+    pub plant_scale: PlantScale,
     /// Actions sorted by time (ties keep file order).
     pub actions: Vec<Action>,
     /// Console lines sorted by time (ties keep file order). A scene with any runs closed loop:
@@ -142,6 +157,10 @@ impl Scenario {
                 fidelity: self.fidelity,
                 integrator: self.integrator,
                 max_step_s: self.max_step_s,
+            },
+            options: ModelOptions {
+                scale: self.plant_scale,
+                ..ModelOptions::default()
             },
             camera: self.camera,
             faults: self.faults.clone(),
@@ -294,6 +313,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
             "period",
             "fidelity",
             "camera",
+            "plant",
             "action",
             "command",
             "fault",
@@ -438,6 +458,24 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
             let n = integer(&cx, k, v, "camera.seed")?;
             camera.seed =
                 u64::try_from(n).map_err(|_| cx.err(v.span(), "camera.seed", "must be ≥ 0"))?;
+        }
+    }
+
+    let mut plant_scale = PlantScale::default();
+    if let Some((k, item)) = root.get_key_value("plant") {
+        let t = table(&cx, k, item, "plant")?;
+        let names = PlantScale::default().named().map(|(n, _)| n);
+        check_keys(&cx, t, "plant.", &names)?;
+        for (key, val) in t.iter() {
+            let k = t.key(key).expect("key of an iterated entry");
+            let factor = scale_percent(&cx, k, val, &format!("plant.{key}"))?;
+            match key {
+                "heater_power" => plant_scale.heater_power = factor,
+                "wall_capacity" => plant_scale.wall_capacity = factor,
+                "spring_cooling" => plant_scale.spring_cooling = factor,
+                "spring_supply" => plant_scale.spring_supply = factor,
+                _ => unreachable!("keys were checked"),
+            }
         }
     }
 
@@ -654,6 +692,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
         integrator,
         max_step_s,
         camera,
+        plant_scale,
         actions,
         commands,
         faults,
@@ -959,6 +998,29 @@ fn percent(
     Ok(in_range(cx, span_of(k, v), key, p, (0.0, 100.0), "%")? / 100.0)
 }
 
+/// A factor on the fitted block as a percentage (`"120 %"`, `"80%"`), within
+/// [`PLANT_SCALE_RANGE`]; returns the factor (1.2).
+fn scale_percent(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+) -> Result<f64, ScenarioError> {
+    let s = quantity_str(cx, k, v, key, "120 %")?;
+    let p = split_quantity(s)
+        .filter(|(_, u)| *u == "%")
+        .map(|(x, _)| x)
+        .ok_or_else(|| {
+            cx.err(
+                span_of(k, v),
+                key,
+                format!("`{s}` is not a percentage of the fitted block (write e.g. \"120 %\")"),
+            )
+        })?;
+    let range = (100.0 * PLANT_SCALE_RANGE.0, 100.0 * PLANT_SCALE_RANGE.1);
+    Ok(in_range(cx, span_of(k, v), key, p, range, "%")? / 100.0)
+}
+
 fn springs(
     cx: &Ctx,
     k: &toml_edit::Key,
@@ -1172,6 +1234,82 @@ mod tests {
         assert!(s.faults[0].active(2.5) && !s.faults[0].active(3.0) && !s.faults[0].active(1.9));
         assert_eq!(s.faults[1].kind, Injection::Sensor(SensorFault::Frozen));
         assert!(s.faults[1].active(1e9));
+    }
+
+    #[test]
+    fn plant_scale_parses_and_reaches_the_block() {
+        let s = parse(
+            &format!(
+                "{MINIMAL}[plant]\nheater_power = \"120 %\"\nwall_capacity = \"80%\"\n\
+                 spring_cooling = \"50 %\"\nspring_supply = \"200 %\"\n"
+            ),
+            "t.toml",
+            "t",
+        )
+        .unwrap();
+        let want = PlantScale {
+            heater_power: 1.2,
+            wall_capacity: 0.8,
+            spring_cooling: 0.5,
+            spring_supply: 2.0,
+        };
+        assert_eq!(s.plant_scale, want);
+        assert_eq!(s.block().options.scale, want);
+        assert!(!s.block().options.pmma_plates && !s.block().options.shared_spring_supply);
+        // A key left out stays at the fitted block's; no table is the fitted block.
+        let s = parse(
+            &format!("{MINIMAL}[plant]\nspring_supply = \"80 %\"\n"),
+            "t.toml",
+            "t",
+        )
+        .unwrap();
+        assert_eq!(
+            s.plant_scale,
+            PlantScale {
+                spring_supply: 0.8,
+                ..PlantScale::UNIT
+            }
+        );
+        assert_eq!(
+            parse(MINIMAL, "t.toml", "t").unwrap().block().options,
+            ModelOptions::default()
+        );
+        // The bundled cycle spells the fitted block out.
+        assert_eq!(load("cycle").unwrap().plant_scale, PlantScale::UNIT);
+    }
+
+    #[test]
+    fn plant_scale_errors_name_file_line_and_key() {
+        let e = err(&format!("{MINIMAL}[plant]\nheater_power = 1.2\n"));
+        assert!(
+            e.starts_with("t.toml:4: `plant.heater_power`: a bare number has no unit"),
+            "{e}"
+        );
+        assert!(e.contains("\"120 %\""), "{e}");
+        let e = err(&format!("{MINIMAL}[plant]\nwall_capacity = \"1.2\"\n"));
+        assert!(
+            e.contains("t.toml:4: `plant.wall_capacity`: `1.2` is not a percentage"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}[plant]\nheater_power = \"100 %\"\nspring_cooling = \"250 %\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:5: `plant.spring_cooling`: 250 % is out of range [50, 200] %"),
+            "{e}"
+        );
+        let e = err(&format!("{MINIMAL}[plant]\nspring_supply = \"40 %\"\n"));
+        assert!(
+            e.contains("t.toml:4: `plant.spring_supply`: 40 % is out of range [50, 200] %"),
+            "{e}"
+        );
+        let e = err(&format!("{MINIMAL}[plant]\nfan_power = \"120 %\"\n"));
+        assert!(
+            e.contains("t.toml:4: `plant.fan_power`: unknown key (known here: heater_power, wall_capacity, spring_cooling, spring_supply)"),
+            "{e}"
+        );
+        let e = err(&format!("{MINIMAL}plant = \"120 %\"\n"));
+        assert!(e.contains("t.toml:3: `plant`: must be a table"), "{e}");
     }
 
     #[test]

@@ -7,8 +7,8 @@
 //! spreads a large sweep over machines) and joining the shards' CSVs (`--merge`).
 //!
 //! A key is any key of the scene file, dotted for a table's (`ambient`, `initial`,
-//! `duration`, `camera.noise`, `camera.seed`, `fidelity.camera`); a value is written as in the
-//! file (`"263 K"` or `263K`, `true`, `3`). Each case's scene text is the scene's with the
+//! `duration`, `camera.noise`, `camera.seed`, `fidelity.camera`, `plant.heater_power`, …); a
+//! value is written as in the file (`"263 K"` or `263K`, `80%`, `true`, `3`). Each case's scene text is the scene's with the
 //! overrides written in, then checked as any scene file is: a bad key or value is refused
 //! before anything runs, naming the case.
 
@@ -653,6 +653,29 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("colour"), "{e}");
+        // The plant's factors: a `[plant]` table is made when the scene has none.
+        let sc = scene_of(
+            &src,
+            &case(&[
+                ("plant.heater_power", "80%"),
+                ("plant.spring_supply", "120 %"),
+            ]),
+        )
+        .unwrap();
+        assert_eq!(sc.plant_scale.heater_power, 0.8);
+        assert_eq!(sc.plant_scale.spring_supply, 1.2);
+        assert_eq!(sc.block().options.scale, sc.plant_scale);
+        let e = scene_of(&src, &case(&[("plant.heater_power", "0.8")]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("`plant.heater_power`: `0.8` is not a percentage"),
+            "{e}"
+        );
+        let e = scene_of(&src, &case(&[("plant.heater_power", "300%")]))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("300 % is out of range [50, 200] %"), "{e}");
     }
 
     #[test]
