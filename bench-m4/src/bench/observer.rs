@@ -19,11 +19,20 @@
 //! `observer_correct` to 40 000 instructions per frame, and every recomputing prediction
 //! (`observer_predict_new_fan`, `_new_period`, `_long_step`) to 40 000. A `part observer`
 //! line splits the cached prediction for profiling (one spring's step, libm's `expf`).
+//!
+//! The observer's order (`thermorph::observer::ObserverN`, its wall in `L` layers): the same
+//! measurement for each order, one line each,
+//! `observer_order layers=L correct_insns=N predict_insns=N predict_new_fan_insns=N` (the
+//! worst calls, as above; the default order's are the lines above). `scripts/bench-m4`
+//! checks them against `docs/observer-order-m4.txt`, the work-precision table's cost columns
+//! (`docs/observer.md`).
 
 use core::hint::black_box;
 
 use cortex_m_semihosting::hprintln;
-use thermorph::observer::{LAYERS, MAX_STEP_S, Observer, ObserverParams};
+use thermorph::observer::{
+    AUG, EstimateN, LAYERS, MAX_STEP_S, ObserverN, ObserverParams, STATES, SoftestN,
+};
 use thermorph::outputs::SpringMask;
 use thermorph::units::{Kelvin, Seconds};
 
@@ -52,14 +61,29 @@ fn worst_mean(overhead: u64, mut f: impl FnMut(u32) -> u64) -> (u64, u64) {
     (worst, sum / CALLS as u64)
 }
 
-/// Measure and print the observer's lines.
-pub fn bench(overhead: u64) {
+/// One order's figures (instructions, overhead taken off; worst and mean of `CALLS`).
+struct Figures<const L: usize, const S: usize, const A: usize> {
+    predict: (u64, u64),
+    new_fan: (u64, u64),
+    new_period: u64,
+    long_step: u64,
+    correct: (u64, u64),
+    estimate: u64,
+    softest: u64,
+    /// The estimate after the measurements (to show the bench computed something real).
+    e: EstimateN<L>,
+    /// The observer after the measurements.
+    obs: ObserverN<L, S, A>,
+}
+
+/// Measure an observer of `L` wall layers: the warm-up, then each kind of call.
+fn measure<const L: usize, const S: usize, const A: usize>(overhead: u64) -> Figures<L, S, A> {
     let Some(ab) = SpringMask::parse("AB") else {
         super::fail("spring mask")
     };
     let dt = Seconds::lit(0.05);
     let heater = 0.8f32;
-    let mut obs = Observer::new(&ObserverParams::DEFAULT, 298.15);
+    let mut obs = ObserverN::<L, S, A>::new(&ObserverParams::DEFAULT, 298.15);
     // Warm-up: 2 s of control periods, a frame every 5th (4 frames a second at 50 ms).
     let mut frame = 0u32;
     for k in 0..40u32 {
@@ -135,7 +159,35 @@ pub fn bench(overhead: u64) {
     let (e, estimate) = super::measure(|| obs.estimate());
     black_box(&e);
     let (s, softest) = super::measure(|| obs.softest(black_box(358.0)));
-    black_box(&s);
+    black_box::<&SoftestN<L>>(&s);
+    Figures {
+        predict: (predict, predict_mean),
+        new_fan: (new_fan, new_fan_mean),
+        new_period: new_period.saturating_sub(overhead),
+        long_step: long_step.saturating_sub(overhead),
+        correct: (correct, correct_mean),
+        estimate: estimate.saturating_sub(overhead),
+        softest: softest.saturating_sub(overhead),
+        e,
+        obs,
+    }
+}
+
+/// The order line of one order's figures.
+fn order_line<const L: usize, const S: usize, const A: usize>(f: &Figures<L, S, A>) {
+    hprintln!(
+        "observer_order layers={} correct_insns={} predict_insns={} predict_new_fan_insns={}",
+        L,
+        f.correct.0,
+        f.predict.0,
+        f.new_fan.0
+    );
+}
+
+/// Measure and print the observer's lines.
+pub fn bench(overhead: u64) {
+    let f = measure::<LAYERS, STATES, AUG>(overhead);
+    let (obs, e) = (&f.obs, f.e);
 
     // Parts of the prediction, for profiling: one spring's enthalpy step (switched on), and
     // libm's expf (two per spring and step).
@@ -164,30 +216,32 @@ pub fn bench(overhead: u64) {
         t_spring.saturating_sub(overhead),
         t_expf / n as u64
     );
-    hprintln!("observer_predict insns={} mean={}", predict, predict_mean);
+    hprintln!(
+        "observer_predict insns={} mean={}",
+        f.predict.0,
+        f.predict.1
+    );
     hprintln!(
         "observer_predict_new_fan insns={} mean={}",
-        new_fan,
-        new_fan_mean
+        f.new_fan.0,
+        f.new_fan.1
     );
     hprintln!(
         "observer_predict_new_period insns={} dt_s=0.25",
-        new_period.saturating_sub(overhead)
+        f.new_period
     );
     hprintln!(
         "observer_predict_long_step insns={} dt_s={}",
-        long_step.saturating_sub(overhead),
+        f.long_step,
         MAX_STEP_S
     );
-    hprintln!("observer_correct insns={} mean={}", correct, correct_mean);
     hprintln!(
-        "observer_estimate insns={}",
-        estimate.saturating_sub(overhead)
+        "observer_correct insns={} mean={}",
+        f.correct.0,
+        f.correct.1
     );
-    hprintln!(
-        "observer_softest insns={}",
-        softest.saturating_sub(overhead)
-    );
+    hprintln!("observer_estimate insns={}", f.estimate);
+    hprintln!("observer_softest insns={}", f.softest);
     // The estimate, to show the bench computed something real.
     hprintln!(
         "observer_result film_k={} inner_k={} outer_k={} ambient_k={} frozen={} spring_a_k={} austenite_a={}",
@@ -199,4 +253,11 @@ pub fn bench(overhead: u64) {
         e.springs_k[0],
         e.austenite[0]
     );
+
+    // The wall's order: the same measurement in 1…6 layers (the default's is the one above).
+    order_line(&measure::<1, 3, 4>(overhead));
+    order_line(&f);
+    order_line(&measure::<3, 5, 6>(overhead));
+    order_line(&measure::<4, 6, 7>(overhead));
+    order_line(&measure::<6, 8, 9>(overhead));
 }

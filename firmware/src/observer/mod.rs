@@ -46,6 +46,17 @@
 //! measurements are fused one at a time (their noises are independent), in Joseph form, so a
 //! missing one is simply skipped.
 //!
+//! # Order
+//!
+//! The wall's order (its number of layers) is a compile-time parameter: [`ObserverN`]`<L, S,
+//! A>` models `L` layers with `S = L + 2` states and an `A = L + 3` augmented matrix (stable
+//! Rust cannot compute `L + 2` in a type, so all three are given and checked at compile
+//! time). [`Observer`] is the default, [`LAYERS`] = 2: the lattice's inner 4 mm and outer
+//! 1.8 mm layers, the parameters' own values. Any other order models the same wall
+//! ([`Wall::split`]): the total capacity and the through-wall conductance are kept, each
+//! layer lies in one lattice layer, the frozen fraction is weighted by capacity and T2 still
+//! measures the outermost layer. `docs/observer.md` measures error against cost by order.
+//!
 //! # Robustness
 //!
 //! No input panics: a NaN duty counts as 0, duties are clamped to 0…1, a non-finite or
@@ -77,11 +88,12 @@ pub const AMBIENT: usize = LAYERS + 1;
 pub const MAX_STEP_S: f32 = 10.0;
 
 /// Size of the augmented matrix of the zero-order hold (state + one input).
-const AUG: usize = STATES + 1;
+pub const AUG: usize = STATES + 1;
 
-type Mat = SMatrix<f32, STATES, STATES>;
-type Vec = SVector<f32, STATES>;
-type AugMat = SMatrix<f32, AUG, AUG>;
+/// A state-sized square matrix.
+type Mat<const S: usize> = SMatrix<f32, S, S>;
+/// A state-sized vector.
+type Vec<const S: usize> = SVector<f32, S>;
 
 // The plant's geometry (`crate::block`), in m and m².
 const PI: f32 = core::f32::consts::PI;
@@ -258,55 +270,7 @@ impl ObserverParams {
     /// layer's temperature deviation `std_k` through the logistic's slope (layers taken as
     /// fully correlated: a bound), at most 0.5. Each layer's logistic is evaluated once.
     fn frozen_with_std(&self, layers_k: &[f32; LAYERS], std_k: &[f32; LAYERS]) -> (f32, f32) {
-        let w = self.frozen_width_k.max(1e-3);
-        let (mut sum, mut spread, mut weight) = (0.0f32, 0.0f32, 0.0f32);
-        for ((&t, &s), &c) in layers_k.iter().zip(std_k).zip(&self.layer_capacity_j_per_k) {
-            let f = self.layer_frozen(t);
-            sum += c.max(0.0) * f;
-            spread += c.max(0.0) * f * (1.0 - f) / w * s;
-            weight += c.max(0.0);
-        }
-        if weight > 0.0 {
-            (sum / weight, (spread / weight).min(0.5))
-        } else {
-            (1.0, 0.5)
-        }
-    }
-
-    /// The continuous system `dx/dt = A·x + b·duty` at a fan duty: `A` (1/s) and `b` (K/s at
-    /// full heater duty).
-    fn continuous(&self, fan_duty: f32) -> (Mat, Vec) {
-        let mut a = Mat::zeros();
-        let mut link = |i: usize, j: usize, g: f32| {
-            a[(i, j)] += g;
-            a[(j, i)] += g;
-            a[(i, i)] -= g;
-            a[(j, j)] -= g;
-        };
-        link(FILM, INNER, self.film_layer_w_per_k);
-        for (l, &g) in self.layer_layer_w_per_k.iter().enumerate() {
-            link(INNER + l, INNER + l + 1, g);
-        }
-        link(OUTER, AMBIENT, self.outer_ambient_w_per_k);
-        link(FILM, AMBIENT, self.duct_conductance_w_per_k(fan_duty));
-        // The ambient is a random walk: no heat flows into it.
-        for j in 0..STATES {
-            a[(AMBIENT, j)] = 0.0;
-        }
-        let mut caps = [0.0f32; STATES];
-        caps[FILM] = self.film_capacity_j_per_k;
-        caps[INNER..=OUTER].copy_from_slice(&self.layer_capacity_j_per_k);
-        for (i, &c) in caps.iter().enumerate().take(AMBIENT) {
-            let inv = if c > 0.0 { 1.0 / c } else { 0.0 };
-            for j in 0..STATES {
-                a[(i, j)] *= inv;
-            }
-        }
-        let mut b = Vec::zeros();
-        if caps[FILM] > 0.0 {
-            b[FILM] = self.heater_full_power_w / caps[FILM];
-        }
-        (a, b)
+        weighted_frozen(self, &self.layer_capacity_j_per_k, layers_k, std_k)
     }
 }
 
@@ -317,19 +281,237 @@ impl Default for ObserverParams {
     }
 }
 
-/// What the observer believes: the temperatures and their standard deviations, K.
+/// The frozen fraction of layers at `layers_k` weighted by their capacities `caps`, and its
+/// standard deviation: each layer's temperature deviation `std_k` through the logistic's
+/// slope (layers taken as fully correlated: a bound), at most 0.5. Each layer's logistic is
+/// evaluated once.
+fn weighted_frozen<const L: usize>(
+    p: &ObserverParams,
+    caps: &[f32; L],
+    layers_k: &[f32; L],
+    std_k: &[f32; L],
+) -> (f32, f32) {
+    let w = p.frozen_width_k.max(1e-3);
+    let (mut sum, mut spread, mut weight) = (0.0f32, 0.0f32, 0.0f32);
+    for ((&t, &s), &c) in layers_k.iter().zip(std_k).zip(caps) {
+        let f = p.layer_frozen(t);
+        sum += c.max(0.0) * f;
+        spread += c.max(0.0) * f * (1.0 - f) / w * s;
+        weight += c.max(0.0);
+    }
+    if weight > 0.0 {
+        (sum / weight, (spread / weight).min(0.5))
+    } else {
+        (1.0, 0.5)
+    }
+}
+
+// `ObserverParams` holds the wall as the lattice's two layers; `Wall::split` reads them so.
+const _: () = assert!(
+    LAYERS == 2,
+    "ObserverParams describes the two lattice layers"
+);
+
+/// Thickness of the lattice's inner (lower) layer, mm: `block::LATTICE_LOWER_LAYER_MM`.
+const INNER_LAYER_MM: f32 = crate::block::LATTICE_LOWER_LAYER_MM;
+/// Thickness of the whole wall (both lattice layers), mm: 4 + 1.8.
+const WALL_MM: f32 = crate::block::LATTICE_LOWER_LAYER_MM + crate::block::LATTICE_UPPER_LAYER_MM;
+
+/// The wall through its thickness in `L` layers (nodes): what an [`ObserverN`] of order `L`
+/// models. Built from the two-layer [`ObserverParams`] by [`Wall::from_params`]; see
+/// [`Wall::split`] for the discretisation.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Estimate {
+pub struct Wall<const L: usize> {
+    /// Capacity of each layer, inner (next to the film) first, J/K.
+    pub capacity_j_per_k: [f32; L],
+    /// Film → inner layer conductance, W/K.
+    pub film_w_per_k: f32,
+    /// Each layer's outward conductance, W/K: layer `l` → layer `l + 1`, and the outer layer
+    /// → the ambient (natural convection and radiation) last.
+    pub outward_w_per_k: [f32; L],
+    /// Depth of each layer's centre below the film's surface, mm (the wall is
+    /// 4 + 1.8 = 5.8 mm thick, the inner lattice layer the first 4 mm).
+    pub centre_mm: [f32; L],
+}
+
+impl<const L: usize> Wall<L> {
+    /// The wall of the observer of order `L` for `p`: for the default order ([`LAYERS`]) the
+    /// parameters' own layers, value for value; for any other, [`Wall::split`].
+    pub fn from_params(p: &ObserverParams) -> Wall<L> {
+        if L != LAYERS {
+            return Wall::split(p);
+        }
+        let at = |a: &[f32], l: usize| a.get(l).copied().unwrap_or(0.0);
+        let mut outward = [0.0f32; L];
+        for (l, g) in outward.iter_mut().enumerate() {
+            *g = if l + 1 < L {
+                at(&p.layer_layer_w_per_k, l)
+            } else {
+                p.outer_ambient_w_per_k
+            };
+        }
+        Wall {
+            capacity_j_per_k: core::array::from_fn(|l| at(&p.layer_capacity_j_per_k, l)),
+            film_w_per_k: p.film_layer_w_per_k,
+            outward_w_per_k: outward,
+            centre_mm: Self::centres().1,
+        }
+    }
+
+    /// The layers' layout: how many lie in the inner lattice layer, and each one's centre,
+    /// mm. The inner 4 mm hold `n = round(L·4/5.8)` (at least 1 and at most `L − 1`: each
+    /// lattice layer has at least one node) of equal thickness, the outer 1.8 mm the other
+    /// `L − n`: as near to equal thicknesses as the two layers allow (2 layers: 4 | 1.8 mm;
+    /// 3: 2, 2 | 1.8; 4: 1.33 ×3 | 1.8; 6: 1 ×4 | 0.9 ×2). One layer spans the whole wall.
+    fn centres() -> (usize, [f32; L]) {
+        let outer_mm = WALL_MM - INNER_LAYER_MM;
+        let n_in = if L < 2 {
+            L
+        } else {
+            // `as usize` saturates: no panic whatever the float.
+            ((L as f32 * INNER_LAYER_MM / WALL_MM + 0.5) as usize).clamp(1, L - 1)
+        };
+        let mut centre = [0.0f32; L];
+        for (l, c) in centre.iter_mut().enumerate() {
+            *c = if L == 1 {
+                0.5 * WALL_MM
+            } else if l < n_in {
+                (l as f32 + 0.5) * INNER_LAYER_MM / n_in as f32
+            } else {
+                INNER_LAYER_MM + ((l - n_in) as f32 + 0.5) * outer_mm / (L - n_in) as f32
+            };
+        }
+        (n_in, centre)
+    }
+
+    /// The same wall as `p`'s two layers in `L` layers, a cell-centred finite-volume
+    /// discretisation of the wall's thickness:
+    ///
+    /// - the layout: the inner 4 mm hold `n = round(L·4/5.8)` layers of equal thickness (at
+    ///   least 1 and at most `L − 1`), the outer 1.8 mm the other `L − n` (2 layers:
+    ///   4 | 1.8 mm; 3: 2, 2 | 1.8; 4: 1.33 ×3 | 1.8; 6: 1 ×4 | 0.9 ×2); each layer lies in
+    ///   one lattice layer (one layer: the whole wall), its node at its centre
+    ///   ([`Wall::centre_mm`]);
+    /// - capacities: each lattice layer's (`p.layer_capacity_j_per_k`) shared equally by
+    ///   its layers (equal thickness, uniform areal capacity), so the total is conserved;
+    /// - conductances: `p`'s two-node chain film →(`R_a`) inner centre →(`R_b`) outer
+    ///   centre →(`R_c`) ambient read as a wall of uniform resistance per mm
+    ///   `r = R_b/2.9 mm` (the two centres are half the wall, 2.9 mm, apart), a film contact
+    ///   `R_a − r·2 mm` and a surface resistance `R_c − r·0.9 mm` (both clamped at 0). The
+    ///   links are then `contact + r·centre₀`, `r·(centre_{l+1} − centre_l)` and
+    ///   `r·(5.8 mm − centre_{L−1}) + surface`: the film → ambient resistance through the
+    ///   wall is `R_a + R_b + R_c` for every `L` (the steady state is conserved), and for
+    ///   `L = 2` the links are `p`'s (to rounding: [`Wall::from_params`] takes `p`'s values).
+    ///
+    /// The outer layer is still what T2 measures: as `L` grows its centre nears the surface
+    /// (2 layers: 0.9 mm below it, 6: 0.45 mm). A non-positive conductance counts as none.
+    pub fn split(p: &ObserverParams) -> Wall<L> {
+        let (n_in, centre) = Self::centres();
+        let resistance = |g: f32| if g > 0.0 { 1.0 / g } else { f32::INFINITY };
+        let conductance = |r: f32| if r.is_nan() { 0.0 } else { 1.0 / r };
+        let (r_a, r_b, r_c) = (
+            resistance(p.film_layer_w_per_k),
+            resistance(p.layer_layer_w_per_k[0]),
+            resistance(p.outer_ambient_w_per_k),
+        );
+        let per_mm = r_b / (0.5 * WALL_MM);
+        // `max` takes 0 over a NaN (∞ − ∞: no path at all, the link is cut below anyway).
+        let contact = (r_a - per_mm * 0.5 * INNER_LAYER_MM).max(0.0);
+        let surface = (r_c - per_mm * 0.5 * (WALL_MM - INNER_LAYER_MM)).max(0.0);
+        let (c_in, c_out) = (p.layer_capacity_j_per_k[0], p.layer_capacity_j_per_k[1]);
+        let mut capacity = [0.0f32; L];
+        for (l, c) in capacity.iter_mut().enumerate() {
+            *c = if L == 1 {
+                c_in + c_out
+            } else if l < n_in {
+                c_in / n_in as f32
+            } else {
+                c_out / (L - n_in) as f32
+            };
+        }
+        let mut outward = [0.0f32; L];
+        for (l, g) in outward.iter_mut().enumerate() {
+            let r = match centre.get(l + 1) {
+                Some(next) => per_mm * (next - centre[l]),
+                None => per_mm * (WALL_MM - centre[l]) + surface,
+            };
+            *g = conductance(r);
+        }
+        Wall {
+            capacity_j_per_k: capacity,
+            film_w_per_k: conductance(contact + per_mm * centre.first().copied().unwrap_or(0.0)),
+            outward_w_per_k: outward,
+            centre_mm: centre,
+        }
+    }
+
+    /// Whether layer `l` lies in the lattice's inner 4 mm (its centre does; the one layer of
+    /// order 1 spans the wall and counts).
+    pub fn in_inner_layer(&self, l: usize) -> bool {
+        self.centre_mm.get(l).is_some_and(|&c| c < INNER_LAYER_MM)
+    }
+
+    /// The inner lattice layer's temperature from the layers' `layers_k`, K: the
+    /// capacity-weighted mean of the layers lying in it ([`Wall::in_inner_layer`]); a single
+    /// such layer is taken as it is.
+    pub fn inner_layer_k(&self, layers_k: &[f32; L]) -> f32 {
+        let (mut sum, mut weight, mut count, mut last) = (0.0f32, 0.0f32, 0usize, f32::NAN);
+        for (l, (&t, &c)) in layers_k.iter().zip(&self.capacity_j_per_k).enumerate() {
+            if self.in_inner_layer(l) {
+                sum += c.max(0.0) * t;
+                weight += c.max(0.0);
+                count += 1;
+                last = t;
+            }
+        }
+        if count == 1 || weight <= 0.0 {
+            last
+        } else {
+            sum / weight
+        }
+    }
+
+    /// Film → ambient conductance through the wall (every link in series), W/K.
+    pub fn through_w_per_k(&self) -> f32 {
+        let mut resist = if self.film_w_per_k > 0.0 {
+            1.0 / self.film_w_per_k
+        } else {
+            f32::INFINITY
+        };
+        for &g in &self.outward_w_per_k {
+            resist += if g > 0.0 { 1.0 / g } else { f32::INFINITY };
+        }
+        if resist.is_finite() && resist > 0.0 {
+            1.0 / resist
+        } else {
+            0.0
+        }
+    }
+
+    /// The wall's frozen fraction at `layers_k` ([`ObserverParams::frozen_fraction`] with
+    /// these layers' capacities).
+    pub fn frozen_fraction(&self, p: &ObserverParams, layers_k: &[f32; L]) -> f32 {
+        weighted_frozen(p, &self.capacity_j_per_k, layers_k, &[0.0; L]).0
+    }
+}
+
+/// What the observer believes: the temperatures and their standard deviations, K.
+pub type Estimate = EstimateN<LAYERS>;
+
+/// What an observer of `L` wall layers ([`ObserverN`]) believes: the temperatures and their
+/// standard deviations, K. The default order's is [`Estimate`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EstimateN<const L: usize> {
     /// Heater film, K.
     pub film_k: f32,
     /// Wall layers, inner (next to the film) first, outer (T2's surface) last, K.
-    pub layers_k: [f32; LAYERS],
+    pub layers_k: [f32; L],
     /// Ambient, K.
     pub ambient_k: f32,
     /// Standard deviation of the film's estimate, K.
     pub film_std_k: f32,
     /// Standard deviation of each layer's estimate, K.
-    pub layers_std_k: [f32; LAYERS],
+    pub layers_std_k: [f32; L],
     /// Standard deviation of the ambient's estimate, K.
     pub ambient_std_k: f32,
     /// The wall's frozen (glassy) fraction, 0…1: the layers' fractions weighted by their
@@ -348,35 +530,51 @@ pub struct Estimate {
     pub austenite_std: [f32; SPRINGS],
 }
 
-/// The best the heater can do for the wall ([`Observer::softest`]): the steady state with the
-/// film at its ceiling (or at what full power holds, if lower) and the fan off.
+/// The best the heater can do for the wall ([`ObserverN::softest`]): the steady state with
+/// the film at its ceiling (or at what full power holds, if lower) and the fan off.
+pub type Softest = SoftestN<LAYERS>;
+
+/// [`Softest`] for an observer of `L` wall layers.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Softest {
+pub struct SoftestN<const L: usize> {
     /// The film's steady temperature, K.
     pub film_k: f32,
     /// The wall layers' steady temperatures, inner first, K.
-    pub layers_k: [f32; LAYERS],
+    pub layers_k: [f32; L],
     /// The wall's steady frozen fraction, 0…1.
     pub frozen: f32,
 }
 
 /// The cached zero-order hold for one (fan duty, period, parameters).
 #[derive(Clone, Copy, Debug)]
-struct Zoh {
+struct Zoh<const S: usize> {
     fan_duty: f32,
     dt_s: f32,
-    phi: Mat,
-    gamma: Vec,
+    phi: Mat<S>,
+    gamma: Vec<S>,
 }
 
-/// The Kalman filter: the state, its covariance, the parameters and the cached
-/// discretisation. Allocation-free (fixed-size `nalgebra` matrices).
+/// The Kalman filter of the default order ([`LAYERS`] wall layers): the one the supervisor
+/// owns.
+pub type Observer = ObserverN<LAYERS, STATES, AUG>;
+
+/// The Kalman filter with `L` wall layers: the state, its covariance, the parameters, the
+/// wall's layers and the cached discretisation. Allocation-free (fixed-size `nalgebra`
+/// matrices).
+///
+/// `S = L + 2` (the states) and `A = L + 3` (the zero-order hold's augmented matrix) are
+/// given beside `L` because stable Rust cannot write `L + 2` in a type; any other pair fails
+/// to compile. The default is [`Observer`] (`ObserverN<2, 4, 5>`); the other orders
+/// (`ObserverN<1, 3, 4>`, `ObserverN<3, 5, 6>`, …) model the same wall in finer or coarser
+/// layers ([`Wall::split`]) and exist to measure the order's cost against its error
+/// (`docs/observer.md`).
 #[derive(Clone, Debug)]
-pub struct Observer {
+pub struct ObserverN<const L: usize, const S: usize, const A: usize> {
     params: ObserverParams,
-    x: Vec,
-    p: Mat,
-    zoh: Option<Zoh>,
+    wall: Wall<L>,
+    x: Vec<S>,
+    p: Mat<S>,
+    zoh: Option<Zoh<S>>,
     springs: Springs,
     /// No measurement has been fused yet: the first one sets the thermal states.
     fresh: bool,
@@ -384,20 +582,33 @@ pub struct Observer {
     springs_at_ambient: bool,
 }
 
-impl Observer {
+impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
+    /// State index of the outer wall layer (T2's).
+    const OUTER: usize = L;
+    /// State index of the ambient.
+    const AMBIENT: usize = L + 1;
+
     /// A filter with every state at `initial_k` (a non-finite one is taken as 298.15 K) and
-    /// the initial variance of `params`.
-    pub fn new(params: &ObserverParams, initial_k: f32) -> Observer {
+    /// the initial variance of `params`; its wall is `params`' in `L` layers
+    /// ([`Wall::from_params`]).
+    pub fn new(params: &ObserverParams, initial_k: f32) -> ObserverN<L, S, A> {
+        const {
+            assert!(
+                L >= 1 && S == L + 2 && A == L + 3,
+                "ObserverN<L, S, A>: S = L + 2 states, A = L + 3"
+            )
+        };
         let t0 = if initial_k.is_finite() {
             initial_k
         } else {
             298.15
         };
         let var = params.initial_variance_k2.max(0.0);
-        Observer {
+        ObserverN {
             params: *params,
-            x: Vec::repeat(t0),
-            p: Mat::identity() * var,
+            wall: Wall::from_params(params),
+            x: Vec::<S>::repeat(t0),
+            p: Mat::<S>::identity() * var,
             zoh: None,
             springs: [SpringState::at(&params.springs, t0, var); SPRINGS],
             fresh: true,
@@ -426,10 +637,16 @@ impl Observer {
         &self.params
     }
 
-    /// Replace the parameters (the discretisation is recomputed at the next prediction); the
-    /// state and covariance are kept.
+    /// The wall's layers in use (the parameters' in `L` layers).
+    pub fn wall(&self) -> &Wall<L> {
+        &self.wall
+    }
+
+    /// Replace the parameters (the wall's layers are rebuilt, the discretisation is
+    /// recomputed at the next prediction); the state and covariance are kept.
     pub fn set_params(&mut self, params: &ObserverParams) {
         self.params = *params;
+        self.wall = Wall::from_params(params);
         self.zoh = None;
     }
 
@@ -455,20 +672,20 @@ impl Observer {
         // Φ·1 = 1 (heat only moves between the nodes and the ambient), so the update is done
         // on the deviations from the ambient: no f32 rounding of Φ's row sums times ≈300 K
         // creeps into a state at rest.
-        let ambient = self.x[AMBIENT];
+        let ambient = self.x[Self::AMBIENT];
         let dev = self.x.add_scalar(-ambient);
         self.x = (zoh.phi * dev + zoh.gamma * heater).add_scalar(ambient);
-        let mut q = Mat::zeros();
+        let mut q = Mat::<S>::zeros();
         q[(FILM, FILM)] = self.params.film_process_k2_per_s.max(0.0) * dt_s;
-        for l in INNER..=OUTER {
+        for l in INNER..=Self::OUTER {
             q[(l, l)] = self.params.layer_process_k2_per_s.max(0.0) * dt_s;
         }
-        q[(AMBIENT, AMBIENT)] = self.params.ambient_process_k2_per_s.max(0.0) * dt_s;
+        q[(Self::AMBIENT, Self::AMBIENT)] = self.params.ambient_process_k2_per_s.max(0.0) * dt_s;
         self.p = zoh.phi * self.p * zoh.phi.transpose() + q;
         self.symmetrise();
         // The springs, from the start-of-step ambient and outer wall (their coupling to the
         // wall is ≈ 0.017 W/K against the wall's ≈ 2 W/K: one-way).
-        let outer = ambient + dev[OUTER];
+        let outer = ambient + dev[Self::OUTER];
         for (i, sp) in self.springs.iter_mut().enumerate() {
             sp.predict(
                 &self.params.springs,
@@ -511,11 +728,11 @@ impl Observer {
             self.fresh = false;
             let z5 = finite(t5).unwrap_or(z2);
             self.x[FILM] = z1;
-            for l in 0..LAYERS {
-                let w = (l + 1) as f32 / LAYERS as f32;
+            for l in 0..L {
+                let w = (l + 1) as f32 / L as f32;
                 self.x[INNER + l] = z1 + (z2 - z1) * w;
             }
-            self.x[AMBIENT] = z5;
+            self.x[Self::AMBIENT] = z5;
             if self.springs_at_ambient {
                 self.springs_at_ambient = false;
                 let v = self.params.t5_noise_k2;
@@ -525,12 +742,12 @@ impl Observer {
                 }
             }
             let r = (self.params.t1_noise_k2.max(self.params.t2_noise_k2) + extra).max(1e-3);
-            let mut p = Mat::identity() * r;
+            let mut p = Mat::<S>::identity() * r;
             // The inner layers are interpolated: as uncertain as the gap they span.
-            for l in 0..LAYERS - 1 {
+            for l in 0..L - 1 {
                 p[(INNER + l, INNER + l)] += (z1 - z2) * (z1 - z2) * 0.25 + 1.0;
             }
-            p[(AMBIENT, AMBIENT)] = self.params.t5_noise_k2.max(1e-3);
+            p[(Self::AMBIENT, Self::AMBIENT)] = self.params.t5_noise_k2.max(1e-3);
             self.p = p;
             return;
         }
@@ -539,7 +756,10 @@ impl Observer {
             self.params.t2_noise_k2 + extra,
             self.params.t5_noise_k2,
         ];
-        for ((t, idx), r) in [(t1, FILM), (t2, OUTER), (t5, AMBIENT)].into_iter().zip(r) {
+        for ((t, idx), r) in [(t1, FILM), (t2, Self::OUTER), (t5, Self::AMBIENT)]
+            .into_iter()
+            .zip(r)
+        {
             if let Some(z) = finite(t) {
                 self.fuse(idx, z, r);
             }
@@ -547,19 +767,24 @@ impl Observer {
     }
 
     /// The current estimate.
-    pub fn estimate(&self) -> Estimate {
+    pub fn estimate(&self) -> EstimateN<L> {
         let std = |i: usize| libm::sqrtf(self.p[(i, i)].max(0.0));
-        let layers_k: [f32; LAYERS] = core::array::from_fn(|l| self.x[INNER + l]);
-        let layers_std_k: [f32; LAYERS] = core::array::from_fn(|l| std(INNER + l));
+        let layers_k: [f32; L] = core::array::from_fn(|l| self.x[INNER + l]);
+        let layers_std_k: [f32; L] = core::array::from_fn(|l| std(INNER + l));
         let sp = &self.params.springs;
-        let (frozen, frozen_std) = self.params.frozen_with_std(&layers_k, &layers_std_k);
-        Estimate {
+        let (frozen, frozen_std) = weighted_frozen(
+            &self.params,
+            &self.wall.capacity_j_per_k,
+            &layers_k,
+            &layers_std_k,
+        );
+        EstimateN {
             film_k: self.x[FILM],
             layers_k,
-            ambient_k: self.x[AMBIENT],
+            ambient_k: self.x[Self::AMBIENT],
             film_std_k: std(FILM),
             layers_std_k,
-            ambient_std_k: std(AMBIENT),
+            ambient_std_k: std(Self::AMBIENT),
             frozen,
             frozen_std,
             springs_k: self.springs.map(|s| s.temp_k),
@@ -572,24 +797,13 @@ impl Observer {
     /// The softest the wall can become from here ([`Softest`]): the steady state of the
     /// model with the film held at `film_ceiling_k` (where the heater cap holds it) — or at
     /// the most full power can hold it at, if lower — the fan off, at the estimated ambient.
-    pub fn softest(&self, film_ceiling_k: f32) -> Softest {
+    pub fn softest(&self, film_ceiling_k: f32) -> SoftestN<L> {
         let p = &self.params;
-        let ambient = self.x[AMBIENT];
+        let wall = &self.wall;
+        let ambient = self.x[Self::AMBIENT];
         // The wall is a chain film → layers → outside: in the steady state one heat flow q
         // passes every link.
-        let mut resist = 0.0f32;
-        let mut links = [0.0f32; LAYERS + 1];
-        links[0] = p.film_layer_w_per_k;
-        links[1..LAYERS].copy_from_slice(&p.layer_layer_w_per_k);
-        links[LAYERS] = p.outer_ambient_w_per_k;
-        for g in links {
-            resist += if g > 0.0 { 1.0 / g } else { f32::INFINITY };
-        }
-        let g_wall = if resist.is_finite() && resist > 0.0 {
-            1.0 / resist
-        } else {
-            0.0
-        };
+        let g_wall = wall.through_w_per_k();
         let g_all = g_wall + p.duct_conductance_w_per_k(0.0);
         let full = if g_all > 0.0 {
             ambient + p.heater_full_power_w.max(0.0) / g_all
@@ -602,18 +816,21 @@ impl Observer {
             full
         };
         let q = g_wall * (film_k - ambient);
-        let mut layers_k = [0.0f32; LAYERS];
+        let mut layers_k = [0.0f32; L];
         let mut t = film_k;
-        for (l, out) in layers_k.iter_mut().enumerate() {
-            if links[l] > 0.0 {
-                t -= q / links[l];
+        // Layer l is reached through the film's link (l = 0) or the outward link of l − 1.
+        let mut g = wall.film_w_per_k;
+        for (out, &next) in layers_k.iter_mut().zip(&wall.outward_w_per_k) {
+            if g > 0.0 {
+                t -= q / g;
             }
             *out = t;
+            g = next;
         }
-        Softest {
+        SoftestN {
             film_k,
             layers_k,
-            frozen: p.frozen_fraction(&layers_k),
+            frozen: wall.frozen_fraction(p, &layers_k),
         }
     }
 
@@ -624,12 +841,12 @@ impl Observer {
         if !(s.is_finite() && s > 0.0) {
             return;
         }
-        let k: Vec = self.p.column(idx) / s;
+        let k: Vec<S> = self.p.column(idx) / s;
         let innovation = z - self.x[idx];
         let x = self.x + k * innovation;
         // (I − K·H)·P·(I − K·H)ᵀ + K·r·Kᵀ
-        let mut ikh = Mat::identity();
-        for i in 0..STATES {
+        let mut ikh = Mat::<S>::identity();
+        for i in 0..S {
             ikh[(i, idx)] -= k[i];
         }
         let p = ikh * self.p * ikh.transpose() + k * k.transpose() * r;
@@ -644,20 +861,55 @@ impl Observer {
         self.p = (self.p + self.p.transpose()) * 0.5;
     }
 
+    /// The continuous system `dx/dt = A·x + b·duty` at a fan duty: `A` (1/s) and `b` (K/s at
+    /// full heater duty).
+    fn continuous(&self, fan_duty: f32) -> (Mat<S>, Vec<S>) {
+        let (p, wall) = (&self.params, &self.wall);
+        let mut a = Mat::<S>::zeros();
+        let mut link = |i: usize, j: usize, g: f32| {
+            a[(i, j)] += g;
+            a[(j, i)] += g;
+            a[(i, i)] -= g;
+            a[(j, j)] -= g;
+        };
+        link(FILM, INNER, wall.film_w_per_k);
+        // Layer l → layer l + 1, and the outer layer (l = L − 1) → the ambient (state L + 1).
+        for (l, &g) in wall.outward_w_per_k.iter().enumerate() {
+            link(INNER + l, INNER + l + 1, g);
+        }
+        link(FILM, Self::AMBIENT, p.duct_conductance_w_per_k(fan_duty));
+        // The ambient is a random walk: no heat flows into it.
+        for j in 0..S {
+            a[(Self::AMBIENT, j)] = 0.0;
+        }
+        let mut caps = [0.0f32; S];
+        caps[FILM] = p.film_capacity_j_per_k;
+        caps[INNER..=Self::OUTER].copy_from_slice(&wall.capacity_j_per_k);
+        for (i, &c) in caps.iter().enumerate().take(Self::AMBIENT) {
+            let inv = if c > 0.0 { 1.0 / c } else { 0.0 };
+            for j in 0..S {
+                a[(i, j)] *= inv;
+            }
+        }
+        let mut b = Vec::<S>::zeros();
+        if caps[FILM] > 0.0 {
+            b[FILM] = p.heater_full_power_w / caps[FILM];
+        }
+        (a, b)
+    }
+
     /// Φ and Γ for a fan duty and period: the exponential of `[[A, b], [0, 0]]·dt`.
-    fn discretise(&self, fan_duty: f32, dt_s: f32) -> Zoh {
-        let (a, b) = self.params.continuous(fan_duty);
-        let mut m = AugMat::zeros();
-        m.fixed_view_mut::<STATES, STATES>(0, 0)
-            .copy_from(&(a * dt_s));
-        m.fixed_view_mut::<STATES, 1>(0, STATES)
-            .copy_from(&(b * dt_s));
+    fn discretise(&self, fan_duty: f32, dt_s: f32) -> Zoh<S> {
+        let (a, b) = self.continuous(fan_duty);
+        let mut m = SMatrix::<f32, A, A>::zeros();
+        m.fixed_view_mut::<S, S>(0, 0).copy_from(&(a * dt_s));
+        m.fixed_view_mut::<S, 1>(0, S).copy_from(&(b * dt_s));
         let e = expm(&m);
         Zoh {
             fan_duty,
             dt_s,
-            phi: e.fixed_view::<STATES, STATES>(0, 0).into_owned(),
-            gamma: e.fixed_view::<STATES, 1>(0, STATES).into_owned(),
+            phi: e.fixed_view::<S, S>(0, 0).into_owned(),
+            gamma: e.fixed_view::<S, 1>(0, S).into_owned(),
         }
     }
 }
@@ -670,13 +922,13 @@ fn sanitize_duty(d: f32) -> f32 {
 /// Matrix exponential by scaling and squaring: scale by 2⁻ˢ until the ∞-norm is ≤ ½, sum
 /// 10 Taylor terms (remainder ≤ ½¹¹/11! ≈ 10⁻¹¹), square s times. A non-finite matrix gives
 /// the identity (no update rather than a panic or NaN).
-fn expm(m: &AugMat) -> AugMat {
+fn expm<const A: usize>(m: &SMatrix<f32, A, A>) -> SMatrix<f32, A, A> {
     let norm = m
         .row_iter()
         .map(|r| r.iter().map(|v| v.abs()).sum::<f32>())
         .fold(0.0f32, f32::max);
     if !norm.is_finite() {
-        return AugMat::identity();
+        return SMatrix::identity();
     }
     let mut s = 0u32;
     let mut scaled_norm = norm;
@@ -685,8 +937,8 @@ fn expm(m: &AugMat) -> AugMat {
         s += 1;
     }
     let scaled = m * libm::ldexpf(1.0, -(s as i32));
-    let mut term = AugMat::identity();
-    let mut sum = AugMat::identity();
+    let mut term = SMatrix::<f32, A, A>::identity();
+    let mut sum = SMatrix::<f32, A, A>::identity();
     for k in 1..=10 {
         term = term * scaled / k as f32;
         sum += term;
@@ -876,5 +1128,213 @@ mod tests {
         obs.predict(1.0, 1.0, SpringMask::NONE, secs(1e9));
         obs.correct(k(350.0), k(340.0), k(298.0));
         assert!(obs.estimate().film_k.is_finite());
+    }
+
+    /// The general split with two layers is the parameters' own wall, to rounding.
+    #[test]
+    fn two_layers_split_as_the_parameters() {
+        let p = ObserverParams::DEFAULT;
+        let (own, split) = (Wall::<2>::from_params(&p), Wall::<2>::split(&p));
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs());
+        for l in 0..2 {
+            assert!(
+                close(own.capacity_j_per_k[l], split.capacity_j_per_k[l]),
+                "{l}"
+            );
+            assert!(
+                close(own.outward_w_per_k[l], split.outward_w_per_k[l]),
+                "{l}"
+            );
+            assert_eq!(own.centre_mm[l], split.centre_mm[l]);
+        }
+        assert!(close(own.film_w_per_k, split.film_w_per_k));
+        assert_eq!(own.capacity_j_per_k, p.layer_capacity_j_per_k);
+        assert_eq!(own.film_w_per_k, p.film_layer_w_per_k);
+        assert_eq!(
+            own.outward_w_per_k,
+            [p.layer_layer_w_per_k[0], p.outer_ambient_w_per_k]
+        );
+        assert_eq!(own.centre_mm, [2.0, 4.9]);
+    }
+
+    /// Every order is the same wall: its capacity, the inner lattice layer's capacity and the
+    /// film → ambient conductance through the wall are the default's; the layers lie in
+    /// order, each in one lattice layer.
+    fn same_wall<const L: usize>(inner_layers: usize) {
+        let p = ObserverParams::DEFAULT;
+        let two = Wall::<2>::from_params(&p);
+        let w = Wall::<L>::from_params(&p);
+        let close = |a: f32, b: f32| (a - b).abs() <= 2e-6 * a.abs().max(b.abs());
+        let total: f32 = w.capacity_j_per_k.iter().sum();
+        assert!(
+            close(total, two.capacity_j_per_k.iter().sum()),
+            "{L}: {total}"
+        );
+        assert!(close(w.through_w_per_k(), two.through_w_per_k()), "{L}");
+        let inner: usize = (0..L).filter(|&l| w.in_inner_layer(l)).count();
+        assert_eq!(inner, inner_layers, "{L}: {w:?}");
+        if L > 1 {
+            let c: f32 = (0..inner).map(|l| w.capacity_j_per_k[l]).sum();
+            assert!(close(c, p.layer_capacity_j_per_k[0]), "{L}: {c}");
+        }
+        assert!(w.centre_mm.windows(2).all(|c| c[0] < c[1]), "{w:?}");
+        assert!(w.film_w_per_k > 0.0 && w.outward_w_per_k.iter().all(|&g| g > 0.0));
+        // A uniform wall's inner layer is its temperature; the weights are capacities.
+        assert!((w.inner_layer_k(&[330.0; L]) - 330.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn every_order_is_the_same_wall() {
+        same_wall::<1>(1);
+        same_wall::<2>(1);
+        same_wall::<3>(2);
+        same_wall::<4>(3);
+        same_wall::<6>(4);
+        let w = Wall::<3>::from_params(&ObserverParams::DEFAULT);
+        assert_eq!(w.centre_mm, [1.0, 3.0, 4.9]);
+        // 2 mm + 2 mm at 300 and 310 K, equal capacities: 305 K.
+        assert!((w.inner_layer_k(&[300.0, 310.0, 400.0]) - 305.0).abs() < 1e-4);
+    }
+
+    /// Film after 2000 s of a held heater with no correction, the outer layer's distance
+    /// from where the steady heat flow through the wall puts it, and the softest state's
+    /// film and frozen fraction, for one order.
+    fn held<const L: usize, const S: usize, const A: usize>() -> [f32; 4] {
+        let p = ObserverParams::DEFAULT;
+        let mut obs = ObserverN::<L, S, A>::new(&p, 298.15);
+        for _ in 0..8000 {
+            obs.predict(0.3, 0.0, SpringMask::NONE, secs(0.25));
+        }
+        let e = obs.estimate();
+        let w = obs.wall();
+        let q = w.through_w_per_k() * (e.film_k - e.ambient_k);
+        let outer = e.ambient_k + q / w.outward_w_per_k[L - 1];
+        let s = obs.softest(358.0);
+        [e.film_k, e.layers_k[L - 1] - outer, s.film_k, s.frozen]
+    }
+
+    /// The orders share the steady state through the wall: the film's temperature at a held
+    /// duty and the softest film agree, and the outer layer sits where the heat flow through
+    /// the wall puts its node (the single layer of order 1 sits mid-wall, warmer than the
+    /// default's outer layer).
+    #[test]
+    fn every_order_has_the_same_steady_film() {
+        let two = held::<2, 4, 5>();
+        assert!(two[1].abs() < 0.02, "{two:?}");
+        for other in [held::<1, 3, 4>(), held::<3, 5, 6>(), held::<6, 8, 9>()] {
+            assert!((other[0] - two[0]).abs() < 0.05, "{other:?} {two:?}");
+            assert!(other[1].abs() < 0.02, "{other:?}");
+            assert!((other[2] - two[2]).abs() < 1e-3, "{other:?} {two:?}");
+            assert!((0.0..=1.0).contains(&other[3]));
+        }
+    }
+
+    /// A filter of any order converges on a truth run by its own model, as the default does.
+    fn converges<const L: usize, const S: usize, const A: usize>() -> f32 {
+        let p = ObserverParams::DEFAULT;
+        let mut truth = ObserverN::<L, S, A>::new(&p, 298.15);
+        let mut obs = ObserverN::<L, S, A>::new(&p, 318.15);
+        let mut noise = Noise(0x9e37_79b9_7f4a_7c15);
+        let mut worst_late = 0.0f32;
+        for i in 0..2400 {
+            let t = i as f32 * 0.25;
+            let heater = if (t as u32 / 60).is_multiple_of(2) {
+                0.8
+            } else {
+                0.1
+            };
+            truth.predict(heater, 0.0, SpringMask::NONE, secs(0.25));
+            obs.predict(heater, 0.0, SpringMask::NONE, secs(0.25));
+            let m = truth.x;
+            obs.correct(
+                k(m[FILM] + noise.gauss(0.5)),
+                k(m[L] + noise.gauss(0.5)),
+                k(m[L + 1] + noise.gauss(0.5)),
+            );
+            if t >= 120.0 {
+                let (e, w) = (obs.estimate(), obs.wall());
+                let truth_layers: [f32; L] = core::array::from_fn(|l| m[INNER + l]);
+                let err = w.inner_layer_k(&e.layers_k) - w.inner_layer_k(&truth_layers);
+                worst_late = worst_late.max(err.abs());
+            }
+        }
+        worst_late
+    }
+
+    #[test]
+    fn every_order_converges_on_its_own_model() {
+        for (l, worst) in [
+            (1, converges::<1, 3, 4>()),
+            (3, converges::<3, 5, 6>()),
+            (4, converges::<4, 6, 7>()),
+            (6, converges::<6, 8, 9>()),
+        ] {
+            assert!(
+                worst < 1.0,
+                "{l} layers: inner layer error {worst} K after 120 s"
+            );
+        }
+    }
+
+    /// Non-finite inputs and parameters leave an observer of any order finite.
+    fn stays_finite<const L: usize, const S: usize, const A: usize>() {
+        let p = ObserverParams::DEFAULT;
+        let mut obs = ObserverN::<L, S, A>::new(&p, f32::NAN);
+        let odd = [f32::NAN, f32::INFINITY, -3.0, 0.5];
+        for &h in &odd {
+            for &dt in &odd {
+                if let Some(dt) = Seconds::new(dt) {
+                    obs.predict(h, h, SpringMask::NONE, dt);
+                }
+                obs.correct(Kelvin::new(h), Kelvin::new(h * 300.0), Kelvin::new(h));
+            }
+        }
+        // No path from the film, an infinite one through the wall, a negative one outside, a
+        // zero film capacity: the split's resistances are 0 and ∞ (the model is then not
+        // updated rather than poisoned).
+        let mut bad = p;
+        bad.film_layer_w_per_k = 0.0;
+        bad.layer_layer_w_per_k = [f32::INFINITY];
+        bad.outer_ambient_w_per_k = -1.0;
+        bad.film_capacity_j_per_k = 0.0;
+        obs.set_params(&bad);
+        obs.predict(1.0, 1.0, SpringMask::NONE, secs(1e9));
+        obs.correct(k(350.0), k(340.0), k(298.0));
+        let (e, s) = (obs.estimate(), obs.softest(358.0));
+        assert!(e.film_k.is_finite() && e.layers_k.iter().all(|t| t.is_finite()));
+        assert!(!s.frozen.is_nan());
+    }
+
+    #[test]
+    fn no_order_panics_nor_poisons() {
+        stays_finite::<1, 3, 4>();
+        stays_finite::<3, 5, 6>();
+        stays_finite::<6, 8, 9>();
+    }
+
+    /// The model alone of `L` layers after 60 s at full heater from 298.15 K: the inner
+    /// lattice layer, K.
+    fn inner_after_full_heat<const L: usize, const S: usize, const A: usize>() -> f32 {
+        let mut obs = ObserverN::<L, S, A>::new(&ObserverParams::DEFAULT, 298.15);
+        for _ in 0..240 {
+            obs.predict(1.0, 0.0, SpringMask::NONE, secs(0.25));
+        }
+        obs.wall().inner_layer_k(&obs.estimate().layers_k)
+    }
+
+    /// The split is a discretisation that converges: refined, the inner lattice layer's
+    /// temperature after a full-power heat nears the 24-layer model's (the two-layer model
+    /// lags it by the gradient inside the inner 4 mm it cannot resolve).
+    #[test]
+    fn finer_orders_converge() {
+        let fine = inner_after_full_heat::<24, 26, 27>();
+        let gaps = [
+            inner_after_full_heat::<2, 4, 5>() - fine,
+            inner_after_full_heat::<3, 5, 6>() - fine,
+            inner_after_full_heat::<6, 8, 9>() - fine,
+            inner_after_full_heat::<12, 14, 15>() - fine,
+        ];
+        assert!(gaps.windows(2).all(|g| g[1].abs() < g[0].abs()), "{gaps:?}");
+        assert!(gaps[3].abs() < 0.05 && gaps[0] < -1.0, "{gaps:?}");
     }
 }
