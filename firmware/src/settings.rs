@@ -101,7 +101,7 @@ pub struct Settings {
     pub form_fan: f32,
     /// Split range: loop outputs within ±this drive neither heater nor fan, fraction.
     pub fan_deadband: f32,
-    /// Over-temperature limit of the SMP: the colder of T1/T2 and regions 3–5, K.
+    /// Over-temperature limit of the SMP: the colder of T1/T2 and regions 4–5, K.
     pub t_max_k: f32,
     /// Longest a spring may stay on continuously, s.
     pub spring_on_max_s: f32,

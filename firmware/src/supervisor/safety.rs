@@ -267,9 +267,14 @@ impl Safety {
     }
 
     /// Return the over-temperature fault of a measurement, if any. By rank, so a swapped
-    /// T1/T2 changes nothing: the colder of T1/T2 (the SMP) and regions 3–5 against
-    /// `t_max_k`; the hotter of T1/T2 and the hottest cylinder pixel (the PI heater film seen
-    /// through the lattice) against `t_heater_max_k`. A frame that could not separate T1 and T2
+    /// T1/T2 changes nothing: the colder of T1/T2 (the SMP) and regions 4–5 (beside the
+    /// cylinder and the background: a spring or anything else hot in view) against `t_max_k`;
+    /// the hotter of T1/T2, region 3 and the hottest cylinder pixel (the PI heater film seen
+    /// through the lattice) against `t_heater_max_k`. Region 3, the cylinder's edges, mixes the
+    /// lattice with the film seen through its gaps at a grazing angle: as the column bends, a
+    /// frame's edge cluster can read the film's ≈ 385 K, which is not the SMP's (judged against
+    /// `t_max_k` it tripped full cycles whose SMP never passed 371 K: the ±20 % sweep's block
+    /// with 80 % heater power and 120 % wall capacity, at 193 s). A frame that could not separate T1 and T2
     /// (merged or fallback) is judged by the worst it may hide: the SMP may be as hot as the
     /// mean plus the bound ([`Measurement::hotter`]), never the mean less it.
     pub fn over_temperature(m: &Measurement, s: &Settings) -> Option<Fault> {
@@ -278,7 +283,7 @@ impl Safety {
             Quality::Merged | Quality::Fallback => m.hotter(),
         }
         .map_or(f32::NAN, Kelvin::k);
-        let smp = m.regions[2..]
+        let smp = m.regions[3..]
             .iter()
             .map(|t| t.map_or(f32::NAN, Kelvin::k))
             .chain([smp_k])
@@ -286,6 +291,7 @@ impl Safety {
             .fold(f32::MIN, f32::max);
         let film = [m.hotter().map_or(f32::NAN, Kelvin::k)]
             .into_iter()
+            .chain(m.regions[2].map(Kelvin::k))
             .chain(m.cylinder_max.map(|t| t.k()))
             .filter(|t| t.is_finite())
             .fold(f32::MIN, f32::max);

@@ -260,6 +260,39 @@ fn over_temperature_is_by_rank_not_label() {
     assert_eq!(r.sup.fault().map(|f| f.code()), Some("over-temperature"));
 }
 
+/// Region 3 (the cylinder's edges) shows the film through the lattice's gaps at a grazing
+/// angle, so it is judged against the film's limit, not the SMP's; regions 4–5 (beside the
+/// cylinder, the background) stay against the SMP's.
+#[test]
+fn the_edges_are_judged_as_the_film_and_the_surroundings_as_the_smp() {
+    use super::safety::Safety;
+    let s = Settings::DEFAULT;
+    let r = Rig::new();
+    let mut m = r.block.measure(250, 1);
+    m.quality = Quality::Resolved;
+    m.regions[0] = Kelvin::new(385.0);
+    m.regions[1] = Kelvin::new(350.0);
+    m.cylinder_max = Kelvin::new(386.0);
+    m.regions[3] = Kelvin::new(330.0);
+    m.regions[4] = Kelvin::new(298.0);
+    // An edge cluster that caught the 385 K film: below the film's 403 K, no fault.
+    m.regions[2] = Kelvin::new(384.0);
+    assert_eq!(Safety::over_temperature(&m, &s), None);
+    // Above the film's limit, a fault.
+    m.regions[2] = Kelvin::new(s.t_heater_max_k + 2.0);
+    assert!(matches!(
+        Safety::over_temperature(&m, &s),
+        Some(Fault::OverTemperature { .. })
+    ));
+    // Something beside the cylinder above the SMP's limit (a runaway spring): a fault.
+    m.regions[2] = Kelvin::new(360.0);
+    m.regions[3] = Kelvin::new(s.t_max_k + 2.0);
+    assert!(matches!(
+        Safety::over_temperature(&m, &s),
+        Some(Fault::OverTemperature { .. })
+    ));
+}
+
 #[test]
 fn bad_measurements_are_ignored_and_time_never_runs_back() {
     let mut r = Rig::new();
