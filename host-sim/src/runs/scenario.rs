@@ -978,13 +978,19 @@ fn temperature_step(
     in_range(cx, span_of(k, v), key, t, range_k, "K")
 }
 
-fn percent(
+/// A value in percent (`"50 %"`, `"80%"`) within `range` (in %), as a fraction: `example`
+/// and `what` word the error for a value without the unit.
+#[allow(clippy::too_many_arguments)]
+fn percent_in(
     cx: &Ctx,
     k: &toml_edit::Key,
     v: &toml_edit::Item,
     key: &str,
+    example: &str,
+    what: &str,
+    range: (f64, f64),
 ) -> Result<f64, ScenarioError> {
-    let s = quantity_str(cx, k, v, key, "50 %")?;
+    let s = quantity_str(cx, k, v, key, example)?;
     let p = split_quantity(s)
         .filter(|(_, u)| *u == "%")
         .map(|(x, _)| x)
@@ -992,10 +998,19 @@ fn percent(
             cx.err(
                 span_of(k, v),
                 key,
-                format!("`{s}` is not a duty in percent (write e.g. \"50 %\")"),
+                format!("`{s}` is not {what} (write e.g. \"{example}\")"),
             )
         })?;
-    Ok(in_range(cx, span_of(k, v), key, p, (0.0, 100.0), "%")? / 100.0)
+    Ok(in_range(cx, span_of(k, v), key, p, range, "%")? / 100.0)
+}
+
+fn percent(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+) -> Result<f64, ScenarioError> {
+    percent_in(cx, k, v, key, "50 %", "a duty in percent", (0.0, 100.0))
 }
 
 /// A factor on the fitted block as a percentage (`"120 %"`, `"80%"`), within
@@ -1006,19 +1021,16 @@ fn scale_percent(
     v: &toml_edit::Item,
     key: &str,
 ) -> Result<f64, ScenarioError> {
-    let s = quantity_str(cx, k, v, key, "120 %")?;
-    let p = split_quantity(s)
-        .filter(|(_, u)| *u == "%")
-        .map(|(x, _)| x)
-        .ok_or_else(|| {
-            cx.err(
-                span_of(k, v),
-                key,
-                format!("`{s}` is not a percentage of the fitted block (write e.g. \"120 %\")"),
-            )
-        })?;
     let range = (100.0 * PLANT_SCALE_RANGE.0, 100.0 * PLANT_SCALE_RANGE.1);
-    Ok(in_range(cx, span_of(k, v), key, p, range, "%")? / 100.0)
+    percent_in(
+        cx,
+        k,
+        v,
+        key,
+        "120 %",
+        "a percentage of the fitted block",
+        range,
+    )
 }
 
 fn springs(
