@@ -25,6 +25,9 @@ pub const DEFAULT_GAINS: PidGains = PidGains {
 pub const SPRING_HOT_K: f32 = 373.0;
 /// The springs' over-temperature limit by the estimate, K (issue 19's default).
 pub const SPRING_MAX_K: f32 = 383.0;
+/// The ambient at which the springs' pre-warm is `spring_prewarm_k` as set, K: the thesis's
+/// lab (298.15 K), where its 7 s pre-warm gives ≈ 322 K.
+pub const PREWARM_REFERENCE_K: f32 = 298.15;
 
 /// The controller's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -154,6 +157,11 @@ pub struct Settings {
     /// pre-warm gives at 298 K, so the first step loads as it did there, on any day (on a cold
     /// one in several `prewarm_s` pulses, on a warm one with none).
     pub spring_prewarm_k: f32,
+    /// ... raised by this much per kelvin the estimated ambient is below
+    /// [`PREWARM_REFERENCE_K`] (never past `sma_as_k` − 1 K: the pre-warm must not start the
+    /// stroke), K/K. A cold room takes more of the four steps' heat and leaves the springs short
+    /// of austenite: at 273 K the default's 0.32 (334 K) loads 63.6° where 326 K loaded 49.7°.
+    pub spring_prewarm_cold_k_per_k: f32,
     /// A spring whose estimate passes this is a fault (`spring-over-temperature`), K.
     pub spring_max_k: f32,
     /// Observer: heater power at full duty, W.
@@ -240,6 +248,7 @@ impl Settings {
         spring_hot_k: SPRING_HOT_K,
         spring_band_k: 2.0,
         spring_prewarm_k: 326.0,
+        spring_prewarm_cold_k_per_k: 0.32,
         spring_max_k: SPRING_MAX_K,
         obs_heater_w: ObserverParams::DEFAULT.heater_full_power_w,
         obs_wall_j_per_k: ObserverParams::DEFAULT.layer_capacity_j_per_k[0]
@@ -255,6 +264,20 @@ impl Settings {
         smp_frozen_centre_k: ObserverParams::DEFAULT.frozen_centre_k,
         smp_frozen_width_k: ObserverParams::DEFAULT.frozen_width_k,
     };
+
+    /// The springs' pre-warm target at an estimated ambient, K: `spring_prewarm_k`, raised by
+    /// `spring_prewarm_cold_k_per_k` per kelvin below [`PREWARM_REFERENCE_K`] (not lowered on a
+    /// warm day), never past `sma_as_k` − 1 K unless `spring_prewarm_k` itself is; a
+    /// non-finite ambient gets the plain `spring_prewarm_k`.
+    pub fn prewarm_k(&self, ambient_k: f32) -> f32 {
+        let cold_k = if ambient_k.is_finite() {
+            (PREWARM_REFERENCE_K - ambient_k).max(0.0)
+        } else {
+            0.0
+        };
+        let raised = self.spring_prewarm_k + self.spring_prewarm_cold_k_per_k * cold_k;
+        raised.min((self.sma_as_k - 1.0).max(self.spring_prewarm_k))
+    }
 
     /// The observer's parameters: its defaults ([`ObserverParams::DEFAULT`]) with the ones
     /// this table holds (`obs_…`, `sma_…`, `smp_…`). The wall's capacity keeps the default
@@ -842,6 +865,14 @@ pub const PARAMS: &[Param] = &[
         360.0,
         "springs' pre-warm target",
         |s| s.spring_prewarm_k
+    ),
+    param!(
+        "spring_prewarm_cold_k_per_k",
+        "K/K",
+        0.0,
+        1.0,
+        "pre-warm raised per K of ambient below 298.15 K",
+        |s| s.spring_prewarm_cold_k_per_k
     ),
     param!(
         "spring_max_k",

@@ -340,10 +340,17 @@ impl Pid {
             let tentative =
                 (self.integral + g.ki_per_k_s * e * dt_s).clamp(c.output_min, c.output_max);
             let raw = p + tentative + d;
-            let pushing_past = (raw > c.output_max && e > 0.0) || (raw < c.output_min && e < 0.0);
-            if !pushing_past {
-                self.integral = tentative;
-            }
+            // Conditional integration: the integral grows up to where the output meets its
+            // limit, never past it (and the limit never unwinds it). Refusing the whole step
+            // instead left a large proportional term short of the limit for good: a cold day's
+            // inner loop held the film 6 K under its setpoint at 80 % duty with I = 0.
+            self.integral = if raw > c.output_max && e > 0.0 {
+                tentative.min((c.output_max - p - d).max(self.integral))
+            } else if raw < c.output_min && e < 0.0 {
+                tentative.max((c.output_min - p - d).min(self.integral))
+            } else {
+                tentative
+            };
         }
         if !self.integral.is_finite() {
             self.integral = 0.0;

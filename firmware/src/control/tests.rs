@@ -114,6 +114,32 @@ fn p_only_leaves_the_analytic_steady_state_error_and_i_removes_it() {
     assert!(e_pi.abs() < 1e-3, "PI left {e_pi} K");
 }
 
+/// A loop whose proportional term alone sits near the output limit must still integrate up
+/// to it: a plant that needs 95 % of full output at the target (K = 63 K per unit from 298 K
+/// to 358 K), the firmware's default gains, frames every 0.5 s. Integration refused whenever
+/// P + I + ΔI would pass the limit froze I at 0 from the first (saturated) step and settled
+/// P-only ≈ 6 K short (the analytic 60/(1 + K·Kp)); integrating up to the limit removes it.
+#[test]
+fn an_integral_grows_up_to_the_limit_when_p_alone_is_near_it() {
+    let (amb, r, k) = (298.0, 358.0, 63.0);
+    let gains = PidGains {
+        kp_per_k: 0.139,
+        ki_per_k_s: 0.079,
+        kd_s_per_k: 0.0,
+    };
+    let mut plant = Fopdt::new(amb, k, 20.0, 0.0, 0.5);
+    let mut pid = Pid::new(PidConfig::heater(gains), r as f32);
+    let mut y = plant.y_k;
+    for _ in 0..2000 {
+        let u = pid.update(y as f32, sec(0.5));
+        assert!((0.0..=1.0).contains(&u), "{u}");
+        y = plant.step(u as f64);
+    }
+    let p_only_error = (r - amb) / (1.0 + k * 0.139);
+    assert!(p_only_error > 5.0, "{p_only_error}");
+    assert!((r - y).abs() < 0.05, "settled {y} K, {} K short", r - y);
+}
+
 #[test]
 fn derivative_filter_follows_the_first_order_step_response() {
     // A ramp of slope s from t = 0 is a step of s in the raw slope; the filtered slope is

@@ -1,5 +1,6 @@
 //! Modes 1 and 2, small and large stepping: soak until the estimated wall is soft, rest the
-//! springs if they are still austenite, pre-warm them (`spring_prewarm_k`), then the stepping
+//! springs if they are still austenite, pre-warm them (`spring_prewarm_k`, raised on a cold day:
+//! `Settings::prewarm_k`), then the stepping
 //! phases with pulses between, then hold. Every spring phase drives each selected spring by
 //! its estimated temperature: full current below the band, switched at the control period's
 //! rate to hold it (`spring_hot_k`, `spring_band_k`).
@@ -161,10 +162,11 @@ impl Stepping {
                     (0..SPRINGS)
                         .all(|i| !self.springs.contains(i) || c.estimate.springs_k[i] >= floor_k)
                 };
-                if *on && at(s.spring_prewarm_k) && !self.paused {
+                let prewarm_k = s.prewarm_k(c.estimate.ambient_k);
+                if *on && at(prewarm_k) && !self.paused {
                     *left_ms = 0;
                 }
-                let warm = at(s.spring_prewarm_k - s.spring_band_k);
+                let warm = at(prewarm_k - s.spring_band_k);
                 if *left_ms == 0 {
                     // After a gap, another pulse if a spring is not yet warm (a cold day: one
                     // `prewarm_s` pulse, bounded by the on-time limit, is not enough).
@@ -231,7 +233,7 @@ impl Stepping {
                 StepPhase::Prewarm { on: true, .. } => {
                     // A spring near its duty limit sits a pre-warm pulse out (the duty check would
                     // otherwise latch on a long cold-day pre-warm).
-                    let band = c.band(self.springs, s.spring_prewarm_k);
+                    let band = c.band(self.springs, s.prewarm_k(c.estimate.ambient_k));
                     SpringMask::from_bits(band.bits() & c.safety.duty_room(&s).bits())
                 }
                 StepPhase::Soak { .. }

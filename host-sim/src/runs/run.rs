@@ -27,9 +27,9 @@ use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
 
 use crate::rig::RigError;
-use crate::rig::SimBoard;
 use crate::rig::camera::{Camera, camera_temps};
 use crate::rig::store::SimFlash;
+use crate::rig::{Said, SimBoard};
 use crate::runs::plot::PlotError;
 use crate::runs::scenario::{Scenario, ScenarioError};
 pub use crate::runs::series::{CSV_HEADER, ControlRow, Row, write_csv};
@@ -43,6 +43,16 @@ pub struct ReplyRecord {
     pub line: String,
     /// The reply line.
     pub reply: String,
+}
+
+/// A `# warning: …` line the board wrote on its console (a soak that cannot soften the wall, a
+/// spring held back), with when.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct WarningRecord {
+    /// When the board wrote it, s.
+    pub at_s: f64,
+    /// The warning's text (after `# warning: `).
+    pub text: String,
 }
 
 /// Everything a run produced.
@@ -115,6 +125,8 @@ pub struct Summary {
     pub replies: Vec<ReplyRecord>,
     /// Every fault the supervisor latched (closed-loop scenes).
     pub faults: Vec<crate::rig::FaultRecord>,
+    /// Every warning the board wrote on its console (closed-loop scenes).
+    pub warnings: Vec<WarningRecord>,
 }
 
 /// Why a run (or an experiment of runs) failed or could not write its outputs.
@@ -190,6 +202,7 @@ pub fn run_with(
     let mut next_command = 0;
     let mut replies = Vec::new();
     let mut said = Vec::new();
+    let mut warnings = Vec::new();
     let started = Instant::now();
     let mut row_start = None;
     // A line `react` decided at a period's start, sent at the next one's: the reaction time of
@@ -239,7 +252,7 @@ pub fn run_with(
                     reacted = board.supervisor().and_then(|s| react(t_s, s));
                 }
             }
-            said.clear();
+            keep_warnings(&mut said, board.time_s(), &mut warnings);
             if row_start.is_none() {
                 row_start = Some((
                     board.inputs(),
@@ -267,11 +280,26 @@ pub fn run_with(
         });
         progress((k + 1) as f64 / steps as f64);
     }
+    keep_warnings(&mut said, board.time_s(), &mut warnings);
     let wall_s = started.elapsed().as_secs_f64();
     let mut summary = summarise(scenario, &rows, wall_s, board.camera());
     summary.replies = replies;
     summary.faults = board.latched().to_vec();
+    summary.warnings = warnings;
     Ok(RunResult { rows, summary })
+}
+
+/// Empty what the board said since the last call, keeping its warnings (timed `at_s`, the
+/// board's time once they were drained: within one control tick of when they were written).
+fn keep_warnings(said: &mut Vec<Said>, at_s: f64, warnings: &mut Vec<WarningRecord>) {
+    for s in said.drain(..) {
+        if let Said::Warning(w) = s {
+            warnings.push(WarningRecord {
+                at_s,
+                text: w.to_string(),
+            });
+        }
+    }
 }
 
 fn record(at_s: f64, line: &str, reply: Option<Reply>) -> ReplyRecord {
@@ -360,6 +388,7 @@ fn summarise(scenario: &Scenario, rows: &[Row], wall_s: f64, camera: Option<&Cam
         },
         replies: Vec::new(),
         faults: Vec::new(),
+        warnings: Vec::new(),
     }
 }
 
@@ -600,6 +629,9 @@ pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
     }
     for r in &s.replies {
         writeln!(out, "{:>8.2} s  > {}  < {}", r.at_s, r.line, r.reply)?;
+    }
+    for w in &s.warnings {
+        writeln!(out, "{:>8.2} s  # warning: {}", w.at_s, w.text)?;
     }
     for f in &s.faults {
         writeln!(out, "{:>8.2} s  fault {}: {}", f.at_s, f.code, f.reason)?;
