@@ -1271,6 +1271,23 @@ impl Settings {
 mod tests {
     use super::*;
 
+    /// The pre-warm rises 0.32 K per K below 298.15 K, never falls on a warm day, stops at
+    /// A_s − 1 K (a colder room does not start the stroke), and a non-finite ambient gets
+    /// `spring_prewarm_k`.
+    #[test]
+    fn the_prewarm_rises_on_a_cold_day_up_to_just_below_a_s() {
+        let s = Settings::DEFAULT;
+        assert_eq!(s.prewarm_k(PREWARM_REFERENCE_K), s.spring_prewarm_k);
+        assert_eq!(s.prewarm_k(323.15), s.spring_prewarm_k);
+        assert!((s.prewarm_k(273.15) - (s.spring_prewarm_k + 0.32 * 25.0)).abs() < 1e-3);
+        assert_eq!(s.prewarm_k(200.0), s.sma_as_k - 1.0);
+        assert_eq!(s.prewarm_k(f32::NAN), s.spring_prewarm_k);
+        // A pre-warm set above A_s − 1 K by hand is kept, not lowered.
+        let mut hot = s;
+        hot.spring_prewarm_k = 345.0;
+        assert_eq!(hot.prewarm_k(263.15), 345.0);
+    }
+
     #[test]
     fn defaults_are_in_range_and_consistent() {
         let s = Settings::DEFAULT;
