@@ -43,6 +43,17 @@ fn latched(r: &host_sim::runs::run::RunResult, code: &str) -> Option<f64> {
         .map(|f| f.at_s)
 }
 
+/// No row of `rows` has a latched fault (`what` names the run in the message).
+fn assert_no_trip(rows: &[Row], what: &str) {
+    let trip = rows.iter().find(|r| fault(r).is_some());
+    assert!(
+        trip.is_none(),
+        "{what}: {:?} at {:?} s",
+        trip.and_then(fault),
+        trip.map(|r| r.obs.time_s)
+    );
+}
+
 fn safe(r: &Row) -> bool {
     r.inputs.heater_duty == 0.0 && !r.springs_cmd.iter().any(|s| *s)
 }
@@ -98,13 +109,7 @@ fn replies_and_faults_go_to_the_summary() {
 fn cycle_at(ambient_k: f64) -> Vec<Row> {
     let sc = paper::scene(900.0, ambient_k, false).unwrap();
     let rows = paper::cycle_in(&sc, "AB").unwrap();
-    let trip = rows.iter().find(|r| fault(r).is_some());
-    assert!(
-        trip.is_none(),
-        "{ambient_k} K: {:?} at {:?} s",
-        trip.and_then(fault),
-        trip.map(|r| r.obs.time_s)
-    );
+    assert_no_trip(&rows, &format!("{ambient_k} K"));
     for r in &rows {
         let o = &r.obs;
         assert!(o.heater_k.is_finite() && o.smp_outer_k.is_finite() && o.bend_deg.is_finite());
@@ -810,13 +815,7 @@ fn a_cold_hold_at_the_inner_layer_cap_is_not_a_no_response() {
         .filter(|r| (0.5..0.95).contains(&r.inputs.heater_duty))
         .count();
     assert!(capped > held.len() / 2, "{capped} of {}", held.len());
-    let trip = rows.iter().find(|r| fault(r).is_some());
-    assert!(
-        trip.is_none(),
-        "{:?} at {:?} s",
-        trip.and_then(fault),
-        trip.map(|r| r.obs.time_s)
-    );
+    assert_no_trip(&rows, "cold hold");
 }
 
 /// Issue 19's envelope, camera off: the paper's cycle (springs A+B) at 273 and 283 K loads

@@ -1,9 +1,9 @@
 //! Modes 1 and 2, small and large stepping: soak until the estimated wall is soft, rest the
-//! springs if they are still austenite, pre-warm them (`spring_prewarm_k`, raised on a cold day:
-//! `Settings::prewarm_k`), then the stepping
-//! phases with pulses between, then hold. Every spring phase drives each selected spring by
-//! its estimated temperature: full current below the band, switched at the control period's
-//! rate to hold it (`spring_hot_k`, `spring_band_k`).
+//! springs if they are still austenite, pre-warm them (`spring_prewarm_k`, raised on a cold
+//! day: `Settings::prewarm_k`), then the stepping phases with pulses between, then hold. Every
+//! spring phase drives each selected spring by its estimated temperature: full current below
+//! the band, switched at the control period's rate to hold it (`spring_hot_k`,
+//! `spring_band_k`).
 
 use super::events::EventKind;
 use super::mode::{Ctx, Drive, ModeStep, Next, PauseError, Soak, ms};

@@ -220,15 +220,35 @@ impl PlantScale {
         spring_supply: 1.0,
     };
 
-    /// The factors by name, in declaration order (`heater_power`, `wall_capacity`,
-    /// `spring_cooling`, `spring_supply`).
+    /// The factors' names, in declaration order.
+    pub const NAMES: [&'static str; 4] = [
+        "heater_power",
+        "wall_capacity",
+        "spring_cooling",
+        "spring_supply",
+    ];
+
+    /// The factors by name, in declaration order ([`PlantScale::NAMES`]).
     pub fn named(&self) -> [(&'static str, f64); 4] {
-        [
-            ("heater_power", self.heater_power),
-            ("wall_capacity", self.wall_capacity),
-            ("spring_cooling", self.spring_cooling),
-            ("spring_supply", self.spring_supply),
-        ]
+        let f = [
+            self.heater_power,
+            self.wall_capacity,
+            self.spring_cooling,
+            self.spring_supply,
+        ];
+        core::array::from_fn(|i| (Self::NAMES[i], f[i]))
+    }
+
+    /// The factor called `name` (one of [`PlantScale::NAMES`]), to set it; `None` for any
+    /// other name.
+    pub fn get_mut(&mut self, name: &str) -> Option<&mut f64> {
+        match name {
+            "heater_power" => Some(&mut self.heater_power),
+            "wall_capacity" => Some(&mut self.wall_capacity),
+            "spring_cooling" => Some(&mut self.spring_cooling),
+            "spring_supply" => Some(&mut self.spring_supply),
+            _ => None,
+        }
     }
 }
 

@@ -464,18 +464,11 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
     let mut plant_scale = PlantScale::default();
     if let Some((k, item)) = root.get_key_value("plant") {
         let t = table(&cx, k, item, "plant")?;
-        let names = PlantScale::default().named().map(|(n, _)| n);
-        check_keys(&cx, t, "plant.", &names)?;
+        check_keys(&cx, t, "plant.", &PlantScale::NAMES)?;
         for (key, val) in t.iter() {
             let k = t.key(key).expect("key of an iterated entry");
             let factor = scale_percent(&cx, k, val, &format!("plant.{key}"))?;
-            match key {
-                "heater_power" => plant_scale.heater_power = factor,
-                "wall_capacity" => plant_scale.wall_capacity = factor,
-                "spring_cooling" => plant_scale.spring_cooling = factor,
-                "spring_supply" => plant_scale.spring_supply = factor,
-                _ => unreachable!("keys were checked"),
-            }
+            *plant_scale.get_mut(key).expect("keys were checked") = factor;
         }
     }
 
@@ -980,7 +973,6 @@ fn temperature_step(
 
 /// A value in percent (`"50 %"`, `"80%"`) within `range` (in %), as a fraction: `example`
 /// and `what` word the error for a value without the unit.
-#[allow(clippy::too_many_arguments)]
 fn percent_in(
     cx: &Ctx,
     k: &toml_edit::Key,
