@@ -20,8 +20,6 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
-use crate::runs::series::Row;
-
 /// Width of every plot, pixels.
 pub const WIDTH_PX: u32 = 1400;
 const TITLE_H: u32 = 46;
@@ -61,12 +59,6 @@ pub enum PlotError {
     /// Drawing or encoding the PNG failed (plotters' message).
     #[error("plot: {0}")]
     Draw(String),
-    /// A run's rows could not be written as CSV.
-    #[error("{0}")]
-    Rows(std::io::Error),
-    /// A run's CSV is not UTF-8.
-    #[error("{0}")]
-    Utf8(std::string::FromUtf8Error),
 }
 
 /// A CSV read as columns: every cell kept as text, numbers parsed on demand.
@@ -840,12 +832,9 @@ pub fn plot_csv(csv: &Path, out: &Path, title: Option<&str>) -> Result<PlotInfo,
     render(&table, title.unwrap_or(&name), out)
 }
 
-/// Write the PNG plot of a run's `rows` (through the same CSV columns `timeseries.csv` has).
-pub fn write_png(rows: &[Row], scene: &str, path: &Path) -> Result<(), PlotError> {
-    let mut buf = Vec::with_capacity(rows.len() * 300);
-    crate::runs::series::write_csv(rows, &mut buf).map_err(PlotError::Rows)?;
-    let text = String::from_utf8(buf).map_err(PlotError::Utf8)?;
-    let table = Table::parse(&text)?;
+/// Write the PNG plot of a run from its `timeseries.csv` text ([`crate::runs::series::csv_text`]).
+pub fn write_png(csv: &str, scene: &str, path: &Path) -> Result<(), PlotError> {
+    let table = Table::parse(csv)?;
     render(&table, &format!("host-sim run: scene {scene}"), path).map(|_| ())
 }
 

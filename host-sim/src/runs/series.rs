@@ -61,6 +61,35 @@ const NO_ESTIMATE: &str = ",nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,
 /// Write the time series as CSV (`nan` where there is no measurement).
 pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
     writeln!(out, "{CSV_HEADER}")?;
+    write_rows(rows, out)
+}
+
+/// The CSV text of `rows` (header included), exactly as [`write_csv`] writes it, formatted in
+/// chunks on rayon's threads (a float with fixed decimals costs ≈ 100 ns; a 1800-row run has
+/// ≈ 90 000 of them).
+pub fn csv_text(rows: &[Row]) -> String {
+    use rayon::prelude::*;
+    const CHUNK_ROWS: usize = 256;
+    let chunks: Vec<Vec<u8>> = rows
+        .par_chunks(CHUNK_ROWS)
+        .map(|chunk| {
+            let mut buf = Vec::with_capacity(chunk.len() * 320);
+            write_rows(chunk, &mut buf).expect("writing to a Vec cannot fail");
+            buf
+        })
+        .collect();
+    let mut text =
+        String::with_capacity(CSV_HEADER.len() + 1 + chunks.iter().map(Vec::len).sum::<usize>());
+    text.push_str(CSV_HEADER);
+    text.push('\n');
+    for c in chunks {
+        text.push_str(std::str::from_utf8(&c).expect("the rows are written as UTF-8"));
+    }
+    text
+}
+
+/// Write `rows` as CSV lines (no header).
+fn write_rows(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
     for r in rows {
         let o = &r.obs;
         let s = |b: bool| u8::from(b);
