@@ -14,7 +14,7 @@ use crate::measurement::{Measurement, SensingHint};
 use crate::outputs::Outputs;
 use crate::supervisor::report::Reply;
 use crate::supervisor::store::{StoreOutcome, StoreRequest};
-use crate::supervisor::{Decision, Supervisor, Warning};
+use crate::supervisor::{Decision, Notice, Supervisor};
 use crate::units::Millis;
 
 /// The board's control period, ms: the control loop steps at least this often (besides every
@@ -40,9 +40,10 @@ pub struct Period {
     pub sensing: SensingHint,
     /// The reply to the line, if a line came (none while a `store` waits for its outcome).
     pub reply: Option<Reply>,
-    /// Warnings to print as `# warning: …` lines (after the reply).
-    pub warnings: [Option<Warning>; 2],
-    /// A telemetry line is due ([`Controller::write_telemetry`], after the warnings).
+    /// Notices to print as `# {notice}` lines after the reply: warnings (`# warning: …`) and
+    /// announcements (`# autotune done: …`).
+    pub notices: [Option<Notice>; 2],
+    /// A telemetry line is due ([`Controller::write_telemetry`], after the notices).
     pub telemetry: bool,
     /// The loop is alive: the caller may feed its watchdog.
     pub alive: bool,
@@ -83,7 +84,7 @@ impl Controller {
         let mut d = self.sup.step(now, frame, None);
         let alive = d.alive;
         let mut telemetry = d.telemetry;
-        let mut warnings = [d.warning.take(), None];
+        let mut notices = [d.notice.take(), None];
         let mut reply = None;
         if let Some(line) = line {
             let mut l = match line {
@@ -94,7 +95,7 @@ impl Controller {
                 Line::Refused(e) => self.parse_error(now, ParseError::from(e)),
             };
             telemetry |= l.telemetry;
-            warnings[1] = l.warning.take();
+            notices[1] = l.notice.take();
             reply = l.reply.take();
             d = l;
         }
@@ -102,7 +103,7 @@ impl Controller {
             outputs: d.outputs,
             sensing: d.sensing,
             reply,
-            warnings,
+            notices,
             telemetry,
             alive,
             store: d.store,

@@ -3,7 +3,11 @@
 //!
 //! Words are separated by spaces or tabs and are case-insensitive. Parsing checks the shape of
 //! each argument (mode names, spring letters, parameter names, numbers); the supervisor checks
-//! what depends on its state (ranges that involve other settings, a latched fault).
+//! what depends on its state (ranges that involve other settings, a latched fault). A refused
+//! argument says what was wrong ([`ArgError`]): `err bad-arguments: unknown mode `fly`…` keeps
+//! its stable code and names the reason.
+
+use core::fmt;
 
 use crate::console::ConsoleError;
 use crate::outputs::SpringMask;
@@ -22,8 +26,8 @@ pub enum ParseError {
     LostBytes,
     /// The first word is not a command.
     UnknownCommand,
-    /// The command's arguments are wrong.
-    BadArguments,
+    /// The command's arguments are wrong; the reason says how.
+    BadArguments(ArgError),
     /// `get` or `set` named no parameter.
     UnknownName,
     /// Too many commands were waiting for their replies (the board's bound).
@@ -38,22 +42,98 @@ impl ParseError {
             Self::BinaryInput => "binary-input",
             Self::LostBytes => "lost-bytes",
             Self::UnknownCommand => "unknown-command",
-            Self::BadArguments => "bad-arguments",
+            Self::BadArguments(_) => "bad-arguments",
             Self::UnknownName => "unknown-name",
             Self::Busy => "busy",
         }
     }
+}
 
-    /// Return the human message (the 96 is [`crate::console::MAX_LINE`], checked by a test).
-    pub fn message(self) -> &'static str {
+/// The human message written after `err <code>: ` (the 96 is [`crate::console::MAX_LINE`],
+/// checked by a test).
+impl fmt::Display for ParseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::LineTooLong => "line longer than 96 bytes, discarded",
-            Self::BinaryInput => "line holds non-printable bytes",
-            Self::LostBytes => "bytes of this line were lost, line discarded",
-            Self::UnknownCommand => "unknown command, try `help`",
-            Self::BadArguments => "wrong arguments, try `help`",
-            Self::UnknownName => "no such parameter, try `get`",
-            Self::Busy => "too many commands waiting for replies, line discarded",
+            Self::LineTooLong => f.write_str("line longer than 96 bytes, discarded"),
+            Self::BinaryInput => f.write_str("line holds non-printable bytes"),
+            Self::LostBytes => f.write_str("bytes of this line were lost, line discarded"),
+            Self::UnknownCommand => f.write_str("unknown command, try `help`"),
+            Self::BadArguments(why) => write!(f, "{why}"),
+            Self::UnknownName => f.write_str("no such parameter, try `get`"),
+            Self::Busy => f.write_str("too many commands waiting for replies, line discarded"),
+        }
+    }
+}
+
+/// What was wrong with a command's arguments (the message of `err bad-arguments`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum ArgError {
+    /// The command takes no arguments (its index into [`COMMANDS`]).
+    NoneTaken(u8),
+    /// More words than the command takes (its index into [`COMMANDS`]).
+    TooMany(u8),
+    /// `mode` without a mode name.
+    NoMode,
+    /// `mode` with a word that names no mode.
+    UnknownMode,
+    /// The springs are not letters of A, B, C.
+    UnknownSprings,
+    /// Springs given to a mode that does not step.
+    SpringsNotTaken,
+    /// `set` without a parameter name.
+    NoName,
+    /// `set NAME` without a value.
+    NoValue,
+    /// A value that is not a finite number.
+    NotANumber,
+    /// A word after `set`'s value (a unit: values are written in the unit `get` shows).
+    UnitNotExpected,
+    /// `stream` without `on` or `off`.
+    OnOrOff,
+    /// `stream off` with a rate.
+    RateWithOff,
+}
+
+impl fmt::Display for ArgError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let usage = |f: &mut fmt::Formatter<'_>, i: u8| match COMMANDS.get(i as usize) {
+            Some(c) if c.args.is_empty() => write!(f, "`{}` takes no arguments", c.name),
+            Some(c) => write!(f, "usage: {} {}", c.name, c.args),
+            None => f.write_str("wrong arguments, try `help`"),
+        };
+        match *self {
+            Self::NoneTaken(i) | Self::TooMany(i) => usage(f, i),
+            Self::NoMode | Self::UnknownMode => {
+                f.write_str(if *self == Self::NoMode {
+                    "which mode? one of"
+                } else {
+                    "unknown mode; one of"
+                })?;
+                for (i, (name, _)) in mode_names().enumerate() {
+                    write!(f, "{}{name}", if i == 0 { " " } else { ", " })?;
+                }
+                Ok(())
+            }
+            Self::UnknownSprings => {
+                f.write_str("unknown spring; springs are distinct letters of A, B, C (e.g. AB)")
+            }
+            Self::SpringsNotTaken => {
+                f.write_str("springs are for")?;
+                let stepping = mode_names().filter(|(_, m)| m.takes_springs());
+                for (i, (name, _)) in stepping.enumerate() {
+                    write!(f, "{}{name}", if i == 0 { " " } else { " and " })?;
+                }
+                f.write_str(" only")
+            }
+            Self::NoName => f.write_str("usage: set NAME VALUE (names: `get`)"),
+            Self::NoValue => f.write_str("no value; usage: set NAME VALUE"),
+            Self::NotANumber => f.write_str("not a number"),
+            Self::UnitNotExpected => {
+                f.write_str("no unit expected: the value alone, in the unit `get` shows")
+            }
+            Self::OnOrOff => f.write_str("usage: stream on|off [HZ]"),
+            Self::RateWithOff => f.write_str("`stream off` takes no rate"),
         }
     }
 }
@@ -232,19 +312,26 @@ fn number(word: &str) -> Option<f32> {
 pub fn parse(line: &str) -> Result<Command, ParseError> {
     let mut words = line.split([' ', '\t']).filter(|w| !w.is_empty());
     let verb = words.next().ok_or(ParseError::UnknownCommand)?;
-    let spec = COMMANDS
+    let index = COMMANDS
         .iter()
-        .find(|c| c.name.eq_ignore_ascii_case(verb))
+        .position(|c| c.name.eq_ignore_ascii_case(verb))
         .ok_or(ParseError::UnknownCommand)?;
+    let spec = &COMMANDS[index];
+    let bad = ParseError::BadArguments;
     let a = words.next();
     let b = words.next();
     if words.next().is_some() {
-        return Err(ParseError::BadArguments);
+        // `set hot_k 358 K`: a unit after the value.
+        let why = if spec.name == "set" {
+            ArgError::UnitNotExpected
+        } else {
+            ArgError::TooMany(index as u8)
+        };
+        return Err(bad(why));
     }
-    let bad = ParseError::BadArguments;
     let none = |cmd: Command| match (a, b) {
         (None, None) => Ok(cmd),
-        _ => Err(ParseError::BadArguments),
+        _ => Err(bad(ArgError::NoneTaken(index as u8))),
     };
     match spec.name {
         "help" => match (a, b) {
@@ -254,7 +341,7 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
                 .position(|c| c.name.eq_ignore_ascii_case(word))
                 .map(|i| Command::Help(Some(i as u8)))
                 .ok_or(ParseError::UnknownCommand),
-            _ => Err(bad),
+            _ => Err(bad(ArgError::TooMany(index as u8))),
         },
         "version" => none(Command::Version),
         "status" => none(Command::Status),
@@ -269,37 +356,37 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
         "load" => none(Command::Load),
         "defaults" => none(Command::Defaults),
         "mode" => {
-            let name = a.ok_or(bad)?;
-            let mode = ModeId::requested(name).ok_or(bad)?;
+            let name = a.ok_or(bad(ArgError::NoMode))?;
+            let mode = ModeId::requested(name).ok_or(bad(ArgError::UnknownMode))?;
             let springs = match b {
                 None => None,
-                Some(w) => Some(SpringMask::parse(w).ok_or(bad)?),
+                Some(w) => Some(SpringMask::parse(w).ok_or(bad(ArgError::UnknownSprings))?),
             };
             if springs.is_some() && !mode.takes_springs() {
-                return Err(bad);
+                return Err(bad(ArgError::SpringsNotTaken));
             }
             Ok(Command::Mode(mode, springs))
         }
         "get" => match (a, b) {
             (None, None) => Ok(Command::Get(None)),
             (Some(n), None) => Ok(Command::Get(Some(param_index(n)?))),
-            _ => Err(bad),
+            _ => Err(bad(ArgError::TooMany(index as u8))),
         },
         "set" => {
-            let i = param_index(a.ok_or(bad)?)?;
-            let v = number(b.ok_or(bad)?).ok_or(bad)?;
+            let i = param_index(a.ok_or(bad(ArgError::NoName))?)?;
+            let v = number(b.ok_or(bad(ArgError::NoValue))?).ok_or(bad(ArgError::NotANumber))?;
             Ok(Command::Set(i, v))
         }
         "stream" => {
             let on = match a {
                 Some(w) if w.eq_ignore_ascii_case("on") => true,
                 Some(w) if w.eq_ignore_ascii_case("off") => false,
-                _ => return Err(bad),
+                _ => return Err(bad(ArgError::OnOrOff)),
             };
             let hz = match b {
                 None => None,
-                Some(w) if on => Some(number(w).ok_or(bad)?),
-                Some(_) => return Err(bad),
+                Some(w) if on => Some(number(w).ok_or(bad(ArgError::NotANumber))?),
+                Some(_) => return Err(bad(ArgError::RateWithOff)),
             };
             Ok(Command::Stream(on, hz))
         }
@@ -343,21 +430,69 @@ mod tests {
             parse("mode standby"),
             Ok(Command::Mode(ModeId::Standby, None))
         );
-        assert_eq!(parse("mode form A"), Err(ParseError::BadArguments));
-        assert_eq!(parse("mode step-small ABD"), Err(ParseError::BadArguments));
-        assert_eq!(parse("mode fly"), Err(ParseError::BadArguments));
-        assert_eq!(parse("set hot_k nan"), Err(ParseError::BadArguments));
-        assert_eq!(parse("set hot_k inf"), Err(ParseError::BadArguments));
+        let bad = |why| Err(ParseError::BadArguments(why));
+        assert_eq!(parse("mode form A"), bad(ArgError::SpringsNotTaken));
+        assert_eq!(parse("mode step-small ABD"), bad(ArgError::UnknownSprings));
+        assert_eq!(parse("mode fly"), bad(ArgError::UnknownMode));
+        assert_eq!(parse("mode"), bad(ArgError::NoMode));
+        assert_eq!(parse("set hot_k nan"), bad(ArgError::NotANumber));
+        assert_eq!(parse("set hot_k inf"), bad(ArgError::NotANumber));
+        assert_eq!(parse("set hot_k"), bad(ArgError::NoValue));
+        assert_eq!(parse("set"), bad(ArgError::NoName));
+        assert_eq!(parse("set hot_k 358 K"), bad(ArgError::UnitNotExpected));
         assert_eq!(parse("set nope 1"), Err(ParseError::UnknownName));
         assert_eq!(parse("get"), Ok(Command::Get(None)));
-        assert_eq!(parse("stream off 3"), Err(ParseError::BadArguments));
+        assert_eq!(parse("stream off 3"), bad(ArgError::RateWithOff));
+        assert_eq!(parse("stream"), bad(ArgError::OnOrOff));
         assert_eq!(parse("stream on"), Ok(Command::Stream(true, None)));
-        assert_eq!(parse("status now"), Err(ParseError::BadArguments));
+        let status = COMMANDS.iter().position(|c| c.name == "status").unwrap() as u8;
+        assert_eq!(parse("status now"), bad(ArgError::NoneTaken(status)));
         assert_eq!(parse("frobnicate"), Err(ParseError::UnknownCommand));
-        assert_eq!(parse("set a b c"), Err(ParseError::BadArguments));
         assert_eq!(parse("SAVE"), Ok(Command::Save));
-        assert_eq!(parse("load now"), Err(ParseError::BadArguments));
         assert_eq!(parse("defaults"), Ok(Command::Defaults));
+    }
+
+    /// Each refused argument's message, as `err bad-arguments: …` writes it.
+    #[test]
+    fn bad_arguments_say_what_was_wrong() {
+        let said = |line: &str| std::format!("{}", parse(line).unwrap_err());
+        assert_eq!(
+            said("mode fly"),
+            "unknown mode; one of standby, step-small, step-large, form, recover"
+        );
+        assert_eq!(
+            said("mode step-large D"),
+            "unknown spring; springs are distinct letters of A, B, C (e.g. AB)"
+        );
+        assert_eq!(
+            said("mode form AB"),
+            "springs are for step-small and step-large only"
+        );
+        assert_eq!(said("set hot_k abc"), "not a number");
+        assert_eq!(
+            said("set hot_k 358 K"),
+            "no unit expected: the value alone, in the unit `get` shows"
+        );
+        assert_eq!(said("status now"), "`status` takes no arguments");
+        assert_eq!(said("get a b"), "usage: get [NAME]");
+        assert_eq!(said("stream maybe"), "usage: stream on|off [HZ]");
+        assert_eq!(said("load now"), "`load` takes no arguments");
+        assert_eq!(
+            said("set a b c"),
+            "no unit expected: the value alone, in the unit `get` shows"
+        );
+        // Every message fits a reply with room to spare.
+        for line in [
+            "mode",
+            "mode fly",
+            "set",
+            "set hot_k",
+            "stream off 2",
+            "help a b",
+        ] {
+            let m = said(line);
+            assert!(!m.is_empty() && m.len() < 120, "{line}: {m}");
+        }
     }
 
     #[test]

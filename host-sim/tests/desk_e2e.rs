@@ -70,7 +70,7 @@ fn write_all(master: &mut File, bytes: &[u8]) {
 fn write_said(master: &mut File, said: &mut Vec<Said>) {
     for s in said.drain(..) {
         match s {
-            Said::Warning(w) => write_all(master, format!("# warning: {w}\r\n").as_bytes()),
+            Said::Notice(n) => write_all(master, format!("# {n}\r\n").as_bytes()),
             Said::Telemetry(t) => write_all(master, t.as_bytes()),
         }
     }

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use thermorph::command::{COMMANDS, ParseError};
+use thermorph::command::{ArgError, COMMANDS, ParseError};
 use thermorph::console::MAX_LINE;
 use thermorph::settings::{PARAMS, Settings};
 use thermorph::supervisor::mode::ModeId;
@@ -151,7 +151,7 @@ fn firmware_error_codes() -> Vec<String> {
         ParseError::BinaryInput,
         ParseError::LostBytes,
         ParseError::UnknownCommand,
-        ParseError::BadArguments,
+        ParseError::BadArguments(ArgError::NotANumber),
         ParseError::UnknownName,
         ParseError::Busy,
     ]
@@ -163,7 +163,7 @@ fn firmware_error_codes() -> Vec<String> {
             | ParseError::BinaryInput
             | ParseError::LostBytes
             | ParseError::UnknownCommand
-            | ParseError::BadArguments
+            | ParseError::BadArguments(_)
             | ParseError::UnknownName
             | ParseError::Busy => e.code().to_string(),
         }

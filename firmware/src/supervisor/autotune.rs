@@ -2,7 +2,7 @@
 //! gains (Ziegler–Nichols' classic rule) replace the loop's if they pass the ranges `set`
 //! checks; then standby.
 
-use super::events::EventKind;
+use super::events::{EventKind, Notice};
 use super::mode::{Ctx, Drive, Mode, ModeStep, Next};
 use crate::control::{AutotuneConfig, AutotuneStep, RelayAutotune, TuneRule};
 use crate::outputs::{Duty, SpringMask};
@@ -71,17 +71,18 @@ impl Tuning {
                         ku_per_k: r.ku_per_k,
                         tu_s: r.tu_s,
                     });
+                    c.announce(Notice::Tuned {
+                        ku_per_k: r.ku_per_k,
+                        tu_s: r.tu_s,
+                        kp: tuned.gains.kp_per_k,
+                        ki: tuned.gains.ki_per_k_s,
+                        kd: tuned.gains.kd_s_per_k,
+                    });
                     Next::Tuned(tuned)
                 }
-                Err(_) => {
-                    c.event(EventKind::TuneAborted("gains out of range"));
-                    Next::Enter(Mode::Standby)
-                }
+                Err(_) => abort(c, "gains out of range"),
             },
-            AutotuneStep::Aborted(why) => {
-                c.event(EventKind::TuneAborted(why.name()));
-                Next::Enter(Mode::Standby)
-            }
+            AutotuneStep::Aborted(why) => abort(c, why.name()),
         };
         ModeStep {
             drive: Drive::Relay(Duty::OFF),
@@ -89,4 +90,12 @@ impl Tuning {
             next: Some(next),
         }
     }
+}
+
+/// Give up the autotune for `why`: log it, say it on the console, back to standby (the gains
+/// unchanged).
+fn abort(c: &mut Ctx, why: &'static str) -> Next {
+    c.event(EventKind::TuneAborted(why));
+    c.announce(Notice::TuneAborted(why));
+    Next::Enter(Mode::Standby)
 }

@@ -53,6 +53,51 @@ pub enum EventKind {
     },
 }
 
+/// A line the console prints unasked, as `# {notice}` after the period's reply: a warning
+/// (`# warning: …`) or the outcome of a command that finishes later (`# autotune done: …`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Notice {
+    /// A warning (also in the `log`).
+    Warning(Warning),
+    /// An autotune finished: its measurement and the gains it put in use (in RAM).
+    Tuned {
+        /// Ultimate gain, duty per K.
+        ku_per_k: f32,
+        /// Ultimate period, s.
+        tu_s: f32,
+        /// The new proportional gain, duty per K.
+        kp: f32,
+        /// The new integral gain, duty per K·s.
+        ki: f32,
+        /// The new derivative gain, duty·s per K.
+        kd: f32,
+    },
+    /// An autotune gave up (why); the gains are unchanged.
+    TuneAborted(&'static str),
+}
+
+impl fmt::Display for Notice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Notice::Warning(w) => write!(f, "warning: {w}"),
+            Notice::Tuned {
+                ku_per_k,
+                tu_s,
+                kp,
+                ki,
+                kd,
+            } => write!(
+                f,
+                "autotune done: ku={ku_per_k:.4} tu={tu_s:.1} kp={kp:.3} ki={ki:.3} kd={kd:.3}; \
+                 the gains are in use (in RAM): `save` keeps them"
+            ),
+            Notice::TuneAborted(why) => {
+                write!(f, "autotune aborted: {why}; the gains are unchanged")
+            }
+        }
+    }
+}
+
 /// A warning the console prints as `# warning: …` (its [`fmt::Display`]) and the `log` keeps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Warning {

@@ -115,7 +115,7 @@ use report::Reply;
 use safety::{Fault, FaultKind, LoopState, Safety};
 
 pub use autotune::Tuning;
-pub use events::Warning;
+pub use events::{Notice, Warning};
 pub use forming::Forming;
 pub use memory::{SpringMemory, SpringRecord};
 pub use mode::{Mode, ModeId, PauseError};
@@ -176,8 +176,9 @@ pub struct Decision {
     /// flash operation, holds them through it, and gives the outcome to
     /// [`Supervisor::finish_store`] for the command's reply ([`store`]).
     pub store: Option<store::StoreRequest>,
-    /// A warning to print on the console as `# warning: …` (it is also in the `log`).
-    pub warning: Option<Warning>,
+    /// A line to print on the console as `# {notice}` after the reply: a warning (also in the
+    /// `log`) or an announcement (`# autotune done: …`).
+    pub notice: Option<Notice>,
 }
 
 /// The supervisor.
@@ -215,7 +216,7 @@ pub struct Supervisor {
     /// `stop` was asked with a fault latched: the fan is off too, until `reset`.
     quiet: bool,
     /// A warning for this step's decision.
-    warning: Option<Warning>,
+    notice: Option<Notice>,
     /// The last decision's heater duty was cut by a cap (the film's or the estimated inner
     /// layer's), below what the loop or the relay asked.
     heater_capped: bool,
@@ -299,7 +300,7 @@ impl Supervisor {
             unresolved_since: None,
             film_fallback: false,
             quiet: false,
-            warning: None,
+            notice: None,
             heater_capped: false,
         }
     }
@@ -415,7 +416,7 @@ impl Supervisor {
         let now = now.max(self.last_step);
         let elapsed_ms = now.0.saturating_sub(self.last_step.0).min(u32::MAX as u64) as u32;
         self.last_step = now;
-        self.warning = None;
+        self.notice = None;
         // The interval since the last step ran with the last decision's outputs: the
         // observer predicts over it, and the springs that were on are credited (on-time, duty).
         let ran = self.outputs;
@@ -534,7 +535,7 @@ impl Supervisor {
             // A stale measurement always latches sensor loss in this same step unless another
             // fault already holds the outputs safe: either way the loop is alive.
             alive: age_s <= self.settings.sensor_timeout_s || self.fault.is_some(),
-            warning: self.warning,
+            notice: self.notice,
         }
     }
 
@@ -546,7 +547,7 @@ impl Supervisor {
             if self.film_fallback {
                 self.film_fallback = false;
                 self.events.push(now, EventKind::Warning(WARN_RESOLVED));
-                self.warning = Some(WARN_RESOLVED);
+                self.notice = Some(Notice::Warning(WARN_RESOLVED));
             }
             return;
         }
@@ -558,7 +559,7 @@ impl Supervisor {
         {
             self.film_fallback = true;
             self.events.push(now, EventKind::Warning(WARN_UNRESOLVED));
-            self.warning = Some(WARN_UNRESOLVED);
+            self.notice = Some(Notice::Warning(WARN_UNRESOLVED));
         }
     }
 
@@ -682,7 +683,7 @@ impl Supervisor {
             observer: &self.observer,
             safety: &self.safety,
             events: &mut self.events,
-            warning: &mut self.warning,
+            notice: &mut self.notice,
         };
         let Some(step) = self.mode.advance(&mut c) else {
             return self.safe_outputs();
@@ -779,7 +780,7 @@ impl Supervisor {
                     }
                     Err(SetError::OutOfRange { min, max }) => Reply::out_of_range(p, min, max),
                     Err(SetError::Conflict(why)) => Reply::err("conflict", why.message()),
-                    Err(SetError::NotANumber) => Reply::err("bad-arguments", "not a valid number"),
+                    Err(SetError::NotANumber) => Reply::err("bad-arguments", "not a number"),
                     Err(SetError::UnknownName) => Reply::err("unknown-name", "no such parameter"),
                 }
             }

@@ -8,7 +8,7 @@
 //! one [`ModeId`] row and one [`Mode`] variant, and the compiler lists what else it needs.
 
 use super::autotune::Tuning;
-use super::events::{EventKind, EventLog, Warning};
+use super::events::{EventKind, EventLog, Notice, Warning};
 use super::forming::Forming;
 use super::recovery::{RecoverPhase, Recovering};
 use super::safety::Safety;
@@ -326,8 +326,8 @@ pub(super) struct Ctx<'a> {
     pub safety: &'a Safety,
     /// The event log.
     pub events: &'a mut EventLog,
-    /// This step's warning, if any.
-    pub warning: &'a mut Option<Warning>,
+    /// This step's notice (a warning, an announcement), if any.
+    pub notice: &'a mut Option<Notice>,
 }
 
 /// What the mode wants of the heater and the fan.
@@ -410,7 +410,12 @@ impl Ctx<'_> {
     /// Say `w` on the console (`# warning: …`) and log it.
     pub fn warn(&mut self, w: Warning) {
         self.events.push(self.now, EventKind::Warning(w));
-        *self.warning = Some(w);
+        *self.notice = Some(Notice::Warning(w));
+    }
+
+    /// Say `n` on the console (`# {n}`), unlogged (the caller logs what the `log` keeps).
+    pub fn announce(&mut self, n: Notice) {
+        *self.notice = Some(n);
     }
 
     /// The estimated wall is soft: its frozen fraction at most `soft_frozen_max`.

@@ -16,7 +16,7 @@ use crate::settings::{PARAMS, Param, Settings};
 use crate::units::{Kelvin, Millis};
 
 /// Longest reply line, bytes.
-pub const REPLY_CAP: usize = 1024;
+pub const REPLY_CAP: usize = 2048;
 
 /// One reply line.
 #[derive(Clone, PartialEq, Eq)]
@@ -87,7 +87,7 @@ impl Reply {
 
     /// The reply to a line refused by the parser.
     pub fn parse_error(e: crate::command::ParseError) -> Reply {
-        Reply::err(e.code(), e.message())
+        Reply::with(|r| write!(r, "err {}: {e}", e.code()))
     }
 
     /// `help`: every command with its arguments; `help COMMAND` (`topic`, an index into
@@ -128,8 +128,10 @@ impl Reply {
             match s.last {
                 Some(m) => {
                     for (i, t) in m.regions.iter().enumerate() {
-                        write!(r, " t{}_k=", i + 1)?;
-                        write_num(r, t.map_or(f32::NAN, Kelvin::k))?;
+                        match t {
+                            Some(t) => write!(r, " t{}_k={:.3}", i + 1, t.k())?,
+                            None => write!(r, " t{}_k=-", i + 1)?,
+                        }
                     }
                     write!(
                         r,
@@ -176,7 +178,7 @@ impl Reply {
             r.write_str("ok")?;
             for p in PARAMS {
                 write!(r, " {}=", p.name)?;
-                write_num(r, (p.get)(s))?;
+                write_param(r, p, (p.get)(s))?;
             }
             Ok(())
         })
@@ -186,7 +188,7 @@ impl Reply {
         match PARAMS.get(i) {
             Some(p) => Reply::with(|r| {
                 write!(r, "ok {}=", p.name)?;
-                write_num(r, (p.get)(s))?;
+                write_param(r, p, (p.get)(s))?;
                 if !p.unit.is_empty() {
                     write!(r, " {}", p.unit)?;
                 }
@@ -199,9 +201,9 @@ impl Reply {
     pub(super) fn out_of_range(p: &Param, min: f32, max: f32) -> Reply {
         Reply::with(|r| {
             write!(r, "err out-of-range: {} must be in [", p.name)?;
-            write_num(r, min)?;
+            write_param(r, p, min)?;
             r.write_str(", ")?;
-            write_num(r, max)?;
+            write_param(r, p, max)?;
             write!(r, "] {}", p.unit)
         })
     }
@@ -244,11 +246,14 @@ impl Reply {
     }
 }
 
-fn write_num(r: &mut impl Write, v: f32) -> fmt::Result {
+/// A parameter's value in its console unit, formatted by the parameter alone (never by the
+/// value): a count as a whole number, any other value with three decimals (`hot_k=358.000 K`
+/// whether 358 or 357.5 was set).
+fn write_param(r: &mut impl Write, p: &Param, v: f32) -> fmt::Result {
     if !v.is_finite() {
         r.write_str("-")
-    } else if v == libm::roundf(v) && libm::fabsf(v) < 1e7 {
-        write!(r, "{}", v as i32)
+    } else if p.integer {
+        write!(r, "{}", libm::roundf(v) as i32)
     } else {
         write!(r, "{v:.3}")
     }

@@ -142,7 +142,7 @@ fn large_stepping_runs_four_steps_and_three_pulses_in_30_s() {
 fn pause_holds_the_timer_and_resume_finishes_it() {
     let mut r = Rig::new();
     r.run(60.0);
-    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0.000 s");
     r.line("mode step-small C");
     while r.sup.mode().phase_name() != "spring" {
         r.run(0.25);
@@ -314,12 +314,12 @@ fn bad_measurements_are_ignored_and_time_never_runs_back() {
 #[test]
 fn set_get_and_spring_limits() {
     let mut r = Rig::new();
-    assert_eq!(r.line("set step_s 5"), "ok step_s=5 s");
-    assert_eq!(r.line("get step_s"), "ok step_s=5 s");
+    assert_eq!(r.line("set step_s 5"), "ok step_s=5.000 s");
+    assert_eq!(r.line("get step_s"), "ok step_s=5.000 s");
     assert!(r.line("set step_s 9").starts_with("err conflict"));
     assert!(
         r.line("set hot_k 400")
-            .starts_with("err out-of-range: hot_k must be in [338, 368] K")
+            .starts_with("err out-of-range: hot_k must be in [338.000, 368.000] K")
     );
     assert!(r.line("help").starts_with("ok commands: help [COMMAND];"));
     assert_eq!(
@@ -332,7 +332,12 @@ fn set_get_and_spring_limits() {
         "ok save: store every parameter (survives a reset)"
     );
     assert_eq!(parse("help fly"), Err(ParseError::UnknownCommand));
-    assert_eq!(parse("help mode set"), Err(ParseError::BadArguments));
+    assert_eq!(
+        parse("help mode set"),
+        Err(ParseError::BadArguments(crate::command::ArgError::TooMany(
+            0
+        )))
+    );
     assert!(r.line("log").starts_with("ok events=0"));
     assert!(r.line("status").starts_with("ok mode=standby"));
     assert!(r.line("stream on 50").starts_with("err out-of-range"));
@@ -536,7 +541,10 @@ fn autotune_settings_past_a_safe_relay_are_refused() {
         r.line("set tune_timeout_s 3600")
             .starts_with("err out-of-range")
     );
-    assert_eq!(r.line("set tune_timeout_s 900"), "ok tune_timeout_s=900 s");
+    assert_eq!(
+        r.line("set tune_timeout_s 900"),
+        "ok tune_timeout_s=900.000 s"
+    );
 }
 
 #[test]
@@ -669,8 +677,8 @@ fn a_short_gap_does_not_end_a_springs_on_time() {
             .starts_with("err out-of-range")
     );
     // With no pre-warm, a short gap is fine where the phases it joins fit the limit.
-    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
-    assert_eq!(r.line("set step_s 3"), "ok step_s=3 s");
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0.000 s");
+    assert_eq!(r.line("set step_s 3"), "ok step_s=3.000 s");
     assert_eq!(r.line("set large_steps 2"), "ok large_steps=2");
     assert!(r.line("set pulse_s 0.5").starts_with("ok pulse_s=0.5"));
     assert!(r.line("set large_steps 3").starts_with("err conflict"));
@@ -857,7 +865,7 @@ fn a_long_run_of_unresolved_frames_while_heating_falls_back_to_the_film() {
     for k in 0..4 * 40 {
         let t1 = r.block.t1;
         let d = r.frame(frame_of(t1, t1, Quality::Merged, 2.0));
-        if let Some(w) = d.warning {
+        if let Some(events::Notice::Warning(w)) = d.notice {
             warned = Some((k, w));
             break;
         }
@@ -869,7 +877,7 @@ fn a_long_run_of_unresolved_frames_while_heating_falls_back_to_the_film() {
     assert_eq!(r.sup.sensing_hint().weights.w1, 1.0);
     // Resolved frames give the mode its region back.
     let d = r.frame(r.block.measure(0, 0));
-    assert_eq!(d.warning, Some(WARN_RESOLVED));
+    assert_eq!(d.notice, Some(events::Notice::Warning(WARN_RESOLVED)));
     assert!(!r.sup.film_fallback());
 }
 
@@ -1053,4 +1061,88 @@ fn back_to_back_steppings_keep_every_spring_in_its_band() {
     let s = Settings::DEFAULT;
     assert!(hottest > s.spring_hot_k - s.spring_band_k, "{hottest}");
     assert!(hottest < s.spring_hot_k + 1.0, "{hottest}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Issue 22: the console's answers.
+
+/// `get` formats a value by its parameter, never by the value set, and lists every parameter
+/// in one uncut reply.
+#[test]
+fn get_formats_by_parameter_and_lists_every_one() {
+    let mut r = Rig::new();
+    assert_eq!(r.line("set hot_k 358"), "ok hot_k=358.000 K");
+    assert_eq!(r.line("set hot_k 357.5"), "ok hot_k=357.500 K");
+    assert_eq!(r.line("get hot_k"), "ok hot_k=357.500 K");
+    assert_eq!(
+        r.line("set spring_duty_max_pct 60"),
+        "ok spring_duty_max_pct=60.000 %"
+    );
+    assert_eq!(r.line("get large_steps"), "ok large_steps=4");
+    assert_eq!(
+        r.line("set kp 12.5"),
+        "err out-of-range: kp must be in [0.000, 10.000] 1/K"
+    );
+    let all = r.line("get");
+    assert!(!all.ends_with(" ..."), "cut: {all}");
+    for p in PARAMS {
+        assert!(
+            all.contains(&std::format!(" {}=", p.name)),
+            "{} missing",
+            p.name
+        );
+    }
+}
+
+/// An autotune says when it is done, with what it measured and the gains it put in use (which
+/// are the settings' now, in RAM: `save` keeps them); one that gives up says so.
+#[test]
+fn autotune_announces_its_result_and_that_save_keeps_it() {
+    let mut r = Rig::new();
+    r.run(2.0);
+    assert_eq!(r.line("autotune"), "ok autotune started");
+    let mut said = None;
+    for _ in 0..4 * 600 {
+        r.now_ms += 250;
+        r.seq += 1;
+        let m = r.block.measure(r.now_ms, r.seq);
+        let d = r.sup.step(Millis(r.now_ms), Some(&m), None);
+        r.block.step(&d.outputs, 0.25);
+        if let Some(n) = d.notice {
+            said = Some(n);
+            break;
+        }
+    }
+    let Some(events::Notice::Tuned { kp, ki, kd, .. }) = said else {
+        panic!("no autotune notice: {said:?}");
+    };
+    let g = r.sup.settings().gains;
+    assert_eq!((kp, ki, kd), (g.kp_per_k, g.ki_per_k_s, g.kd_s_per_k));
+    assert_ne!(g, Settings::DEFAULT.gains, "the gains changed");
+    let line = std::format!("# {}", said.unwrap());
+    assert!(line.starts_with("# autotune done: ku="), "{line}");
+    assert!(
+        line.ends_with("the gains are in use (in RAM): `save` keeps them"),
+        "{line}"
+    );
+    assert_eq!(r.sup.mode().name(), "standby");
+
+    // A relay that never sees the block move gives up with its reason.
+    let mut r = Rig::new();
+    r.run(2.0);
+    assert!(r.line("set tune_timeout_s 60").starts_with("ok"));
+    r.line("autotune");
+    r.block.heater_ok = false;
+    let mut said = None;
+    for _ in 0..4 * 120 {
+        let d = r.frame(r.block.measure(0, 0));
+        if d.notice.is_some() {
+            said = d.notice;
+            break;
+        }
+    }
+    let said = std::format!("# {}", said.expect("an abort notice"));
+    assert!(said.starts_with("# autotune aborted: "), "{said}");
+    assert!(said.ends_with("; the gains are unchanged"), "{said}");
+    assert_eq!(r.sup.settings().gains, Settings::DEFAULT.gains);
 }

@@ -119,7 +119,7 @@ impl Block {
 fn write_said(said: &[Said], out: &mut impl Write) -> std::io::Result<()> {
     for s in said {
         match s {
-            Said::Warning(w) => write!(out, "# warning: {w}\r\n")?,
+            Said::Notice(n) => write!(out, "# {n}\r\n")?,
             Said::Telemetry(t) => out.write_all(t.as_bytes())?,
         }
     }

@@ -90,8 +90,9 @@ const TICK_US: u64 = TICK_MS * 1000;
 /// What the board wrote on its console besides a reply.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Said {
-    /// A `# warning: …` line's text.
-    Warning(thermorph::supervisor::Warning),
+    /// A `# {notice}` line: a warning (`# warning: …`) or an announcement (`# autotune done:
+    /// …`).
+    Notice(thermorph::supervisor::Notice),
     /// A telemetry line (with its `#` and CR LF).
     Telemetry(String),
 }
@@ -330,8 +331,8 @@ impl SimBoard {
             // The heater and the springs are off through the flash operation (instant here).
             p.reply = Some(self.flash.carry_out(&req, c, now));
         }
-        for w in p.warnings.into_iter().flatten() {
-            said.push(Said::Warning(w));
+        for n in p.notices.into_iter().flatten() {
+            said.push(Said::Notice(n));
         }
         if p.telemetry {
             let mut t = String::new();

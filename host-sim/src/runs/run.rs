@@ -23,8 +23,8 @@ use std::time::Instant;
 use serde::Serialize;
 use thermorph::app::Line;
 use thermorph::settings::Settings;
-use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::report::Reply;
+use thermorph::supervisor::{Notice, Supervisor};
 
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, camera_temps};
@@ -293,7 +293,7 @@ pub fn run_with(
 /// board's time once they were drained: within one control tick of when they were written).
 fn keep_warnings(said: &mut Vec<Said>, at_s: f64, warnings: &mut Vec<WarningRecord>) {
     for s in said.drain(..) {
-        if let Said::Warning(w) = s {
+        if let Said::Notice(Notice::Warning(w)) = s {
             warnings.push(WarningRecord {
                 at_s,
                 text: w.to_string(),

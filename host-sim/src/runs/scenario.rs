@@ -524,11 +524,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
                         return Err(cx.err(
                             v.span(),
                             &format!("{p}line"),
-                            format!(
-                                "the console would refuse it: {} ({})",
-                                e.code(),
-                                e.message()
-                            ),
+                            format!("the console would refuse it: {} ({})", e.code(), e),
                         ));
                     }
                     line.to_string()

@@ -318,14 +318,15 @@ async fn estop_task(mut button: ExtiInput<'static, Async>) {
     }
 }
 
-/// Queue a console line `# warning: {text}` (best effort, as telemetry: a port behind by a
-/// whole queue loses it; it is also in the supervisor's `log`).
-fn write_warning(text: thermorph::supervisor::Warning) {
+/// Queue a console line `# {notice}` — `# warning: …`, `# autotune done: …` — (best effort,
+/// as telemetry: a port behind by a whole queue loses it; warnings and autotune outcomes are
+/// also in the supervisor's `log`).
+fn write_notice(notice: thermorph::supervisor::Notice) {
     use core::fmt::Write as _;
-    warn!("{}", defmt::Display2Format(&text));
+    warn!("{}", defmt::Display2Format(&notice));
     let mut line = heapless::String::<TELEMETRY_CAP>::new();
-    if write!(line, "# warning: {text}\r\n").is_err() || OUT.try_send(Out::Text(line)).is_err() {
-        warn!("console: warning line dropped");
+    if write!(line, "# {notice}\r\n").is_err() || OUT.try_send(Out::Text(line)).is_err() {
+        warn!("console: notice line dropped");
     }
 }
 
@@ -429,9 +430,9 @@ async fn main(spawner: Spawner) {
         outputs.apply(&period.outputs);
         retained::keep(&control.supervisor().spring_memory());
         HINT.signal(period.sensing);
-        // After the reply, whose slot is kept free: a warning, then telemetry.
-        for w in period.warnings.into_iter().flatten() {
-            write_warning(w);
+        // After the reply, whose slot is kept free: a notice, then telemetry.
+        for n in period.notices.into_iter().flatten() {
+            write_notice(n);
         }
         if period.telemetry {
             let mut line = heapless::String::<TELEMETRY_CAP>::new();

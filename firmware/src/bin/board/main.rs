@@ -13,7 +13,7 @@
 //!   period's `Outputs` through `pins::Gates::apply` (the only path that drives a load). A `save` or `load`
 //!   applies that decision's outputs (heater and springs off) *before* the flash operation and
 //!   holds them through it. It writes the springs' memory to RAM kept across a reset
-//!   (`board/retained.rs`), queues the reply, a `# warning: …` line for a decision's warning
+//!   (`board/retained.rs`), queues the reply, a `# …` line for a decision's notice (a warning, an autotune's outcome)
 //!   and any telemetry line, signals the sensing hint, and blinks LD2 (a 50 ms flash a second,
 //!   10 Hz while a fault is latched).
 //! - The watchdog (independent, 500 ms, started before any task) is fed after every completed

@@ -63,7 +63,7 @@ pub enum DeskError {
         /// The command.
         command: String,
         /// The parser's message.
-        message: &'static str,
+        message: String,
     },
     /// Not a number of seconds.
     #[error("`{0}` is not a number of seconds")]

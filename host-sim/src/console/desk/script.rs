@@ -150,7 +150,7 @@ fn check_command(line: &str) -> Result<(), DeskError> {
         .map(|_| ())
         .map_err(|e| DeskError::Command {
             command: line.to_string(),
-            message: e.message(),
+            message: e.to_string(),
         })
 }
 
