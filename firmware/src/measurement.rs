@@ -24,8 +24,9 @@ pub struct Measurement {
     /// Region temperatures 1…5 (heater area, SMP surface, edge, radiation zone, background);
     /// `None` for a region the frame gave no temperature.
     pub regions: [Option<Kelvin>; REGIONS],
-    /// Hottest sensor pixel over the cylinder, if any pixel lies on it.
-    pub cylinder_max: Option<Kelvin>,
+    /// Hottest sensor pixel of the frame (the film, or a spring burning beside the cylinder);
+    /// judged against `t_heater_max_k`.
+    pub hottest: Option<Kelvin>,
     /// Broken pixels filled from their neighbours in this frame.
     pub filled_pixels: u16,
     /// How well T1 and T2 were separated.
@@ -123,7 +124,7 @@ mod tests {
             at: Millis(0),
             seq: 0,
             regions: [t1, t2, 300.0, 299.0, 298.0].map(Kelvin::new),
-            cylinder_max: None,
+            hottest: None,
             filled_pixels: 0,
             quality,
             bound: Kelvin::new(bound).unwrap(),

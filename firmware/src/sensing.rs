@@ -359,7 +359,7 @@ pub fn to_measurement(
         at,
         seq,
         regions,
-        cylinder_max: out.cylinder_max,
+        hottest: out.hottest,
         filled_pixels: out.filled_pixels,
         quality: out.quality,
         bound: out.bound,
@@ -810,7 +810,7 @@ mod tests {
                 < 1e-3 + 0.5 * got.bound.k(),
             "{got:?}"
         );
-        assert_eq!(got.cylinder_max, out.cylinder_max);
+        assert_eq!(got.hottest, out.hottest);
         // Tc out of the plausible range (weights that do not sum to 1) is refused.
         let bad = SensingHint {
             weights: Weights { w1: 3.0, w2: 3.0 },

@@ -68,8 +68,8 @@ pub struct Settings {
     pub heater_cap_k: f32,
     /// Width of the heater cap's proportional band, K.
     pub heater_cap_band_k: f32,
-    /// Over-temperature limit of the hotter region and the hottest cylinder pixel (the PI
-    /// heater film seen through the lattice), K.
+    /// Over-temperature limit of the hotter region and the frame's hottest pixel (the PI
+    /// heater film seen through the lattice, or a burning spring beside the cylinder), K.
     pub t_heater_max_k: f32,
     /// Stepping and recovery give up (to standby, with an event) if Tc is not ready by then, s.
     pub soak_timeout_s: f32,

@@ -236,7 +236,7 @@ impl Console {
             at: Millis(self.now_ms),
             seq,
             regions: [t_k + 3.0, t_k, t_k - 1.0, t_k - 5.0, 298.0].map(Kelvin::new),
-            cylinder_max: Kelvin::new(t_k + 3.0),
+            hottest: Kelvin::new(t_k + 3.0),
             filled_pixels: 0,
             bound: Kelvin::lit(0.5),
             quality: Quality::Resolved,

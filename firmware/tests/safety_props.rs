@@ -181,7 +181,7 @@ impl Block {
             at,
             seq,
             regions: [t1, t2, t2, 300.0, 298.0].map(Kelvin::new),
-            cylinder_max: Kelvin::new(t1.max(t2)),
+            hottest: Kelvin::new(t1.max(t2)),
             filled_pixels: 0,
             quality,
             bound: Kelvin::new(bound).unwrap(),

@@ -425,12 +425,14 @@ fn autotune_on_the_simulated_block_sets_gains_and_aborts_cleanly() {
         "tune-timeout",
         120.0,
         false,
+        // At 368 K (tune_k's top) the relay needs more than the 60 s it is given.
         "[[command]]\nat = \"0 s\"\nline = \"set tune_timeout_s 60\"\n\
+         [[command]]\nat = \"0 s\"\nline = \"set tune_k 368\"\n\
          [[command]]\nat = \"0 s\"\nline = \"autotune\"\n\
          [[command]]\nat = \"110 s\"\nline = \"log\"\n",
     );
     let r = run(&sc, &mut |_| {}).unwrap();
-    let log = &r.summary.replies[2].reply;
+    let log = &r.summary.replies[3].reply;
     assert!(log.contains("autotune aborted (timeout)"), "{log}");
     assert!(r.summary.faults.is_empty(), "{:?}", r.summary.faults);
 }
@@ -818,14 +820,14 @@ fn a_cold_hold_at_the_inner_layer_cap_is_not_a_no_response() {
     assert_no_trip(&rows, "cold hold");
 }
 
-/// Issue 19's envelope, camera off: the paper's cycle (springs A+B) at 273 and 283 K loads
-/// ≥ 60° (the pre-warm raised for the cold room: `spring_prewarm_cold_k_per_k`), forms,
+/// Issue 19's envelope, camera off: the paper's cycle (springs A+B) at 263, 273 and 283 K
+/// loads ≥ 60° (the pre-warm raised for the cold room: `spring_prewarm_cold_k_per_k`), forms,
 /// recovers within 3° of straight and stays there, no fault, no spring past 383 K and the SMP
-/// inner layer below `t_max_k`. Measured (2026-11-25, release): both load 64.4°, end 2.07° and
-/// 1.45° from straight, the hottest spring 371.6 K.
+/// inner layer below `t_max_k`. Measured (2026-11-25, release, the issue-19 wall refit):
+/// each loads 64.4°, ends 0.93 / 0.71 / 0.56° from straight, the hottest spring 376.4–377.6 K.
 #[test]
 fn cold_rooms_bend_at_least_60_degrees_form_and_recover_straight() {
-    for ambient_k in [273.15, 283.15] {
+    for ambient_k in [263.15, 273.15, 283.15] {
         let rows = cycle_at(ambient_k);
         let f = paper::measure(&rows);
         let loaded = f.full_loading_deg.expect("stepping ran");
@@ -851,13 +853,15 @@ fn cold_rooms_bend_at_least_60_degrees_form_and_recover_straight() {
     }
 }
 
-/// At 263 K the soak cannot soften the wall in `soft_warn_s`: the board says so (a `# warning`
-/// naming the frozen share, the inner layer and the ambient) within 5 min of the command, and
-/// `host-sim run` keeps it in its summary; nothing trips.
+/// At 263 K with a heater at 60 % of the power the firmware assumes, the soak cannot soften
+/// the wall in `soft_warn_s`: the board says so (a `# warning` naming the frozen share, the
+/// inner layer and the ambient) within 5 min of the command, and `host-sim run` keeps it in its
+/// summary; nothing trips. (With the fitted heater, 263 K softens in ≈ 71 s and is tested with
+/// the other cold rooms above.)
 #[test]
 fn a_cold_room_soak_is_announced_within_5_minutes() {
     let text = "name = \"cold-soak\"\nduration = \"420 s\"\nambient = \"263.15 K\"\n\
-                period = \"0.5 s\"\n\
+                period = \"0.5 s\"\n[plant]\nheater_power = \"60 %\"\n\
                 [[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
                 [[command]]\nat = \"60 s\"\nline = \"mode step-large AB\"\n";
     let sc = scenario::parse(text, "cold-soak", "cold-soak").unwrap();

@@ -7,24 +7,12 @@ use std::process::Command;
 
 /// Rows the simulated block cannot reach, with why (docs/PLANT-API.md and the closing notes of
 /// the plant work give the evidence).
-const PLANT_SHORTFALLS: &[(&str, &str)] = &[
-    (
-        "pulse_drop_deg",
-        "a spring in still air cools < 1 K in a 2 s pulse (the duct keeps the fan's air off the \
+const PLANT_SHORTFALLS: &[(&str, &str)] = &[(
+    "pulse_drop_deg",
+    "a spring in still air cools < 1 K in a 2 s pulse (the duct keeps the fan's air off the \
          springs, thesis 6.3.2), less than the R-phase-like band's 2 K hysteresis, so it gives \
          back no stroke; the SMP's viscous branch makes the angle creep up 0.02..0.19° instead",
-    ),
-    (
-        "stepping_soak_s",
-        "the plant's wall softens about twice as slowly as fig. 6.10(d); the refit that fixes it \
-         leaves recovery 5-13° bent below 298 K until recovery can see the bend \
-         (docs/PLANT-API.md, 'The wall heats about twice as slowly')",
-    ),
-    (
-        "recovery_k_b_25s_ratio",
-        "the same slow wall: 25 s into recovery it is still ≈ 40 % frozen (docs/PLANT-API.md)",
-    ),
-];
+)];
 
 #[test]
 fn every_figure_passes_or_is_a_known_plant_shortfall() {

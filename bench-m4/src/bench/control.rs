@@ -23,7 +23,7 @@ fn frame(at_ms: u64, seq: u32, t2: f32) -> Measurement {
         at: Millis(at_ms),
         seq,
         regions: [t1, t2, t2 - 3.0, 305.0, 298.0].map(Kelvin::new),
-        cylinder_max: Kelvin::new(t1 + 1.0),
+        hottest: Kelvin::new(t1 + 1.0),
         filled_pixels: 0,
         quality: Quality::Resolved,
         bound: Kelvin::lit(0.5),

@@ -208,8 +208,10 @@ pub struct Output {
     pub clustered: [Option<Kelvin>; 2],
     /// Lowest sensor pixel over the cylinder (core and edges), if any pixel lies on it.
     pub cylinder_min: Option<Kelvin>,
-    /// Highest sensor pixel over the cylinder, if any pixel lies on it.
-    pub cylinder_max: Option<Kelvin>,
+    /// Hottest sensor pixel of the frame (wherever it lies: a spring burning beside the
+    /// cylinder shows there), if any pixel lies on the cylinder
+    /// ([`regions::overlap_and_range`]).
+    pub hottest: Option<Kelvin>,
     /// The clusters.
     pub clusters: Clusters,
     /// The geometry used.
@@ -478,7 +480,7 @@ impl Mtts {
             bound: Kelvin::new(sep.bound_k).unwrap_or(Kelvin::lit(0.0)),
             clustered,
             cylinder_min: range.and_then(|r| Kelvin::new(r.0)),
-            cylinder_max: range.and_then(|r| Kelvin::new(r.1)),
+            hottest: range.and_then(|r| Kelvin::new(r.1)),
             clusters: *clusters,
             geometry: g,
             fresh,
@@ -539,7 +541,7 @@ mod tests {
         assert_eq!(out.quality, Quality::Fallback);
         assert!((out.t1().unwrap().k() - 300.0).abs() < 1e-4);
         assert!((out.t2().unwrap().k() - 300.0).abs() < 1e-4);
-        assert_eq!(out.cylinder_max, Some(Kelvin::lit(300.0)));
+        assert_eq!(out.hottest, Some(Kelvin::lit(300.0)));
     }
 
     #[test]

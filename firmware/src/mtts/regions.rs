@@ -350,8 +350,12 @@ pub fn overlap(img: &[f32; IMG_PIXELS], g: &Geometry, xy: &Coords, cl: &Clusters
     overlap_and_range(img, g, xy, cl).0
 }
 
-/// [`overlap`], with the lowest and highest value over the cylinder (core and edges, zones
-/// 1–3), `None` when no pixel lies on it — one pass instead of two.
+/// [`overlap`], with the lowest value over the cylinder (core and edges, zones 1–3) and the
+/// highest pixel of the whole frame — one pass instead of two; `None` when no pixel lies on the
+/// cylinder. The hottest pixel is not limited to the fitted cylinder: a spring switched on by a
+/// shorted MOSFET runs beside it, and a wire hundreds of kelvin above the block pulls the
+/// geometry fit off the cylinder (a 550 K spring on a tilted column: a fitted half-width of
+/// 1.4 px instead of 8), so only the whole frame is sure to hold it.
 pub fn overlap_and_range(
     img: &[f32; IMG_PIXELS],
     g: &Geometry,
@@ -365,16 +369,14 @@ pub fn overlap_and_range(
         let z = g.zone_of(xy.u[p], xy.t[p]) as usize;
         o[z][cl.label(v)] += 1;
         // Plain comparisons: `f32::min` is a library call on the Cortex-M4.
-        if z <= Zone::Edge as usize {
-            if v < lo {
-                lo = v;
-            }
-            if v > hi {
-                hi = v;
-            }
+        if z <= Zone::Edge as usize && v < lo {
+            lo = v;
+        }
+        if v > hi {
+            hi = v;
         }
     }
-    (o, (lo <= hi).then_some((lo, hi)))
+    (o, (lo.is_finite() && hi.is_finite()).then_some((lo, hi)))
 }
 
 /// Assign a cluster to every region (see the module doc); `None` for a zone with no pixels

@@ -111,11 +111,11 @@ const MID_AREA_M2: f32 = 0.5 * (INNER_AREA_M2 + OUTER_AREA_M2);
 const INNER_SHARE: f32 = crate::block::LATTICE_LOWER_LAYER_MM
     / (crate::block::LATTICE_LOWER_LAYER_MM + crate::block::LATTICE_UPPER_LAYER_MM);
 /// The wall's areal capacity, J/(m²·K) (host-sim `WALL_AREAL_CAPACITY_J_PER_M2K`).
-const WALL_AREAL_J_PER_M2K: f32 = 1900.0;
+const WALL_AREAL_J_PER_M2K: f32 = 1500.0;
 /// Heater supply voltage, V (thesis 6.3.2; host-sim `HEATER_SUPPLY_V`).
 const HEATER_SUPPLY_V: f32 = 18.0;
 /// Heater resistance, Ω (host-sim `HEATER_RESISTANCE_OHM`, fitted).
-const HEATER_RESISTANCE_OHM: f32 = 7.89;
+const HEATER_RESISTANCE_OHM: f32 = 5.5;
 /// Heater supply current limit, A (thesis 6.3.2; host-sim `HEATER_SUPPLY_LIMIT_A`).
 const HEATER_SUPPLY_LIMIT_A: f32 = 10.0;
 /// Full-duty current, A: V/R, capped by the supply's limit.
@@ -140,28 +140,28 @@ const AIR_RHO_CP: f32 = 1.19 * 1005.0;
 /// in.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObserverParams {
-    /// Heater power at full duty, W: `min(V/R, I_max)²·R` with 18 V, 7.89 Ω, 10 A (host-sim
-    /// `HEATER_SUPPLY_V`, `HEATER_RESISTANCE_OHM`, `HEATER_SUPPLY_LIMIT_A`) ≈ 41.06 W.
+    /// Heater power at full duty, W: `min(V/R, I_max)²·R` with 18 V, 5.5 Ω, 10 A (host-sim
+    /// `HEATER_SUPPLY_V`, `HEATER_RESISTANCE_OHM`, `HEATER_SUPPLY_LIMIT_A`) ≈ 58.91 W.
     pub heater_full_power_w: f32,
     /// Heater film capacity, J/K: `HEATER_AREAL_CAPACITY_J_PER_M2K` (280) × the inner area
     /// (π·35 mm·200 mm) ≈ 6.16.
     pub film_capacity_j_per_k: f32,
-    /// Capacity of each wall layer, inner first, J/K: `WALL_AREAL_CAPACITY_J_PER_M2K` (1900) ×
-    /// the inner area, split 4 : 1.8 by the lattice layers' thicknesses ≈ [28.8, 13.0].
+    /// Capacity of each wall layer, inner first, J/K: `WALL_AREAL_CAPACITY_J_PER_M2K` (1500) ×
+    /// the inner area, split 4 : 1.8 by the lattice layers' thicknesses ≈ [22.8, 10.2].
     pub layer_capacity_j_per_k: [f32; LAYERS],
-    /// Film → inner layer conductance, W/K: `H_HEATER_WALL_W_PER_M2K` (84.2) × the inner
-    /// area ≈ 1.85.
+    /// Film → inner layer conductance, W/K: `H_HEATER_WALL_W_PER_M2K` (150) × the inner
+    /// area ≈ 3.30.
     pub film_layer_w_per_k: f32,
     /// Layer i → layer i+1 conductances, W/K: `H_WALL_W_PER_M2K` (54.6) × the mid-wall area
     /// (π·37.5 mm·200 mm) ≈ [1.29].
     pub layer_layer_w_per_k: [f32; LAYERS - 1],
     /// Outer layer → ambient (natural convection and radiation), W/K: `H_OUTSIDE_W_PER_M2K`
-    /// (13.4) × the outer area (π·40 mm·200 mm) ≈ 0.337.
+    /// (11) × the outer area (π·40 mm·200 mm) ≈ 0.277.
     pub outer_ambient_w_per_k: f32,
     /// Film → duct air coefficient × inner area with the fan off, W/K:
     /// `H_DUCT_STILL_W_PER_M2K` (4) × 0.02199 ≈ 0.088.
     pub duct_wall_still_w_per_k: f32,
-    /// The same with the fan at full duty, W/K: `H_DUCT_FAN_W_PER_M2K` (49) × 0.02199 ≈ 1.08.
+    /// The same with the fan at full duty, W/K: `H_DUCT_FAN_W_PER_M2K` (30) × 0.02199 ≈ 0.660.
     pub duct_wall_fan_w_per_k: f32,
     /// Exponent of the duct wall coefficient on the fan duty (host-sim `DUCT_FLOW_EXPONENT`,
     /// Dittus–Boelter h ∝ Re^0.8): `G_w = still + (fan − still)·duty^exponent`.
@@ -206,11 +206,11 @@ impl ObserverParams {
             WALL_AREAL_J_PER_M2K * INNER_AREA_M2 * INNER_SHARE,
             WALL_AREAL_J_PER_M2K * INNER_AREA_M2 * (1.0 - INNER_SHARE),
         ],
-        film_layer_w_per_k: 84.2 * INNER_AREA_M2,
+        film_layer_w_per_k: 150.0 * INNER_AREA_M2,
         layer_layer_w_per_k: [54.6 * MID_AREA_M2],
-        outer_ambient_w_per_k: 13.4 * OUTER_AREA_M2,
+        outer_ambient_w_per_k: 11.0 * OUTER_AREA_M2,
         duct_wall_still_w_per_k: 4.0 * INNER_AREA_M2,
-        duct_wall_fan_w_per_k: 49.0 * INNER_AREA_M2,
+        duct_wall_fan_w_per_k: 30.0 * INNER_AREA_M2,
         duct_exponent: 0.8,
         duct_flow_still_w_per_k: 4.0e-5 * AIR_RHO_CP,
         duct_flow_fan_w_per_k: 6.6e-3 * AIR_RHO_CP,
@@ -230,8 +230,15 @@ impl ObserverParams {
             capacity_j_per_k: SPRING_MASS_KG * 480.0,
             // 22 J/g (trained two-way wire: 15–35 J/g).
             latent_j: SPRING_MASS_KG * 22_000.0,
-            // 12 W/(m²·K) over the wire's 0.0102 m².
-            ambient_w_per_k: 12.0 * PI * 2.3e-3 * SPRING_WIRE_M,
+            // 13.2 W/(m²·K) over the wire's 0.0102 m² [fitted]: 10 % above the still-air
+            // 12 W/(m²·K) the block's wire loses to, because a spring that pulls against the
+            // column runs cooler than the model believes (its transformation shifts with the
+            // load, which the model does not carry): with 12, recovery's hold kept the loaded
+            // springs ≈ 7.5 K under the estimate, 0.97 austenite, and the column came back 10°
+            // bent at 298 K (12° at 263 K); with 13.2 they sit 3.8 K under it and the cycle
+            // ends within 0.6° at every ambient from 263 to 323 K. An unloaded spring held at
+            // the band then runs ≈ 2.9 K above its estimate.
+            ambient_w_per_k: 13.2 * PI * 2.3e-3 * SPRING_WIRE_M,
             column_w_per_k: 0.017,
             as_k: 341.0,
             af_k: 351.0,
@@ -395,13 +402,15 @@ impl<const L: usize> Wall<L> {
     /// - capacities: each lattice layer's (`p.layer_capacity_j_per_k`) shared equally by
     ///   its layers (equal thickness, uniform areal capacity), so the total is conserved;
     /// - conductances: `p`'s two-node chain film →(`R_a`) inner centre →(`R_b`) outer
-    ///   centre →(`R_c`) ambient read as a wall of uniform resistance per mm
-    ///   `r = R_b/2.9 mm` (the two centres are half the wall, 2.9 mm, apart), a film contact
-    ///   `R_a − r·2 mm` and a surface resistance `R_c − r·0.9 mm` (both clamped at 0). The
-    ///   links are then `contact + r·centre₀`, `r·(centre_{l+1} − centre_l)` and
-    ///   `r·(5.8 mm − centre_{L−1}) + surface`: the film → ambient resistance through the
-    ///   wall is `R_a + R_b + R_c` for every `L` (the steady state is conserved), and for
-    ///   `L = 2` the links are `p`'s (to rounding: [`Wall::from_params`] takes `p`'s values).
+    ///   centre →(`R_c`) ambient read as a resistance profile through the wall's depth: a
+    ///   uniform resistance per mm `r = R_b/2.9 mm` between the two centres (half the wall,
+    ///   2.9 mm, apart), a film contact `R_a − r·2 mm` and a surface resistance
+    ///   `R_c − r·0.9 mm`; where `R_a` is less than `r·2 mm` (the fitted film link is better
+    ///   than the lattice's conduction over that depth) the contact is none and the inner
+    ///   half-layer conducts `R_a/2 mm` per mm, and the same at the surface. Each link is the
+    ///   profile's rise between its ends: the film → ambient resistance through the wall is
+    ///   `R_a + R_b + R_c` for every `L` (the steady state is conserved), and for `L = 2` the
+    ///   links are `p`'s (to rounding: [`Wall::from_params`] takes `p`'s values).
     ///
     /// The outer layer is still what T2 measures: as `L` grows its centre nears the surface
     /// (2 layers: 0.9 mm below it, 6: 0.45 mm). A non-positive conductance counts as none.
@@ -415,9 +424,27 @@ impl<const L: usize> Wall<L> {
             resistance(p.outer_ambient_w_per_k),
         );
         let per_mm = r_b / (0.5 * WALL_MM);
+        // The two centres' depths, mm: 2 and 4.9.
+        let (c_in, c_out) = (0.5 * INNER_LAYER_MM, 0.5 * (INNER_LAYER_MM + WALL_MM));
+        // A film link shorter than `r` over the inner centre's depth (a contact better than the
+        // lattice's own conduction there) leaves no contact: the inner half-layer then conducts
+        // `R_a`/2 mm per mm. The same on the surface side.
+        let per_mm_in = per_mm.min(r_a / c_in);
+        let per_mm_out = per_mm.min(r_c / (WALL_MM - c_out));
         // `max` takes 0 over a NaN (∞ − ∞: no path at all, the link is cut below anyway).
-        let contact = (r_a - per_mm * 0.5 * INNER_LAYER_MM).max(0.0);
-        let surface = (r_c - per_mm * 0.5 * (WALL_MM - INNER_LAYER_MM)).max(0.0);
+        let contact = (r_a - per_mm_in * c_in).max(0.0);
+        let surface = (r_c - per_mm_out * (WALL_MM - c_out)).max(0.0);
+        // Resistance from the film to depth `x`, mm: through `R_a` at the inner centre,
+        // `R_a + R_b` at the outer one.
+        let depth = |x: f32| {
+            if x <= c_in {
+                contact + per_mm_in * x
+            } else if x <= c_out {
+                r_a + per_mm * (x - c_in)
+            } else {
+                r_a + r_b + per_mm_out * (x - c_out)
+            }
+        };
         let (c_in, c_out) = (p.layer_capacity_j_per_k[0], p.layer_capacity_j_per_k[1]);
         let mut capacity = [0.0f32; L];
         for (l, c) in capacity.iter_mut().enumerate() {
@@ -432,14 +459,14 @@ impl<const L: usize> Wall<L> {
         let mut outward = [0.0f32; L];
         for (l, g) in outward.iter_mut().enumerate() {
             let r = match centre.get(l + 1) {
-                Some(next) => per_mm * (next - centre[l]),
-                None => per_mm * (WALL_MM - centre[l]) + surface,
+                Some(&next) => depth(next) - depth(centre[l]),
+                None => depth(WALL_MM) + surface - depth(centre[l]),
             };
             *g = conductance(r);
         }
         Wall {
             capacity_j_per_k: capacity,
-            film_w_per_k: conductance(contact + per_mm * centre.first().copied().unwrap_or(0.0)),
+            film_w_per_k: conductance(depth(centre.first().copied().unwrap_or(0.0))),
             outward_w_per_k: outward,
             centre_mm: centre,
         }
@@ -979,16 +1006,18 @@ mod tests {
     #[test]
     fn defaults_match_the_plant() {
         let p = ObserverParams::DEFAULT;
-        assert!((p.heater_full_power_w - 41.06).abs() < 0.01);
+        // 18 V over 5.5 Ω.
+        assert!((p.heater_full_power_w - 58.91).abs() < 0.01);
         assert!((p.film_capacity_j_per_k - 6.158).abs() < 0.01);
-        assert!((p.layer_capacity_j_per_k[0] - 28.82).abs() < 0.02);
-        assert!((p.layer_capacity_j_per_k[1] - 12.97).abs() < 0.02);
-        assert!((p.film_layer_w_per_k - 1.852).abs() < 0.002);
+        // 1500 J/(m²·K) over the 0.02200 m² inner face, 4 : 1.8 mm.
+        assert!((p.layer_capacity_j_per_k[0] - 22.75).abs() < 0.02);
+        assert!((p.layer_capacity_j_per_k[1] - 10.24).abs() < 0.02);
+        assert!((p.film_layer_w_per_k - 3.299).abs() < 0.002);
         assert!((p.layer_layer_w_per_k[0] - 1.2865).abs() < 0.002);
-        assert!((p.outer_ambient_w_per_k - 0.3368).abs() < 0.001);
-        // Fan off: 0.088 in series with 0.048; full: 1.078 in series with 7.94.
+        assert!((p.outer_ambient_w_per_k - 0.2765).abs() < 0.001);
+        // Fan off: 0.088 in series with 0.048; full: 0.660 in series with 7.94.
         assert!((p.duct_conductance_w_per_k(0.0) - 0.0310).abs() < 0.001);
-        assert!((p.duct_conductance_w_per_k(1.0) - 0.949).abs() < 0.002);
+        assert!((p.duct_conductance_w_per_k(1.0) - 0.609).abs() < 0.002);
         assert_eq!(
             p.duct_conductance_w_per_k(f32::NAN),
             p.duct_conductance_w_per_k(0.0)
@@ -1335,6 +1364,6 @@ mod tests {
             inner_after_full_heat::<12, 14, 15>() - fine,
         ];
         assert!(gaps.windows(2).all(|g| g[1].abs() < g[0].abs()), "{gaps:?}");
-        assert!(gaps[3].abs() < 0.05 && gaps[0] < -1.0, "{gaps:?}");
+        assert!(gaps[3].abs() < 0.05 && gaps[0] < -0.5, "{gaps:?}");
     }
 }

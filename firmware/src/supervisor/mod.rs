@@ -864,7 +864,7 @@ impl Supervisor {
                         for t in cooler.regions.iter_mut() {
                             *t = t.and_then(warmer);
                         }
-                        cooler.cylinder_max = cooler.cylinder_max.and_then(warmer);
+                        cooler.hottest = cooler.hottest.and_then(warmer);
                         Safety::over_temperature(&cooler, s).is_none()
                     })
             }

@@ -34,7 +34,7 @@ pub const DUTY_ROOM: f32 = 0.9;
 /// matching and comparing ([`Fault::kind`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FaultKind {
-    /// A region (or the hottest cylinder pixel) is above `t_max_k`.
+    /// A region (or the frame's hottest pixel) is above `t_max_k`.
     OverTemperature,
     /// A spring was on longer than `spring_on_max_s` (index 0 = A).
     SpringOnTime(u8),
@@ -58,7 +58,7 @@ pub enum FaultKind {
 /// A latched fault, with what tripped it in that check's own unit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Fault {
-    /// A region (or the hottest cylinder pixel) reached `reached_k` above its limit.
+    /// A region (or the frame's hottest pixel) reached `reached_k` above its limit.
     OverTemperature {
         /// The temperature that tripped it, K.
         reached_k: f32,
@@ -269,9 +269,9 @@ impl Safety {
     /// Return the over-temperature fault of a measurement, if any. By rank, so a swapped
     /// T1/T2 changes nothing: the colder of T1/T2 (the SMP) and regions 4–5 (beside the
     /// cylinder and the background: a spring or anything else hot in view) against `t_max_k`;
-    /// the hotter of T1/T2, region 3 and the hottest cylinder pixel (the PI heater film seen
-    /// through the lattice) against `t_heater_max_k`. Region 3, the cylinder's edges, mixes the
-    /// lattice with the film seen through its gaps at a grazing angle: as the column bends, a
+    /// the hotter of T1/T2, region 3 and the frame's hottest pixel (the PI heater film seen
+    /// through the lattice, or a spring burning beside the cylinder) against `t_heater_max_k`.
+    /// Region 3, the cylinder's edges, mixes the lattice with the film seen through its gaps at a grazing angle: as the column bends, a
     /// frame's edge cluster can read the film's ≈ 385 K, which is not the SMP's (judged against
     /// `t_max_k` it tripped full cycles whose SMP never passed 371 K: the ±20 % sweep's block
     /// with 80 % heater power and 120 % wall capacity, at 193 s). A frame that could not
@@ -292,7 +292,7 @@ impl Safety {
         let film = [m.hotter().map_or(f32::NAN, Kelvin::k)]
             .into_iter()
             .chain(m.regions[2].map(Kelvin::k))
-            .chain(m.cylinder_max.map(|t| t.k()))
+            .chain(m.hottest.map(|t| t.k()))
             .filter(|t| t.is_finite())
             .fold(f32::MIN, f32::max);
         if smp > s.t_max_k {

@@ -43,7 +43,7 @@ impl Block {
             at: Millis(at_ms),
             seq,
             regions: [self.t1, self.t2, self.t2, 300.0, 298.0].map(Kelvin::new),
-            cylinder_max: Kelvin::new(self.t1.max(self.t2)),
+            hottest: Kelvin::new(self.t1.max(self.t2)),
             filled_pixels: 0,
             quality: Quality::Resolved,
             bound: Kelvin::lit(0.5),
@@ -272,7 +272,7 @@ fn the_edges_are_judged_as_the_film_and_the_surroundings_as_the_smp() {
     m.quality = Quality::Resolved;
     m.regions[0] = Kelvin::new(385.0);
     m.regions[1] = Kelvin::new(350.0);
-    m.cylinder_max = Kelvin::new(386.0);
+    m.hottest = Kelvin::new(386.0);
     m.regions[3] = Kelvin::new(330.0);
     m.regions[4] = Kelvin::new(298.0);
     // An edge cluster that caught the 385 K film: below the film's 403 K, no fault.
@@ -516,7 +516,7 @@ fn frame_of(t1: f32, t2: f32, quality: Quality, bound: f32) -> Measurement {
         at: Millis(0),
         seq: 0,
         regions: [t1, t2, t2, 300.0, 298.0].map(Kelvin::new),
-        cylinder_max: Kelvin::new(t1.max(t2)),
+        hottest: Kelvin::new(t1.max(t2)),
         filled_pixels: 0,
         quality,
         bound: Kelvin::new(bound).unwrap(),

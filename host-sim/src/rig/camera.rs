@@ -187,7 +187,7 @@ pub fn truth_measurement(obs: &Observation, at: Millis, seq: u32) -> Measurement
         at,
         seq,
         regions: camera_temps(obs).regions().map(|t| Kelvin::new(t as f32)),
-        cylinder_max: Kelvin::new(obs.heater_k.max(obs.smp_outer_k) as f32),
+        hottest: Kelvin::new(obs.heater_k.max(obs.smp_outer_k) as f32),
         filled_pixels: 0,
         quality: Quality::Resolved,
         bound: Kelvin::lit(0.0),
