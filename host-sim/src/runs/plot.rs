@@ -1,7 +1,12 @@
 //! Every PNG plot, drawn with plotters: a time series as stacked panels over a shared time
 //! axis, in the style of the thesis's figures 6.8–6.10 (region temperatures with the target, Tc
 //! and the modes as coloured bands; heater and fan duties; spring states; bending angle with
-//! the bending stiffness on a second axis).
+//! the bending stiffness on a second axis), and a lane panel on the time axis marking injected
+//! faults, latched faults and the frames MTTS did not resolve.
+//!
+//! Plots draw what the data holds: thick lines are separate strokes (no mitre reaching past the
+//! points at a sharp zig-zag), every range covers its data with room to spare, and legends sit
+//! in a column right of the plotting areas, over no data.
 //!
 //! This module owns the plot and the column table it reads. One renderer serves both
 //! `host-sim run`'s `timeseries.csv` and the desk's recorded telemetry (`thermorph-desk
@@ -176,18 +181,6 @@ impl PanelPx {
     }
 }
 
-/// Style a legend as every plot draws it (at `pos`, on white, grey border, 13 px text).
-pub(crate) fn legend<'s, 'a, 'b, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
-    labels: &'s mut plotters::chart::SeriesLabelStyle<'a, 'b, DB, CT>,
-    pos: SeriesLabelPosition,
-) -> &'s mut plotters::chart::SeriesLabelStyle<'a, 'b, DB, CT> {
-    labels
-        .position(pos)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(180, 180, 180))
-        .label_font((FONT, 13))
-}
-
 /// Register the embedded fonts (once per process).
 pub(crate) fn fonts() {
     static ONCE: Once = Once::new();
@@ -287,7 +280,7 @@ fn err(e: impl std::fmt::Display) -> PlotError {
 
 /// Width of the legend column right of every panel's plotting area (and its right axis),
 /// pixels: a legend never covers data.
-const LEGEND_PX: u32 = 250;
+pub(crate) const LEGEND_PX: u32 = 250;
 
 /// A line series to draw: its label, values, colour, width and whether it is dashed.
 struct Series<'a> {
@@ -300,18 +293,28 @@ struct Series<'a> {
 
 /// How a legend entry shows its series.
 #[derive(Clone, Copy)]
-enum Swatch {
+pub(crate) enum Swatch {
     /// A line of this width, dashed or not.
-    Line { width: u32, dashed: bool },
+    Line {
+        /// Its width, pixels.
+        width: u32,
+        /// Whether it is dashed.
+        dashed: bool,
+    },
     /// A filled box (a lane's span).
     Box,
+    /// A line through a dot (a sweep's points).
+    Dot,
 }
 
 /// One legend entry.
-struct Key {
-    label: String,
-    colour: RGBColor,
-    swatch: Swatch,
+pub(crate) struct Key {
+    /// Its text.
+    pub label: String,
+    /// Its series' colour.
+    pub colour: RGBColor,
+    /// How it shows the series.
+    pub swatch: Swatch,
 }
 
 impl From<&Series<'_>> for Key {
@@ -328,7 +331,12 @@ impl From<&Series<'_>> for Key {
 }
 
 /// Draw `keys` in the legend column of `area`, right of `right_px` (absolute), from `top_px`.
-fn draw_keys(area: &Area<'_>, right_px: i32, top_px: i32, keys: &[Key]) -> Result<(), PlotError> {
+pub(crate) fn draw_keys(
+    area: &Area<'_>,
+    right_px: i32,
+    top_px: i32,
+    keys: &[Key],
+) -> Result<(), PlotError> {
     if keys.is_empty() {
         return Ok(());
     }
@@ -364,6 +372,13 @@ fn draw_keys(area: &Area<'_>, right_px: i32, top_px: i32, keys: &[Key]) -> Resul
                         .map_err(err)?;
                 }
             }
+            Swatch::Dot => {
+                let style = ShapeStyle::from(&k.colour).stroke_width(2);
+                area.draw(&PathElement::new(vec![(sx, y), (ex, y)], style))
+                    .map_err(err)?;
+                area.draw(&Circle::new((sx + 12, y), 4, k.colour.filled()))
+                    .map_err(err)?;
+            }
             Swatch::Box => {
                 area.draw(&Rectangle::new(
                     [(sx, y - 5), (ex, y + 5)],
@@ -386,7 +401,7 @@ fn draw_keys(area: &Area<'_>, right_px: i32, top_px: i32, keys: &[Key]) -> Resul
 /// sharp zig-zag (a duty switching 0 ↔ 100 % each period) the mitre reaches far past the points
 /// (above 100 %, into the title; below 0 % where the data has no dip): separate strokes end
 /// at their points. One-pixel lines have no joins and stay one path.
-fn strokes(seg: Vec<(f64, f64)>, style: ShapeStyle) -> Vec<PathElement<(f64, f64)>> {
+pub(crate) fn strokes(seg: Vec<(f64, f64)>, style: ShapeStyle) -> Vec<PathElement<(f64, f64)>> {
     if style.stroke_width <= 1 || seg.len() < 3 {
         return vec![PathElement::new(seg, style)];
     }
@@ -910,7 +925,8 @@ enum Panel {
 /// `t1_k`…`t5_k`, `target_k`, `tc_k`; modes `mode`; duties `heater_duty_pct`/`heater_pct` and
 /// `fan_duty_pct`/`fan_pct`; springs `spring_a`…`spring_c` (0/1) or `springs` (letters, `-`
 /// for none); `bend_deg`, `k_b_nmm_per_rad`; `gap` (on the first row after a recording gap, why — any
-/// value but empty, `-` or `0` — drawn as a red dashed line).
+/// value but empty, `-` or `0` — drawn as a red dashed line); the events lanes' `faults`,
+/// `fault`, `quality` and `t1_k` (see `event_lanes`).
 pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, PlotError> {
     fonts();
     // The board's clock where it runs steadily (a recording of the simulator at --speed X

@@ -20,7 +20,7 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 use rayon::prelude::*;
 
-use crate::runs::plot::{FONT, fonts, legend};
+use crate::runs::plot::{FONT, Key, LEGEND_PX, Swatch, draw_keys, fonts, strokes};
 use crate::runs::run::{RunError, RunResult, run};
 use crate::runs::scenario::{self, Scenario, ScenarioError};
 
@@ -421,10 +421,11 @@ pub fn write_pngs(
         let (px, py) = (pad(x0, x1), pad(y0, y1));
         let path = dir.join(format!("sweep-{name}.png"));
         {
-            let root = BitMapBackend::new(&path, (900, 540)).into_drawing_area();
+            let root = BitMapBackend::new(&path, (900 + LEGEND_PX, 540)).into_drawing_area();
             root.fill(&WHITE).map_err(|e| plot(&e))?;
             let mut chart = ChartBuilder::on(&root)
                 .margin(12)
+                .margin_right(LEGEND_PX)
                 .caption(
                     format!("{name} against {}", axes[0].key),
                     (FONT, 20).into_font().style(FontStyle::Bold),
@@ -441,27 +442,27 @@ pub fn write_pngs(
                 .axis_desc_style((FONT, 15))
                 .draw()
                 .map_err(|e| plot(&e))?;
+            // The legend in a column right of the plot, over no point.
+            let mut keys = Vec::new();
             for (i, (label, pts)) in series.iter().enumerate() {
-                let colour = Palette99::pick(i).to_rgba();
+                let c = Palette99::pick(i).to_rgba();
+                let colour = RGBColor(c.0, c.1, c.2);
                 chart
-                    .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
+                    .draw_series(strokes(pts.clone(), colour.stroke_width(2)))
                     .map_err(|e| plot(&e))?;
-                let ann = chart
+                chart
                     .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))
                     .map_err(|e| plot(&e))?;
                 if !label.is_empty() {
-                    ann.label(label.clone())
-                        .legend(move |(lx, ly)| Circle::new((lx + 8, ly), 4, colour.filled()));
+                    keys.push(Key {
+                        label: label.clone(),
+                        colour,
+                        swatch: Swatch::Dot,
+                    });
                 }
             }
-            if series.keys().any(|l| !l.is_empty()) {
-                legend(
-                    &mut chart.configure_series_labels(),
-                    SeriesLabelPosition::UpperLeft,
-                )
-                .draw()
-                .map_err(|e| plot(&e))?;
-            }
+            let (x_px, y_px) = chart.plotting_area().get_pixel_range();
+            draw_keys(&root, x_px.end, y_px.start, &keys).map_err(|e| plot(&e))?;
             root.present().map_err(|e| plot(&e))?;
         }
         written.push(path);
