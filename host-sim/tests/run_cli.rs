@@ -32,6 +32,21 @@ fn default_scene_writes_csv_json_and_png() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     assert!(stdout.starts_with("scene cycle:"), "{stdout}");
     assert!(stdout.contains("full loading"), "{stdout}");
+    // The figures with the tolerance and a verdict each, and where the thesis's own are run.
+    let head = stdout.lines().find(|l| l.starts_with("figure ")).unwrap();
+    assert!(
+        head.contains("thesis") && head.ends_with("tolerance"),
+        "{head}"
+    );
+    let preheat = stdout
+        .lines()
+        .find(|l| l.starts_with("standby preheat"))
+        .unwrap();
+    assert!(
+        preheat.contains("±3 s") && (preheat.ends_with("pass") || preheat.ends_with("FAIL")),
+        "{preheat}"
+    );
+    assert!(stdout.contains("`host-sim paper` runs the thesis's experiments"));
     assert!(
         stdout.contains("> mode step-large AB  < ok mode step-large springs=AB"),
         "{stdout}"
@@ -290,6 +305,10 @@ fn run_may_be_left_out_as_the_synopsis_shows() {
     );
     let stdout = String::from_utf8(out.stdout).unwrap();
     assert!(stdout.starts_with("scene open-loop:"), "{stdout}");
+    assert!(
+        stdout.contains("(reported, not judged: an open-loop scene"),
+        "{stdout}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
     let out = host_sim(&["scene"]);
     assert!(out.status.success());
