@@ -703,6 +703,48 @@ mod tests {
     }
 
     #[test]
+    fn the_legend_sits_right_of_the_points() {
+        // A figure falling from the top left, where a legend inside the plot used to sit.
+        let axes: Vec<Axis> = ["ambient=263K,298K,323K", "camera.seed=1,2"]
+            .iter()
+            .map(|a| a.parse().unwrap())
+            .collect();
+        let outcomes: Vec<Outcome> = cases(&axes, None)
+            .into_iter()
+            .map(|case| {
+                let y = 100.0 - case.index as f64 * 15.0;
+                Outcome {
+                    case,
+                    figures: vec![("falling_s".to_string(), Some(y))],
+                    faults: String::new(),
+                }
+            })
+            .collect();
+        let dir = std::env::temp_dir().join(format!("thermorph-sweep-png-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let written = write_pngs(&axes, &outcomes, &dir).unwrap();
+        assert_eq!(written, [dir.join("sweep-falling_s.png")]);
+        let decoder = png::Decoder::new(std::io::BufReader::new(
+            std::fs::File::open(&written[0]).unwrap(),
+        ));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let frame = reader.next_frame(&mut buf).unwrap();
+        let w = frame.width as usize;
+        // The legend's border is the only (180, 180, 180): none of it left of the legend
+        // column, inside the plot.
+        let border = |xs: std::ops::Range<usize>| {
+            (60..480)
+                .flat_map(|y| xs.clone().map(move |x| 3 * (y * w + x)))
+                .filter(|&i| buf[i..i + 3] == [180, 180, 180])
+                .count()
+        };
+        assert_eq!(border(100..w - LEGEND_PX as usize), 0);
+        assert!(border(w - LEGEND_PX as usize..w) > 100);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn leading_numbers_of_values() {
         assert_eq!(leading_number("263 K"), Some(263.0));
         assert_eq!(leading_number("298.15K"), Some(298.15));
