@@ -1,8 +1,9 @@
 //! `host-sim`: Thermorph's simulator on the command line.
 //!
-//! - `host-sim` (or `host-sim run [SCENE] [--out DIR]`): the main job — a scene (default: the
-//!   bundled `cycle`) played against the simulated block, writing a CSV time series, a summary
-//!   JSON and a PNG plot, and printing the summary.
+//! - `host-sim [SCENE] [--out DIR] [--quiet]` (or the same after `run`): the main job — a
+//!   scene (default: the bundled `cycle`) played against the simulated block, writing a CSV time
+//!   series, a summary JSON and a PNG plot, and printing the summary. Without `run`, a first
+//!   word that names a command is that command.
 //! - `host-sim sweep SCENE --set KEY=V1,V2,… [--set …] [--shard K/N] [--out DIR]` (or
 //!   `--merge SHARD.csv … [--out FILE]`): a scene over a grid of overrides, in parallel.
 //! - `host-sim console [--speed X] [--pty] [--settings FILE] [SCENE]`: the simulated block
@@ -11,7 +12,7 @@
 //!   firmware's own driver, with a summary.
 //! - `host-sim decode --eeprom FILE --frame FILE [...]`: decode real sensor dumps to CSV.
 //! - `host-sim mtts --image FILE [...]`: the five region temperatures of an image.
-//! - `host-sim scene NAME`: a rendered standard scene as an image file.
+//! - `host-sim scene [NAME]`: a rendered standard scene as an image file (no name: the list).
 //! - `host-sim plant-wp [--out FILE]`: the plant's work-precision table.
 //! - `host-sim mtts-wp [--m4 FILE] [--out FILE] [--seeds N]`: the MTTS work-precision table.
 
@@ -22,10 +23,20 @@ use clap::{Parser, Subcommand};
 use thermorph::mlx90640::DecodeParams;
 
 #[derive(Parser)]
-#[command(name = "host-sim", version, about = "Thermorph simulator")]
+#[command(
+    name = "host-sim",
+    version,
+    about = "Thermorph simulator",
+    long_about = "Thermorph simulator. Without a command, `host-sim [SCENE] [--out DIR] \
+[--quiet]` is `host-sim run …`: the scene (default: cycle) played against the simulated block.",
+    args_conflicts_with_subcommands = true
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    /// `run`'s arguments, for `host-sim [SCENE] [--out DIR] [--quiet]` without `run`.
+    #[command(flatten)]
+    run: host_sim::runs::run::RunArgs,
 }
 
 #[derive(Subcommand)]
@@ -59,10 +70,12 @@ enum Command {
     Console(host_sim::console::sim::ConsoleArgs),
     /// Run the virtual MLX90640 through the firmware's driver and print a summary.
     Sensor(host_sim::sensor::demo::SensorArgs),
-    /// Find the five region temperatures of a 24×32 image (CSV, K, `nan` = broken pixel) and
-    /// print `region,name,temp_k,pixels` and the frame's quality and bound.
+    /// Find the five region temperatures of a 24×32 image (CSV, K, `nan` = broken pixel; or
+    /// `host-sim decode`'s CSV in °C) and print `region,name,temp_k,pixels` and the frame's
+    /// quality and bound.
     Mtts {
-        /// Image CSV: 24 lines of 32 values.
+        /// Image CSV: 24 lines of 32 values in kelvin, or `host-sim decode`'s
+        /// `pixel,row,col,value` lines in °C (told apart by that header).
         #[arg(long)]
         image: PathBuf,
         /// Upsampling factor, 1–8.
@@ -81,10 +94,11 @@ enum Command {
         #[arg(long, default_value = "unknown")]
         prior: String,
     },
-    /// Print a standard rendered scene as an image CSV (truth in `#` comment lines).
+    /// Print a standard rendered scene as an image CSV (truth in `#` comment lines); without a
+    /// name, list the scenes.
     Scene {
-        /// Scene name (an unknown name lists them).
-        name: String,
+        /// Scene name (none, or an unknown one, lists them).
+        name: Option<String>,
         /// Noise seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -119,12 +133,26 @@ fn main() -> ExitCode {
 
 /// Run the command.
 fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli
-        .command
-        .unwrap_or(Command::Run(host_sim::runs::run::RunArgs {
-            scene: "cycle".into(),
-            ..Default::default()
-        })) {
+    let command = match cli.command {
+        Some(c) => c,
+        None => {
+            // `host-sim WORD`: a scene; a word that is neither gets both lists.
+            if let Err(host_sim::runs::scenario::ScenarioError::Unknown { name, bundled }) =
+                host_sim::runs::scenario::source(&cli.run.scene)
+            {
+                let commands: Vec<String> = <Cli as clap::CommandFactory>::command()
+                    .get_subcommands()
+                    .map(|c| c.get_name().to_string())
+                    .collect();
+                anyhow::bail!(
+                    "`{name}` is neither a command ({}) nor a scene (a file, or bundled: {bundled})",
+                    commands.join(", ")
+                );
+            }
+            Command::Run(cli.run)
+        }
+    };
+    match command {
         Command::Decode {
             eeprom,
             frames,
@@ -163,10 +191,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ..Default::default()
             };
             let prior = host_sim::imaging::mtts_cli::parse_prior(&prior)?;
-            host_sim::imaging::mtts_cli::run(&image, config, prior, &mut std::io::stdout().lock())
+            host_sim::imaging::mtts_cli::run(
+                &image,
+                config,
+                prior,
+                &mut std::io::stdout().lock(),
+                &mut std::io::stderr().lock(),
+            )
         }
         Command::Scene { name, seed } => {
-            host_sim::imaging::mtts_cli::scene(&name, seed, &mut std::io::stdout().lock())
+            host_sim::imaging::mtts_cli::scene(name.as_deref(), seed, &mut std::io::stdout().lock())
         }
         Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
         Command::MttsWp(args) => host_sim::imaging::mtts_wp::run(&args),

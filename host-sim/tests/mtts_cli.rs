@@ -88,6 +88,68 @@ fn scene_then_mtts_finds_the_truth() {
 }
 
 #[test]
+fn scene_lists_and_mtts_reads_decoded_csv_and_hints_at_celsius() {
+    let list = run(&["scene"]);
+    assert!(list.status.success());
+    let list = String::from_utf8(list.stdout).unwrap();
+    assert_eq!(list.lines().count(), 12, "{list}");
+    assert!(
+        list.contains("heating-358 ") && list.contains("ambient-318 "),
+        "{list}"
+    );
+
+    let scene = run(&["scene", "heating-358"]);
+    let text = String::from_utf8(scene.stdout).unwrap();
+    let grid: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // The same image as `host-sim decode` writes it (°C), and as a °C grid.
+    let mut decoded = String::from("pixel,row,col,value\n");
+    let mut celsius = String::new();
+    for (r, row) in grid.iter().enumerate() {
+        for (c, k) in row.iter().enumerate() {
+            decoded += &format!("{},{r},{c},{:.6}\n", r * 32 + c, k - 273.15);
+        }
+        let cells: Vec<String> = row.iter().map(|k| format!("{:.3}", k - 273.15)).collect();
+        celsius += &(cells.join(",") + "\n");
+    }
+    let kelvin = run(&["mtts", "--image", &tmp("k.csv", text.as_bytes())]);
+    let from_dump = run(&["mtts", "--image", &tmp("decoded.csv", decoded.as_bytes())]);
+    assert!(
+        from_dump.status.success(),
+        "{}",
+        String::from_utf8_lossy(&from_dump.stderr)
+    );
+    assert!(from_dump.stderr.is_empty());
+    let temps = |o: &Output| -> Vec<f64> {
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .skip(1)
+            .take(5)
+            .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+            .collect()
+    };
+    for (a, b) in temps(&kelvin).iter().zip(temps(&from_dump)) {
+        assert!((a - b).abs() < 0.01, "{a} vs {b}");
+    }
+    let c = run(&["mtts", "--image", &tmp("celsius.csv", celsius.as_bytes())]);
+    let hint = String::from_utf8_lossy(&c.stderr);
+    assert!(hint.contains("looks like °C; MTTS reads kelvin"), "{hint}");
+    assert!(kelvin.stderr.is_empty());
+    // A decoded CSV with a line out of place is refused, naming it.
+    let bad = decoded.replacen("\n40,1,8,", "\n40,2,8,", 1);
+    let out = run(&["mtts", "--image", &tmp("bad-decoded.csv", bad.as_bytes())]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("line 42: `40,2,8,") && err.contains("host-sim decode"),
+        "{err}"
+    );
+}
+
+#[test]
 fn bad_input_gets_one_clear_error() {
     let bad_rows = tmp("short.csv", b"300,301\n");
     for (args, what) in [

@@ -32,6 +32,21 @@ fn default_scene_writes_csv_json_and_png() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     assert!(stdout.starts_with("scene cycle:"), "{stdout}");
     assert!(stdout.contains("full loading"), "{stdout}");
+    // The figures with the tolerance and a verdict each, and where the thesis's own are run.
+    let head = stdout.lines().find(|l| l.starts_with("figure ")).unwrap();
+    assert!(
+        head.contains("thesis") && head.ends_with("tolerance"),
+        "{head}"
+    );
+    let preheat = stdout
+        .lines()
+        .find(|l| l.starts_with("standby preheat"))
+        .unwrap();
+    assert!(
+        preheat.contains("±3 s") && (preheat.ends_with("pass") || preheat.ends_with("FAIL")),
+        "{preheat}"
+    );
+    assert!(stdout.contains("`host-sim paper` runs the thesis's experiments"));
     assert!(
         stdout.contains("> mode step-large AB  < ok mode step-large springs=AB"),
         "{stdout}"
@@ -43,7 +58,7 @@ fn default_scene_writes_csv_json_and_png() {
     assert_eq!(lines.next(), Some(CSV_HEADER));
     let scene = host_sim::runs::scenario::load("cycle").unwrap();
     let header: Vec<&str> = CSV_HEADER.split(',').collect();
-    let text_cols = ["mode", "phase", "fault"];
+    let text_cols = ["mode", "phase", "fault", "quality"];
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(
         rows.len(),
@@ -75,6 +90,16 @@ fn default_scene_writes_csv_json_and_png() {
         assert!(modes.contains(&m), "{m}");
     }
     assert!(rows.iter().all(|r| r[col("fault")] == "none"));
+    // Every period has an MTTS frame's quality, after the first frame.
+    for r in &rows {
+        let q = r[col("quality")];
+        assert!(
+            ["resolved", "merged", "fallback"].contains(&q)
+                || (q == "none" && r[0].parse::<f64>().unwrap() < 1.0),
+            "{q} at {}",
+            r[0]
+        );
+    }
     assert!((rows.last().unwrap()[0].parse::<f64>().unwrap() - scene.duration_s).abs() < 1e-6);
 
     let json: serde_json::Value =
@@ -199,6 +224,27 @@ fn faults_scene_trips_resets_and_logs() {
         replies[4]
     );
     assert!(replies[5].contains("fault sensor-loss") && replies[5].contains("cleared sensor-loss"));
+    // The summary prints the replies, warnings and faults in time order.
+    let mut text = Vec::new();
+    host_sim::runs::run::print_summary(&r.summary, &mut text).unwrap();
+    let text = String::from_utf8(text).unwrap();
+    let times: Vec<f64> = text
+        .lines()
+        .filter_map(|l| l.split_once(" s  ")?.0.trim().parse().ok())
+        .collect();
+    assert_eq!(
+        times.len(),
+        r.summary.replies.len() + r.summary.warnings.len() + r.summary.faults.len(),
+        "{text}"
+    );
+    assert!(times.windows(2).all(|w| w[0] <= w[1]), "{text}");
+    let fault = text.find("fault runaway-heating:").unwrap();
+    assert!(fault < text.find("> reset").unwrap(), "{text}");
+    // A period without a measurement has no frame quality, and one with has one.
+    assert!(r.rows.iter().any(|x| x.measured_k.is_none()));
+    for x in &r.rows {
+        assert_eq!(x.measured_k.is_none(), x.quality.is_none(), "{x:?}");
+    }
 }
 
 #[test]
@@ -233,6 +279,71 @@ fn camera_on_measures_what_the_plant_shows() {
             .unwrap()
     };
     assert!(m(30.0).measured_k.unwrap()[0] > m(2.0).measured_k.unwrap()[0] + 20.0);
+}
+
+#[test]
+fn run_may_be_left_out_as_the_synopsis_shows() {
+    let dir = tmp_dir("no-run");
+    let out = host_sim(&["--quiet", "--out", dir.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stdout.is_empty());
+    let csv = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
+    let json = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    assert!(json.contains("\"scene\": \"cycle\""), "{json}");
+    assert_eq!(csv.lines().count(), 1801);
+    let _ = std::fs::remove_dir_all(&dir);
+    // A scene as the first word; a command still is a command.
+    let out = host_sim(&["open-loop", "--out", dir.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.starts_with("scene open-loop:"), "{stdout}");
+    assert!(
+        stdout.contains("(reported, not judged: an open-loop scene"),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = host_sim(&["scene"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("standby-323 "));
+    // A word that is neither names both lists.
+    let out = host_sim(&["paperr"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("`paperr` is neither a command (decode, run,")
+            && err.contains("plant-wp")
+            && err.contains("bundled: cycle, open-loop, faults"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_open_loop_scene_recovers_within_its_duration() {
+    // Its description promises a recovery (reheat, springs off) until straight.
+    let scene = host_sim::runs::scenario::load("open-loop").unwrap();
+    assert!(scene.description.contains("recover until straight"));
+    let r = run(&scene, &mut |_| ()).unwrap();
+    let recovery = r
+        .summary
+        .figures
+        .iter()
+        .find(|f| f.name == "recovery")
+        .unwrap()
+        .simulated_f64();
+    assert!(recovery.is_some(), "{:?}", r.summary.figures);
+    assert!(
+        r.summary.final_bend_deg <= 2.0,
+        "{}",
+        r.summary.final_bend_deg
+    );
 }
 
 #[test]

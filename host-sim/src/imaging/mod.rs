@@ -28,7 +28,7 @@ pub mod view_family;
 use std::path::PathBuf;
 
 use thermorph::mlx90640::{CalibrationError, FrameError};
-use thermorph::mtts::{IMG_COLS, IMG_ROWS, MttsError};
+use thermorph::mtts::{IMG_COLS, IMG_PIXELS, IMG_ROWS, MttsError};
 
 use crate::sensor::SensorError;
 
@@ -64,6 +64,21 @@ pub enum SensingError {
     RowCount {
         /// The rows it has.
         rows: usize,
+    },
+    /// A line of a `host-sim decode` CSV that is not `pixel,row,col,value` (or repeats a
+    /// pixel, or puts it in the wrong row or column).
+    #[error("line {line}: `{text}` is not a `pixel,row,col,value` line of `host-sim decode`")]
+    DecodedLine {
+        /// The line, 1-based.
+        line: usize,
+        /// Its text.
+        text: String,
+    },
+    /// A `host-sim decode` CSV without every pixel.
+    #[error("{pixels} pixels, an image needs {IMG_PIXELS}")]
+    DecodedPixels {
+        /// The pixels it has.
+        pixels: usize,
     },
     /// An unknown clustering method name.
     #[error("method `{0}` is not exact, lloyd or kmeanspp")]

@@ -105,6 +105,11 @@ impl Camera {
             .map(|m| core::array::from_fn(|i| k_or_nan(m.regions[i]) as f64))
     }
 
+    /// The latest frame's MTTS quality (`None` after an error until the next frame).
+    pub fn last_quality(&self) -> Option<Quality> {
+        self.last.map(|m| m.quality)
+    }
+
     /// Whether the sensor may measure a subpage before `until_us` (or within one bus action
     /// after it): only then must it be shown the block anew.
     pub fn measures_before(&self, until_us: u64) -> bool {

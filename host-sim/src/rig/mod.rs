@@ -54,7 +54,7 @@ pub enum RigError {
 
 use thermorph::app::{CONTROL_PERIOD_MS, Controller, Line};
 use thermorph::measurement::{Measurement, SensingHint};
-use thermorph::mtts::REGIONS;
+use thermorph::mtts::{Quality, REGIONS};
 use thermorph::outputs::Outputs;
 use thermorph::settings::Settings;
 use thermorph::supervisor::events::EventKind;
@@ -285,6 +285,16 @@ impl SimBoard {
             Some(c) => c.last_regions_k(),
             None if self.inputs().2.sensor.is_some() => None,
             None => Some(camera::camera_temps(&self.observe()).regions()),
+        }
+    }
+
+    /// The quality of the frame behind [`SimBoard::measured_k`]: the latest frame's (camera
+    /// on), `Resolved` for the truth (camera off), `None` while the sensor has no good frame.
+    pub fn measured_quality(&mut self) -> Option<Quality> {
+        match &self.camera {
+            Some(c) => c.last_quality(),
+            None if self.inputs().2.sensor.is_some() => None,
+            None => Some(Quality::Resolved),
         }
     }
 

@@ -274,6 +274,7 @@ pub fn run_with(
             springs_cmd,
             obs,
             measured_k: board.measured_k(),
+            quality: board.measured_quality(),
             truth_k: camera_temps(&obs).regions(),
             faults,
             control,
@@ -633,15 +634,28 @@ pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
             out,
             "(the scene's own timing sets these; `host-sim paper` runs the thesis's experiments)"
         )?;
+    } else if !s.figures.is_empty() {
+        writeln!(
+            out,
+            "(reported, not judged: an open-loop scene is not the thesis's experiment; \
+             `host-sim paper` runs and judges those)"
+        )?;
     }
+    // The console's lines, the board's warnings and the latched faults in time order (a
+    // reply before a warning or fault of the same instant).
+    let mut lines: Vec<(f64, String)> = Vec::new();
     for r in &s.replies {
-        writeln!(out, "{:>8.2} s  > {}  < {}", r.at_s, r.line, r.reply)?;
+        lines.push((r.at_s, format!("> {}  < {}", r.line, r.reply)));
     }
     for w in &s.warnings {
-        writeln!(out, "{:>8.2} s  # warning: {}", w.at_s, w.text)?;
+        lines.push((w.at_s, format!("# warning: {}", w.text)));
     }
     for f in &s.faults {
-        writeln!(out, "{:>8.2} s  fault {}: {}", f.at_s, f.code, f.reason)?;
+        lines.push((f.at_s, format!("fault {}: {}", f.code, f.reason)));
+    }
+    lines.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (at_s, text) in lines {
+        writeln!(out, "{at_s:>8.2} s  {text}")?;
     }
     Ok(())
 }
@@ -806,6 +820,7 @@ mod tests {
                     springs_cmd: inputs.springs_on,
                     obs,
                     measured_k: Some(truth_k),
+                    quality: Some(thermorph::mtts::Quality::Resolved),
                     truth_k,
                     faults: 0,
                     control: None,

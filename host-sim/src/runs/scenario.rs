@@ -836,6 +836,17 @@ fn quantity_str<'a>(
     })
 }
 
+/// `v` as a person wrote it: at most 6 decimals, trailing zeros dropped (`233.15`, not the
+/// `233.14999999999998` that −40 °C + 273.15 is in binary).
+pub fn rounded(v: f64) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.to_string() }
+}
+
+/// Check `v` against `range` (inclusive) and return it: a bound is met within 1e-9 of its size
+/// (so a bound written in °C, −40 °C, converted to kelvin with round-off, is in range, and is
+/// returned as the bound); the error prints the rounded values.
 fn in_range(
     cx: &Ctx,
     span: Option<Range<usize>>,
@@ -844,19 +855,24 @@ fn in_range(
     range: (f64, f64),
     unit: &str,
 ) -> Result<f64, ScenarioError> {
-    if v < range.0 || v > range.1 {
+    let slack = |bound: f64| 1e-9 * bound.abs().max(1.0);
+    if v < range.0 - slack(range.0) || v > range.1 + slack(range.1) || v.is_nan() {
         let hi = if range.1 == f64::MAX {
             "…".to_string()
         } else {
-            format!("{}", range.1)
+            rounded(range.1)
         };
         return Err(cx.err(
             span,
             key,
-            format!("{v} {unit} is out of range [{}, {hi}] {unit}", range.0),
+            format!(
+                "{} {unit} is out of range [{}, {hi}] {unit}",
+                rounded(v),
+                rounded(range.0)
+            ),
         ));
     }
-    Ok(v)
+    Ok(v.clamp(range.0, range.1))
 }
 
 /// Parse a time: `"90 s"`, `"250 ms"`, `"1.5 min"`, `"2 h"`, `"1:30"` or `"0:01:30.5"`.
@@ -1124,6 +1140,31 @@ mod tests {
         assert!((parse_temperature_k("25 °C").unwrap() - 298.15).abs() < 1e-12);
         assert_eq!(parse_temperature_k("300"), None);
         assert_eq!(parse_temperature_k("300 F"), None);
+    }
+
+    #[test]
+    fn celsius_at_the_bounds_is_in_range_and_errors_print_rounded_values() {
+        // −40 °C + 273.15 is 233.14999999999998 in binary, below the bound 233.15.
+        for (text, k) in [("-40 °C", 233.15), ("80 °C", 353.15), ("-40 C", 233.15)] {
+            let s = parse(
+                &format!("duration = \"10 s\"\nambient = \"{text}\"\n"),
+                "t.toml",
+                "t",
+            )
+            .unwrap();
+            assert_eq!(s.ambient_k, k, "{text}");
+        }
+        let e = err("duration = \"10 s\"\nambient = \"-40.5 °C\"\n");
+        assert!(
+            e.ends_with("`ambient`: 232.65 K is out of range [233.15, 353.15] K"),
+            "{e}"
+        );
+        let e = err("duration = \"10 s\"\nambient = \"80.01 °C\"\n");
+        assert!(e.contains("353.16 K is out of range"), "{e}");
+        assert_eq!(rounded(233.14999999999998), "233.15");
+        assert_eq!(rounded(-0.0000001), "0");
+        assert_eq!(rounded(2.5), "2.5");
+        assert_eq!(rounded(10.0), "10");
     }
 
     #[test]

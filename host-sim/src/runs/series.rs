@@ -4,7 +4,7 @@
 
 use std::io::Write;
 
-use thermorph::mtts::REGIONS;
+use thermorph::mtts::{Quality, REGIONS};
 use thermorph::observer::Estimate;
 
 use crate::plant::{Inputs, Observation};
@@ -23,6 +23,9 @@ pub struct Row {
     pub measured_k: Option<[f64; REGIONS]>,
     /// True region temperatures 1–5, K.
     pub truth_k: [f64; REGIONS],
+    /// The quality of the frame behind `measured_k` (camera off: the truth, `Resolved`);
+    /// `None` while the sensor has no good frame.
+    pub quality: Option<Quality>,
     /// Bit mask of the scene's faults active in this period (bit i = fault i).
     pub faults: u32,
     /// The supervisor in this period (closed-loop scenes only).
@@ -53,12 +56,13 @@ austenite_a,austenite_b,austenite_c,frozen_fraction,bend_deg,bend_plane_deg,k_b_
 heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_k,tc_k,fault,\
 est_frozen_fraction,est_frozen_std,est_inner_k,est_inner_std_k,est_outer_k,est_ambient_k,\
 est_spring_a_k,est_spring_b_k,est_spring_c_k,est_spring_a_std_k,est_spring_b_std_k,\
-est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c";
+est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c,quality";
 
 /// The estimate's columns in an open-loop run (no observer).
 const NO_ESTIMATE: &str = ",nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan";
 
-/// Write the time series as CSV (`nan` where there is no measurement).
+/// Write the time series as CSV (`nan` where there is no measurement; `quality` is the MTTS
+/// frame's, `resolved`, `merged` or `fallback`, and `none` without a frame).
 pub fn write_csv(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
     writeln!(out, "{CSV_HEADER}")?;
     write_rows(rows, out)
@@ -158,10 +162,10 @@ fn write_rows(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
                 for v in values {
                     write!(out, ",{}", k(v as f64))?;
                 }
-                writeln!(out)?
             }
-            None => writeln!(out, ",-,-,nan,nan,none{NO_ESTIMATE}")?,
+            None => write!(out, ",-,-,nan,nan,none{NO_ESTIMATE}")?,
         }
+        writeln!(out, ",{}", r.quality.map_or("none", Quality::name))?;
     }
     Ok(())
 }

@@ -20,7 +20,7 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 use rayon::prelude::*;
 
-use crate::runs::plot::{FONT, fonts, legend};
+use crate::runs::plot::{FONT, Key, LEGEND_PX, Swatch, draw_keys, fonts, strokes};
 use crate::runs::run::{RunError, RunResult, run};
 use crate::runs::scenario::{self, Scenario, ScenarioError};
 
@@ -421,10 +421,11 @@ pub fn write_pngs(
         let (px, py) = (pad(x0, x1), pad(y0, y1));
         let path = dir.join(format!("sweep-{name}.png"));
         {
-            let root = BitMapBackend::new(&path, (900, 540)).into_drawing_area();
+            let root = BitMapBackend::new(&path, (900 + LEGEND_PX, 540)).into_drawing_area();
             root.fill(&WHITE).map_err(|e| plot(&e))?;
             let mut chart = ChartBuilder::on(&root)
                 .margin(12)
+                .margin_right(LEGEND_PX)
                 .caption(
                     format!("{name} against {}", axes[0].key),
                     (FONT, 20).into_font().style(FontStyle::Bold),
@@ -441,27 +442,27 @@ pub fn write_pngs(
                 .axis_desc_style((FONT, 15))
                 .draw()
                 .map_err(|e| plot(&e))?;
+            // The legend in a column right of the plot, over no point.
+            let mut keys = Vec::new();
             for (i, (label, pts)) in series.iter().enumerate() {
-                let colour = Palette99::pick(i).to_rgba();
+                let c = Palette99::pick(i).to_rgba();
+                let colour = RGBColor(c.0, c.1, c.2);
                 chart
-                    .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
+                    .draw_series(strokes(pts.clone(), colour.stroke_width(2)))
                     .map_err(|e| plot(&e))?;
-                let ann = chart
+                chart
                     .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))
                     .map_err(|e| plot(&e))?;
                 if !label.is_empty() {
-                    ann.label(label.clone())
-                        .legend(move |(lx, ly)| Circle::new((lx + 8, ly), 4, colour.filled()));
+                    keys.push(Key {
+                        label: label.clone(),
+                        colour,
+                        swatch: Swatch::Dot,
+                    });
                 }
             }
-            if series.keys().any(|l| !l.is_empty()) {
-                legend(
-                    &mut chart.configure_series_labels(),
-                    SeriesLabelPosition::UpperLeft,
-                )
-                .draw()
-                .map_err(|e| plot(&e))?;
-            }
+            let (x_px, y_px) = chart.plotting_area().get_pixel_range();
+            draw_keys(&root, x_px.end, y_px.start, &keys).map_err(|e| plot(&e))?;
             root.present().map_err(|e| plot(&e))?;
         }
         written.push(path);
@@ -698,6 +699,48 @@ mod tests {
             merge(&[a, c], &mut Vec::new()),
             Err(SweepError::Header { .. })
         ));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_legend_sits_right_of_the_points() {
+        // A figure falling from the top left, where a legend inside the plot used to sit.
+        let axes: Vec<Axis> = ["ambient=263K,298K,323K", "camera.seed=1,2"]
+            .iter()
+            .map(|a| a.parse().unwrap())
+            .collect();
+        let outcomes: Vec<Outcome> = cases(&axes, None)
+            .into_iter()
+            .map(|case| {
+                let y = 100.0 - case.index as f64 * 15.0;
+                Outcome {
+                    case,
+                    figures: vec![("falling_s".to_string(), Some(y))],
+                    faults: String::new(),
+                }
+            })
+            .collect();
+        let dir = std::env::temp_dir().join(format!("thermorph-sweep-png-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let written = write_pngs(&axes, &outcomes, &dir).unwrap();
+        assert_eq!(written, [dir.join("sweep-falling_s.png")]);
+        let decoder = png::Decoder::new(std::io::BufReader::new(
+            std::fs::File::open(&written[0]).unwrap(),
+        ));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let frame = reader.next_frame(&mut buf).unwrap();
+        let w = frame.width as usize;
+        // The legend's border is the only (180, 180, 180): none of it left of the legend
+        // column, inside the plot.
+        let border = |xs: std::ops::Range<usize>| {
+            (60..480)
+                .flat_map(|y| xs.clone().map(move |x| 3 * (y * w + x)))
+                .filter(|&i| buf[i..i + 3] == [180, 180, 180])
+                .count()
+        };
+        assert_eq!(border(100..w - LEGEND_PX as usize), 0);
+        assert!(border(w - LEGEND_PX as usize..w) > 100);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
