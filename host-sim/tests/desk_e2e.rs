@@ -590,6 +590,26 @@ fn garbage_and_silence_give_clear_errors_in_time() {
 fn a_failed_run_stops_the_block_and_says_what_it_left() {
     let dir = scratch("failed");
     let board = FakeBoard::start(Behaviour::Board, 10.0);
+    // A run that fails before any of its commands went out sends nothing: the block is as the
+    // desk found it.
+    let early = dir.join("early.txt");
+    std::fs::write(&early, "wait mode == form within 0.5\nmode step-large AB\n").unwrap();
+    let r = desk(
+        &["run", board.path(), early.to_str().unwrap()],
+        "",
+        Duration::from_secs(10),
+    );
+    assert!(!r.ok, "{}", r.stdout);
+    assert!(
+        r.stdout
+            .contains("the run failed before any of its commands was sent"),
+        "{}",
+        r.stdout
+    );
+    let v = board.view();
+    assert!(v.lines.iter().all(|l| l == "status"), "{v:?}");
+    assert_eq!(v.mode, "standby");
+
     let script = dir.join("fail.txt");
     std::fs::write(&script, "mode step-large AB\nwait mode == form within 1\n").unwrap();
     let args = ["run", board.path(), script.to_str().unwrap()];

@@ -316,7 +316,7 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
     direct.store(true, Ordering::SeqCst);
     // (The reader thread says which of them timed out.)
     let until = Instant::now() + o.reply_timeout + Duration::from_millis(300);
-    while pending.lock().map_or(false, |p| !p.is_empty())
+    while pending.lock().is_ok_and(|p| !p.is_empty())
         && Instant::now() < until
         && !lost.load(Ordering::SeqCst)
     {

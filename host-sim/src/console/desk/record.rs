@@ -187,9 +187,19 @@ fn stream_on(
     }
 }
 
-fn reopen(path: &str, o: &RecordOptions, why: LinkError) -> Result<Link, DeskError> {
+/// Reopen the lost port `path`, trying until [`RecordOptions::reconnect`] has passed or
+/// `interrupt` is set.
+fn reopen(
+    path: &str,
+    o: &RecordOptions,
+    why: LinkError,
+    interrupt: &AtomicBool,
+) -> Result<Link, DeskError> {
     let until = Instant::now() + o.reconnect;
     loop {
+        if interrupt.load(Ordering::SeqCst) {
+            return Err(DeskError::Interrupted);
+        }
         let last = match Link::open(path, o.baud) {
             Ok(l) => return Ok(l),
             Err(e) => e,
@@ -325,7 +335,7 @@ pub fn record(
                 Err(e) => {
                     eprintln!("record: {e}; reopening {path}");
                     link = None;
-                    let mut l = reopen(path, o, e)?;
+                    let mut l = reopen(path, o, e, interrupt)?;
                     l.garbage = garbage;
                     link = Some(l);
                     eprintln!("record: {path} is back");

@@ -19,9 +19,9 @@
 //! Every line is checked when the script is read, before anything is sent: commands with the
 //! library's parser, FIELD against the fields the library's `status` reply has
 //! ([`status_fields`]); every bad line is reported as `FILE:LINE: reason`. The run stops at the
-//! first failure. A run that fails or is interrupted (Ctrl-C) sends `stop` (unless
-//! [`RunOptions::leave_running`]) and says in what state it left the block; a run that passes
-//! leaves the block as its script left it. With `--record FILE.csv` the run turns the telemetry
+//! first failure. A run that fails or is interrupted (Ctrl-C) once its commands have gone out
+//! sends `stop` (unless [`RunOptions::leave_running`]) and says in what state it left the
+//! block; a run that passes leaves the block as its script left it. With `--record FILE.csv` the run turns the telemetry
 //! stream on and writes every telemetry line it receives, as `record` does (one serial port has
 //! room for one program, so the script's run records its own experiment), and turns it off
 //! however the run ends.
@@ -193,7 +193,7 @@ fn at_line(line: usize) -> impl Fn(DeskError) -> DeskError + Copy {
 
 /// `Err` unless `status` has the condition's field.
 fn check_field(c: &Cond, known: &[String]) -> Result<(), DeskError> {
-    if known.iter().any(|f| *f == c.field) {
+    if known.contains(&c.field) {
         Ok(())
     } else {
         Err(DeskError::NoField {
@@ -325,13 +325,15 @@ fn check(f: &Fields, c: &Cond) -> Result<bool, DeskError> {
 }
 
 /// Run `script` on `link`, logging each step to `log`; stop at the first failure, or once
-/// `interrupt` is set, with an error naming the line.
+/// `interrupt` is set, with an error naming the line. `sent` is set as soon as one of the
+/// script's commands has gone out (the block may then be in a state the script brought it to).
 pub fn run(
     link: &mut Link,
     script: &Script,
     reply_timeout: Duration,
     sink: &mut Option<CsvSink>,
     interrupt: &AtomicBool,
+    sent: &mut bool,
     log: &mut dyn FnMut(&str),
 ) -> Result<(), DeskError> {
     let started = Instant::now();
@@ -341,6 +343,9 @@ pub fn run(
         let fail = at_line(*n);
         if stopped() {
             return Err(fail(DeskError::Interrupted));
+        }
+        if matches!(step, Step::Command { .. } | Step::ExpectErr { .. }) {
+            *sent = true;
         }
         match step {
             Step::Command { line, any } => {
@@ -515,8 +520,8 @@ fn check_port(path: &str) -> Result<(), DeskError> {
 /// Open `path` and run the script file `script_path` (checked whole before anything is sent);
 /// with [`RunOptions::record`], write the telemetry received meanwhile to that CSV (the stream
 /// is turned on first and off however the run ends). A failure or `interrupt` sends `stop`
-/// unless [`RunOptions::leave_running`]; either way `log` is told the state the block is left
-/// in.
+/// unless [`RunOptions::leave_running`] (or none of the script's commands had gone out yet);
+/// either way `log` is told the state the block is left in.
 pub fn run_file(
     path: &str,
     script_path: &Path,
@@ -541,17 +546,23 @@ pub fn run_file(
             return Err(DeskError::StreamRefused(r));
         }
     }
+    let mut sent = false;
     let result = run(
         &mut link,
         &script,
         o.reply_timeout,
         &mut sink,
         interrupt,
+        &mut sent,
         log,
     )
     .map_err(|e| in_file(e, script_path));
     if result.is_err() {
-        leave(&mut link, o, &mut sink, log);
+        if sent {
+            leave(&mut link, o, &mut sink, log);
+        } else {
+            log("the run failed before any of its commands was sent: the block is left as it was");
+        }
     }
     if sink.is_some() {
         // Best effort: the run's result matters more than the stream's state.
@@ -712,6 +723,30 @@ mod tests {
         );
         assert!(parse("sleep -1").is_err());
         assert!(parse("expect mode").is_err());
+    }
+
+    #[test]
+    fn every_bad_line_is_found_before_anything_runs() {
+        let e =
+            parse("mode standby\nwait tck >= 300\nexpect fault == none\nexpect faults == none\n")
+                .unwrap_err()
+                .to_string();
+        let lines: Vec<&str> = e.lines().collect();
+        assert_eq!(lines.len(), 2, "{e}");
+        assert!(
+            lines[0].starts_with("line 2: `status` has no field `tck` (did you mean `tc_k`?)"),
+            "{e}"
+        );
+        assert!(
+            lines[1].starts_with("line 4: `status` has no field `faults` (did you mean `fault`?)"),
+            "{e}"
+        );
+        // No suggestion for a name nothing is close to; the fields are listed.
+        let e = parse("wait colour == red").unwrap_err().to_string();
+        assert!(!e.contains("did you mean") && e.contains("tc_k"), "{e}");
+        // Named with the file once it is known.
+        let e = in_file(parse("\nsleep x").unwrap_err(), Path::new("s.txt"));
+        assert_eq!(e.to_string(), "s.txt:2: `x` is not a number of seconds");
     }
 
     #[test]
