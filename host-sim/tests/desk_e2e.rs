@@ -815,6 +815,25 @@ fn a_recording_opens_the_port_first_and_overwrites_only_with_force() {
         Duration::from_secs(10),
     );
     assert!(!r.ok && !fresh.exists(), "{}", r.stderr);
+    // Nor for a port where nothing answers `stream on`, by `record` or by `run --record`.
+    let f = fresh.to_str().unwrap();
+    for args in [
+        vec!["record", silent.path(), "--out", f],
+        vec![
+            "run",
+            silent.path(),
+            s,
+            "--record",
+            f,
+            "--reply-timeout",
+            "0.5",
+        ],
+    ] {
+        let r = desk(&args, "", Duration::from_secs(10));
+        assert!(!r.ok, "{args:?}");
+        assert!(r.stderr.contains("no reply to `stream on`"), "{}", r.stderr);
+        assert!(!fresh.exists(), "{args:?} created {f}");
+    }
     // With --force, once the board answers.
     let r = desk(
         &[

@@ -535,15 +535,25 @@ pub fn run_file(
         super::record::check_out(r, o.force)?;
     }
     let mut link = Link::open(path, o.baud)?;
-    let mut sink = o
-        .record
-        .as_deref()
-        .map(|r| CsvSink::create(r, o.force))
-        .transpose()?;
-    if sink.is_some() {
-        let r = command(&mut link, "stream on", o.reply_timeout, &mut sink)?;
-        if !r.starts_with("ok") {
-            return Err(DeskError::StreamRefused(r));
+    // The recording's file is created only once the board has answered `stream on`.
+    let mut sink = None;
+    if let Some(r) = &o.record {
+        let mut held = Vec::new();
+        let reply = link.command("stream on", o.reply_timeout, &mut |l| {
+            held.push(l.to_string())
+        })?;
+        if !reply.starts_with("ok") {
+            return Err(DeskError::StreamRefused(reply));
+        }
+        let s = sink.insert(match CsvSink::create(r, o.force) {
+            Ok(s) => s,
+            Err(e) => {
+                let _ = link.command("stream off", o.reply_timeout, &mut |_| {});
+                return Err(e);
+            }
+        });
+        for l in &held {
+            s.line(l)?;
         }
     }
     let mut sent = false;
