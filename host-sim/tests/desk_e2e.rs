@@ -880,6 +880,22 @@ fn run_checks_its_arguments_and_every_line_before_sending() {
         "{}",
         r.stderr
     );
+    // `record` and `connect` name a file given as PORT too, and create nothing.
+    let out = dir.join("out.csv");
+    for args in [
+        vec!["record", s, "--out", out.to_str().unwrap()],
+        vec!["connect", s],
+    ] {
+        let r = desk(&args, "", Duration::from_secs(10));
+        assert!(!r.ok, "{args:?}");
+        assert!(
+            r.stderr
+                .contains(&format!("{s}: a file, not a serial port")),
+            "{}",
+            r.stderr
+        );
+    }
+    assert!(!out.exists());
     let r = desk(
         &["run", board.path(), board.path()],
         "",
