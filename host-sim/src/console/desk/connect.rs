@@ -6,8 +6,8 @@
 //! prints line by line; a status line `| t=… mode … T1 … T2 …` of the latest telemetry is printed
 //! at most every `--status-every` seconds, and `.t` prints the latest telemetry line in full.
 //!
-//! A command that gets no reply within `--reply-timeout` is said so (`! no reply to `status`
-//! within 2.0 s …`), as `run` says it. A line starting with a dot is the desk's own: one it does
+//! A command that gets no reply within `--reply-timeout` is said so (``! no reply to `status`
+//! … within 2.0 s …``), as `run` says it. A line starting with a dot is the desk's own: one it does
 //! not know is refused here, never sent to the board.
 //!
 //! Leaving (`.quit`, Ctrl-D or Ctrl-C) sends nothing: the block stays in whatever mode it is in.
@@ -172,6 +172,8 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
     // (nor the main thread, which prints its own lines directly between prompts).
     let direct = Arc::new(AtomicBool::new(false));
     let (tx, rx) = std::sync::mpsc::channel::<String>();
+    // Said by the printer thread once every line sent to it is out.
+    let (printed_tx, printed) = std::sync::mpsc::channel::<()>();
     {
         let direct = direct.clone();
         let mut external = rl.create_external_printer().ok();
@@ -184,6 +186,7 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
                     _ => println!("{msg}"),
                 }
             }
+            let _ = printed_tx.send(());
         });
     }
     let print = move |s: String| {
@@ -324,6 +327,10 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
     }
     stop.store(true, Ordering::SeqCst);
     let _ = thread.join();
+    // Every line the reader passed on is printed before leaving (the channel closes with the
+    // last sender; bounded, in case the editor's printer is stuck).
+    drop(print);
+    let _ = printed.recv_timeout(Duration::from_millis(500));
     if let Ok(mut p) = pending.lock() {
         for (_, line) in p.drain(..) {
             println!("{}", no_reply(&line, path, o.reply_timeout));
