@@ -11,7 +11,7 @@ use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
 use std::os::fd::{AsRawFd, OwnedFd};
 use std::path::PathBuf;
-use std::sync::mpsc;
+use std::sync::{Arc, Mutex, mpsc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -45,9 +45,23 @@ enum Ctl {
     Vanish,
 }
 
+/// What the board side saw and is doing, for the tests to assert on.
+#[derive(Clone, Debug, Default)]
+struct View {
+    /// Every line the board received, in order.
+    lines: Vec<String>,
+    /// The supervisor's mode now.
+    mode: String,
+    /// The heater's duty now, %.
+    heater_pct: f32,
+    /// Telemetry lines the board has written.
+    telemetry: u64,
+}
+
 struct FakeBoard {
     path: PathBuf,
     ctl: mpsc::Sender<Ctl>,
+    view: Arc<Mutex<View>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -66,12 +80,16 @@ fn write_all(master: &mut File, bytes: &[u8]) {
     }
 }
 
-/// Write what the board said besides its replies (warnings, telemetry), and forget it.
-fn write_said(master: &mut File, said: &mut Vec<Said>) {
+/// Write what the board said besides its replies (warnings, telemetry), and forget it; count
+/// the telemetry lines in `view`.
+fn write_said(master: &mut File, said: &mut Vec<Said>, view: &Mutex<View>) {
     for s in said.drain(..) {
         match s {
             Said::Notice(n) => write_all(master, format!("# {n}\r\n").as_bytes()),
-            Said::Telemetry(t) => write_all(master, t.as_bytes()),
+            Said::Telemetry(t) => {
+                write_all(master, t.as_bytes());
+                view.lock().unwrap().telemetry += 1;
+            }
         }
     }
 }
@@ -104,6 +122,8 @@ impl FakeBoard {
         .expect("non-blocking master");
         let mut master = File::from(master);
         let (tx, rx) = mpsc::channel();
+        let view = Arc::new(Mutex::new(View::default()));
+        let seen = view.clone();
         let thread = std::thread::spawn(move || {
             // The simulated board (host-sim's rig, the library's Controller inside), camera
             // off: true region temperatures four times a second.
@@ -143,13 +163,16 @@ impl FakeBoard {
                         }
                         let line = match reader.push(b) {
                             None => continue,
-                            Some(Ok(text)) => Line::Text(text),
+                            Some(Ok(text)) => {
+                                seen.lock().unwrap().lines.push(text.to_string());
+                                Line::Text(text)
+                            }
                             Some(Err(e)) => Line::Refused(e),
                         };
                         if let Some(r) = board.line(line, &mut said) {
                             write_all(&mut master, format!("{}\r\n", r.as_str()).as_bytes());
                         }
-                        write_said(&mut master, &mut said);
+                        write_said(&mut master, &mut said, &seen);
                     }
                 }
                 if behaviour == Behaviour::Garbage {
@@ -169,21 +192,56 @@ impl FakeBoard {
                 let target_us = target_us.min(board.time_us() + 2_000_000);
                 board.advance_to(target_us, &mut said);
                 if behaviour == Behaviour::Board {
-                    write_said(&mut master, &mut said);
+                    write_said(&mut master, &mut said, &seen);
                 }
                 said.clear();
+                if let Some(s) = board.supervisor() {
+                    let mut v = seen.lock().unwrap();
+                    v.mode = s.mode().name().to_string();
+                    v.heater_pct = s.outputs().heater.pct();
+                }
                 std::thread::sleep(Duration::from_millis(4));
             }
         });
         FakeBoard {
             path,
             ctl: tx,
+            view,
             thread: Some(thread),
         }
     }
 
     fn path(&self) -> &str {
         self.path.to_str().unwrap()
+    }
+
+    /// What the board saw and is doing now.
+    fn view(&self) -> View {
+        self.view.lock().unwrap().clone()
+    }
+
+    /// Wait until `f` holds for the board's view (at most `limit`); return that view.
+    fn until(&self, limit: Duration, what: &str, f: impl Fn(&View) -> bool) -> View {
+        let end = Instant::now() + limit;
+        loop {
+            let v = self.view();
+            if f(&v) {
+                return v;
+            }
+            assert!(
+                Instant::now() < end,
+                "board: {what} not within {limit:?}: {v:?}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Assert that the board writes no telemetry over `for_` (the stream is off).
+    fn assert_silent(&self, for_: Duration) {
+        let before = self.view().telemetry;
+        std::thread::sleep(for_);
+        let after = self.view().telemetry;
+        assert_eq!(before, after, "the board still streams telemetry");
     }
 
     fn reset(&self) {
@@ -226,7 +284,7 @@ fn connect_run_a_full_cycle_record_and_plot() {
             "--history",
             hist.to_str().unwrap(),
         ],
-        "version\nget hot_k\nmode fly\n.quit\n",
+        "version\nget hot_k\nmode fly\n.foo\n.quit\n",
         Duration::from_secs(20),
     );
     assert!(c.ok, "{}\n{}", c.stdout, c.stderr);
@@ -234,6 +292,20 @@ fn connect_run_a_full_cycle_record_and_plot() {
     assert!(c.stdout.contains("< ok hot_k=358"), "{}", c.stdout);
     assert!(c.stdout.contains("< err bad-arguments"), "{}", c.stdout);
     assert!(c.stdout.contains("left as it is"), "{}", c.stdout);
+    // `.foo` is refused by the desk, with the desk's own commands; the board never sees it.
+    assert!(
+        c.stdout
+            .contains("`.foo` is not a desk command (the desk's: .quit .t .help)"),
+        "{}",
+        c.stdout
+    );
+    let seen = board.view().lines;
+    assert_eq!(
+        seen,
+        ["version", "get hot_k", "mode fly"],
+        "the board got {seen:?}"
+    );
+    assert!(!c.stdout.contains("no reply"), "{}", c.stdout);
 
     let script = dir.join("cycle.txt");
     std::fs::write(
@@ -457,7 +529,11 @@ fn garbage_and_silence_give_clear_errors_in_time() {
         );
         assert!(!r.ok, "{behaviour:?}: {}", r.stdout);
         assert!(r.stderr.contains(want), "{behaviour:?}: {}", r.stderr);
-        assert!(r.stderr.contains("line 1:"), "{}", r.stderr);
+        assert!(
+            r.stderr.contains(&format!("{}:1: ", script.display())),
+            "{}",
+            r.stderr
+        );
         let csv = dir.join("r.csv");
         let r = desk(
             &["record", board.path(), "--out", csv.to_str().unwrap()],
@@ -466,14 +542,30 @@ fn garbage_and_silence_give_clear_errors_in_time() {
         );
         assert!(!r.ok, "{behaviour:?}");
         assert!(r.stderr.contains("Thermorph console?"), "{}", r.stderr);
-        // Connect leaves after its drain time even though no reply ever comes.
+        // Connect says no reply came, as `run` does, and leaves after the reply timeout.
         let c = desk(
-            &["connect", board.path(), "--status-every", "0"],
+            &[
+                "connect",
+                board.path(),
+                "--status-every",
+                "0",
+                "--reply-timeout",
+                "1",
+            ],
             "status\n",
             Duration::from_secs(15),
         );
         assert!(c.ok, "{behaviour:?}: {}", c.stderr);
         assert!(!c.stdout.contains("< ok"), "{}", c.stdout);
+        assert!(
+            c.stdout.contains(&format!(
+                "! no reply to `status` from {} within 1.0 s: is this a Thermorph console?",
+                board.path()
+            )),
+            "{behaviour:?}: {}",
+            c.stdout
+        );
+        assert!(c.took < Duration::from_secs(5), "{:?}", c.took);
     }
     let r = desk(
         &[
@@ -489,5 +581,347 @@ fn garbage_and_silence_give_clear_errors_in_time() {
         "{}",
         r.stderr
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A script that fails mid-way (a `wait` that times out) with the heater on: the desk sends
+/// `stop` and says what it left; with `--leave-running` it sends nothing and says so.
+#[test]
+fn a_failed_run_stops_the_block_and_says_what_it_left() {
+    let dir = scratch("failed");
+    let board = FakeBoard::start(Behaviour::Board, 10.0);
+    // A run that fails before any of its commands went out sends nothing: the block is as the
+    // desk found it.
+    let early = dir.join("early.txt");
+    std::fs::write(&early, "wait mode == form within 0.5\nmode step-large AB\n").unwrap();
+    let r = desk(
+        &["run", board.path(), early.to_str().unwrap()],
+        "",
+        Duration::from_secs(10),
+    );
+    assert!(!r.ok, "{}", r.stdout);
+    assert!(
+        r.stdout
+            .contains("the run failed before any of its commands was sent"),
+        "{}",
+        r.stdout
+    );
+    let v = board.view();
+    assert!(v.lines.iter().all(|l| l == "status"), "{v:?}");
+    assert_eq!(v.mode, "standby");
+
+    let script = dir.join("fail.txt");
+    std::fs::write(&script, "mode step-large AB\nwait mode == form within 1\n").unwrap();
+    let args = ["run", board.path(), script.to_str().unwrap()];
+    let r = desk(&args, "", Duration::from_secs(15));
+    assert!(!r.ok, "{}", r.stdout);
+    assert!(
+        r.stderr.contains(&format!(
+            "{}:2: timeout: mode == form did not hold",
+            script.display()
+        )),
+        "{}",
+        r.stderr
+    );
+    assert!(
+        r.stdout.contains(
+            "the run failed: sent `stop` -> ok stopped, every output off; the block is left in \
+             mode stopped (phase -), heater 0.0 %"
+        ),
+        "{}",
+        r.stdout
+    );
+    let v = board.view();
+    assert_eq!(v.lines.last().map(String::as_str), Some("status"), "{v:?}");
+    assert!(v.lines.iter().any(|l| l == "stop"), "{v:?}");
+    assert_eq!((v.mode.as_str(), v.heater_pct), ("stopped", 0.0), "{v:?}");
+
+    let before = v.lines.len();
+    let mut leave = args.to_vec();
+    leave.push("--leave-running");
+    let r = desk(&leave, "", Duration::from_secs(15));
+    assert!(!r.ok, "{}", r.stdout);
+    assert!(
+        r.stdout.contains(
+            "--leave-running: nothing sent, the block is left in mode step-large (phase soak), \
+             heater 100.0 %"
+        ),
+        "{}",
+        r.stdout
+    );
+    let v = board.view();
+    assert!(!v.lines[before..].iter().any(|l| l == "stop"), "{v:?}");
+    assert_eq!(
+        (v.mode.as_str(), v.heater_pct),
+        ("step-large", 100.0),
+        "{v:?}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Ctrl-C during `run --record`: `stop`, `stream off`, the rows counted, the line named.
+#[test]
+fn ctrl_c_on_a_recorded_run_stops_the_block_and_the_stream() {
+    let dir = scratch("run-int");
+    let board = FakeBoard::start(Behaviour::Board, 10.0);
+    let script = dir.join("long.txt");
+    std::fs::write(&script, "mode step-large AB\nsleep 60\n").unwrap();
+    let csv = dir.join("long.csv");
+    let run = common::start(
+        &[
+            "run",
+            board.path(),
+            script.to_str().unwrap(),
+            "--record",
+            csv.to_str().unwrap(),
+        ],
+        "",
+    );
+    board.until(Duration::from_secs(10), "step-large", |v| {
+        v.mode == "step-large" && v.telemetry > 5
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    run.interrupt();
+    let r = run.finish(Duration::from_secs(15));
+    assert!(!r.ok, "{}", r.stdout);
+    assert!(
+        r.stderr
+            .contains(&format!("{}:2: interrupted (Ctrl-C)", script.display())),
+        "{}",
+        r.stderr
+    );
+    assert!(
+        r.stdout.contains("the run failed: sent `stop`"),
+        "{}",
+        r.stdout
+    );
+    let rows = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
+    assert!(rows > 0);
+    assert!(
+        r.stdout.contains(&format!(
+            "recorded {rows} telemetry rows (0 gaps) to {}",
+            csv.display()
+        )),
+        "{rows} rows: {}",
+        r.stdout
+    );
+    let v = board.view();
+    assert_eq!(
+        v.lines.last().map(String::as_str),
+        Some("stream off"),
+        "{v:?}"
+    );
+    assert_eq!((v.mode.as_str(), v.heater_pct), ("stopped", 0.0), "{v:?}");
+    board.assert_silent(Duration::from_millis(400));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Ctrl-C on `record`, its documented way to stop: `stream off` and the rows counted.
+#[test]
+fn ctrl_c_on_record_turns_the_stream_off_and_counts_the_rows() {
+    let dir = scratch("rec-int");
+    let board = FakeBoard::start(Behaviour::Board, 5.0);
+    let csv = dir.join("rec.csv");
+    let rec = common::start(
+        &[
+            "record",
+            board.path(),
+            "--out",
+            csv.to_str().unwrap(),
+            "--hz",
+            "10",
+        ],
+        "",
+    );
+    board.until(Duration::from_secs(10), "telemetry", |v| v.telemetry > 8);
+    rec.interrupt();
+    let r = rec.finish(Duration::from_secs(10));
+    assert!(r.ok, "{}", r.stderr);
+    let rows = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
+    assert!(rows > 5, "{rows}");
+    assert!(
+        r.stderr.contains(&format!(
+            "wrote {rows} rows to {} (0 gaps, 0 garbage lines); stopped by Ctrl-C, \
+             `stream off` sent",
+            csv.display()
+        )),
+        "{rows} rows: {}",
+        r.stderr
+    );
+    let v = board.view();
+    assert_eq!(v.lines, ["stream on 10", "stream off"], "{v:?}");
+    board.assert_silent(Duration::from_millis(400));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A recording never overwrites a file without `--force`, and creates nothing before the port
+/// answers: an existing file loses nothing, whatever goes wrong.
+#[test]
+fn a_recording_opens_the_port_first_and_overwrites_only_with_force() {
+    let dir = scratch("keep");
+    let keep = dir.join("keep.csv");
+    let precious = "time_s,t_s\n1,2\n";
+    std::fs::write(&keep, precious).unwrap();
+    let board = FakeBoard::start(Behaviour::Board, 5.0);
+    let silent = FakeBoard::start(Behaviour::Silent, 1.0);
+    let k = keep.to_str().unwrap();
+    let script = dir.join("s.txt");
+    std::fs::write(&script, "status\n").unwrap();
+    let s = script.to_str().unwrap();
+    for (args, want) in [
+        (
+            vec!["record", board.path(), "--out", k],
+            "the file exists; pass --force",
+        ),
+        (
+            vec!["run", board.path(), s, "--record", k],
+            "the file exists; pass --force",
+        ),
+        (
+            vec![
+                "record",
+                "/dev/nonexistent-thermorph",
+                "--out",
+                k,
+                "--force",
+            ],
+            "cannot open port",
+        ),
+        (
+            vec!["record", silent.path(), "--out", k, "--force"],
+            "Thermorph console?",
+        ),
+    ] {
+        let r = desk(&args, "", Duration::from_secs(15));
+        assert!(!r.ok, "{args:?}");
+        assert!(r.stderr.contains(want), "{args:?}: {}", r.stderr);
+        assert_eq!(
+            std::fs::read_to_string(&keep).unwrap(),
+            precious,
+            "{args:?}"
+        );
+    }
+    assert!(board.view().lines.is_empty(), "{:?}", board.view());
+    // A new file is not created for a port that cannot be opened.
+    let fresh = dir.join("fresh.csv");
+    let r = desk(
+        &[
+            "record",
+            "/dev/nonexistent-thermorph",
+            "--out",
+            fresh.to_str().unwrap(),
+        ],
+        "",
+        Duration::from_secs(10),
+    );
+    assert!(!r.ok && !fresh.exists(), "{}", r.stderr);
+    // Nor for a port where nothing answers `stream on`, by `record` or by `run --record`.
+    let f = fresh.to_str().unwrap();
+    for args in [
+        vec!["record", silent.path(), "--out", f],
+        vec![
+            "run",
+            silent.path(),
+            s,
+            "--record",
+            f,
+            "--reply-timeout",
+            "0.5",
+        ],
+    ] {
+        let r = desk(&args, "", Duration::from_secs(10));
+        assert!(!r.ok, "{args:?}");
+        assert!(r.stderr.contains("no reply to `stream on`"), "{}", r.stderr);
+        assert!(!fresh.exists(), "{args:?} created {f}");
+    }
+    // With --force, once the board answers.
+    let r = desk(
+        &[
+            "record",
+            board.path(),
+            "--out",
+            k,
+            "--force",
+            "--duration",
+            "1",
+        ],
+        "",
+        Duration::from_secs(15),
+    );
+    assert!(r.ok, "{}", r.stderr);
+    let text = std::fs::read_to_string(&keep).unwrap();
+    assert_eq!(text.lines().next().unwrap(), csv_header());
+    assert!(text.lines().count() > 2, "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `run` checks its arguments and every line of the script before anything is sent: swapped
+/// PORT and SCRIPT are named as such (a pseudo-terminal given as SCRIPT is never read), and
+/// every bad line is reported as `FILE:LINE: reason`.
+#[test]
+fn run_checks_its_arguments_and_every_line_before_sending() {
+    let dir = scratch("check");
+    let board = FakeBoard::start(Behaviour::Board, 5.0);
+    let script = dir.join("s.txt");
+    std::fs::write(
+        &script,
+        "mode step-large AB\nwait phase == hold within 60\nwait tck >= 300\nmode fly\n\
+         expect fault = none\n",
+    )
+    .unwrap();
+    let s = script.to_str().unwrap();
+    let r = desk(&["run", s, board.path()], "", Duration::from_secs(10));
+    assert!(!r.ok);
+    assert!(
+        r.stderr.contains(&format!(
+            "{s}: a file, not a serial port; the port comes first: `thermorph-desk run PORT \
+             SCRIPT`"
+        )),
+        "{}",
+        r.stderr
+    );
+    // `record` and `connect` name a file given as PORT too, and create nothing.
+    let out = dir.join("out.csv");
+    for args in [
+        vec!["record", s, "--out", out.to_str().unwrap()],
+        vec!["connect", s],
+    ] {
+        let r = desk(&args, "", Duration::from_secs(10));
+        assert!(!r.ok, "{args:?}");
+        assert!(
+            r.stderr
+                .contains(&format!("{s}: a file, not a serial port")),
+            "{}",
+            r.stderr
+        );
+    }
+    assert!(!out.exists());
+    let r = desk(
+        &["run", board.path(), board.path()],
+        "",
+        Duration::from_secs(10),
+    );
+    assert!(!r.ok);
+    assert!(
+        r.stderr.contains(&format!(
+            "{}: a device (a serial port?), not a script file; the port comes first",
+            board.path()
+        )),
+        "{}",
+        r.stderr
+    );
+    let r = desk(&["run", board.path(), s], "", Duration::from_secs(10));
+    assert!(!r.ok);
+    for want in [
+        format!("{s}:3: `status` has no field `tck` (did you mean `tc_k`?)"),
+        format!("{s}:4: `mode fly`"),
+        format!("{s}:5: `=` is not one of"),
+    ] {
+        assert!(r.stderr.contains(&want), "{want}: {}", r.stderr);
+    }
+    assert!(!r.stderr.contains(&format!("{s}:1:")), "{}", r.stderr);
+    let v = board.view();
+    assert!(v.lines.is_empty(), "sent before the check: {v:?}");
+    assert_eq!(v.mode, "standby");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -10,7 +10,7 @@
 //! - the usage blocks of `host-sim` and `thermorph-desk` list every subcommand and option their
 //!   `--help` has, and no other;
 //! - the desk's walk-through transcript runs `docs/desk-cycle.txt`'s lines and names the PNG's
-//!   real size;
+//!   real size, and the script `docs/desk.md` quotes under `run` is that file word for word;
 //! - every `host_sim::…` and `thermorph::…` path the pages name is a module or an item;
 //! - the thesis's figures quoted from `host-sim paper --json` (camera on: the table in
 //!   `docs/control-and-safety.md`; `--no-camera`: the table in `docs/PLANT-API.md` and the
@@ -484,7 +484,8 @@ fn desk_walk_through_runs_the_script_and_names_the_plot() {
             Some((command, _)) => command,
             None => step.rsplit_once(": ").unwrap().0,
         };
-        let line = script[number - 1];
+        // The script's own comments are not part of the step.
+        let line = script[number - 1].split('#').next().unwrap().trim_end();
         let line = line.split(" within ").next().unwrap();
         assert_eq!(step, line, "docs/desk-cycle.txt line {number}");
         n += 1;
@@ -499,6 +500,26 @@ fn desk_walk_through_runs_the_script_and_names_the_plot() {
     assert!(
         block.contains(&size),
         "the walk-through should read {size:?}"
+    );
+}
+
+/// The script `docs/desk.md` shows under `run` is `docs/desk-cycle.txt`, the one the
+/// walk-through runs and the PNG was made with, so the two cannot drift apart.
+#[test]
+fn desk_quoted_script_is_the_walk_through_script() {
+    let desk = read(&root().join("docs/desk.md"));
+    let script = read(&root().join("docs/desk-cycle.txt"));
+    let run = desk.find("\n- `run`:").expect("docs/desk.md's `run` item");
+    let open = "\n  ```text\n";
+    let at = run + desk[run..].find(open).expect("a script block under `run`") + open.len();
+    let block = &desk[at..at + desk[at..].find("  ```\n").unwrap()];
+    let quoted: String = block
+        .lines()
+        .map(|l| format!("{}\n", l.strip_prefix("  ").unwrap_or(l)))
+        .collect();
+    assert_eq!(
+        quoted, script,
+        "docs/desk.md's script under `run` against docs/desk-cycle.txt"
     );
 }
 

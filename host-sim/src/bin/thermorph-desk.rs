@@ -2,14 +2,17 @@
 //! NUCLEO board's ST-LINK virtual COM port, or `host-sim console --pty`).
 //!
 //! - `thermorph-desk connect PORT [--baud B]`: interactive console (history, Tab completion).
-//! - `thermorph-desk record PORT --out FILE.csv [--duration S] [--hz HZ]`: telemetry to CSV.
-//! - `thermorph-desk run PORT SCRIPT [--record FILE.csv]`: an experiment script (recording its
-//!   telemetry); exits 1 at the first failure.
+//! - `thermorph-desk record PORT --out FILE.csv [--duration S] [--hz HZ] [--force]`: telemetry to
+//!   CSV until the duration or Ctrl-C; `stream off` and the row count however it ends.
+//! - `thermorph-desk run PORT SCRIPT [--record FILE.csv] [--leave-running]`: an experiment
+//!   script (recording its telemetry); exits 1 at the first failure or on Ctrl-C, after sending
+//!   `stop` unless `--leave-running`.
 //! - `thermorph-desk plot FILE.csv --out FILE.png`: plot a recording or host-sim's CSV.
 //! - `thermorph-desk ports`: serial ports with their USB identities (ST-LINK marked).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use clap::{Parser, Subcommand};
@@ -41,14 +44,21 @@ enum Command {
         /// History file (default: ~/.thermorph-desk-history).
         #[arg(long)]
         history: Option<PathBuf>,
+        /// Say that a command got no reply after S seconds.
+        #[arg(long, default_value = "2", value_parser = script::seconds)]
+        reply_timeout: Duration,
     },
-    /// Turn the telemetry stream on and write every line as CSV (reconnects, marks gaps).
+    /// Turn the telemetry stream on and write every line as CSV (reconnects, marks gaps) until
+    /// the duration or Ctrl-C; `stream off` and the row count however it ends.
     Record {
         /// Serial port.
         port: String,
-        /// Output CSV.
+        /// Output CSV (created once the port answers; an existing one only with --force).
         #[arg(long)]
         out: PathBuf,
+        /// Overwrite the output CSV if it exists.
+        #[arg(long)]
+        force: bool,
         /// Stop after S seconds (default: until Ctrl-C or the port is lost for good).
         #[arg(long, value_parser = script::seconds)]
         duration: Option<Duration>,
@@ -65,9 +75,10 @@ enum Command {
         #[arg(long, default_value = "3", value_parser = script::seconds)]
         silence: Duration,
     },
-    /// Run an experiment script (see `host_sim::console::desk::script`); exit 1 at the first failure.
+    /// Run an experiment script (see `host_sim::console::desk::script`), every line checked
+    /// first; exit 1 at the first failure or on Ctrl-C, after sending `stop`.
     Run {
-        /// Serial port.
+        /// Serial port (it comes first).
         port: String,
         /// Script file.
         script: PathBuf,
@@ -80,6 +91,12 @@ enum Command {
         /// Also record the telemetry received during the run to this CSV.
         #[arg(long)]
         record: Option<PathBuf>,
+        /// Overwrite the --record CSV if it exists.
+        #[arg(long)]
+        force: bool,
+        /// On a failure or Ctrl-C, do not send `stop`: leave the block as the script left it.
+        #[arg(long)]
+        leave_running: bool,
     },
     /// Plot a recording (or host-sim's timeseries.csv) as a PNG.
     Plot {
@@ -96,8 +113,22 @@ enum Command {
     Ports,
 }
 
+/// Set by Ctrl-C (SIGINT, SIGTERM, SIGHUP): `record` and `run` stop, tidy up and report.
+static INTERRUPT: AtomicBool = AtomicBool::new(false);
+
 fn main() -> ExitCode {
     host_sim::exit(run(Cli::parse()))
+}
+
+/// Make Ctrl-C set [`INTERRUPT`]; a second Ctrl-C ends the process at once, without tidying.
+fn catch_interrupt() -> anyhow::Result<()> {
+    ctrlc::set_handler(|| {
+        if INTERRUPT.swap(true, Ordering::SeqCst) {
+            eprintln!("interrupted again: leaving without tidying up");
+            std::process::exit(130);
+        }
+    })?;
+    Ok(())
 }
 
 /// Run the command.
@@ -108,6 +139,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             baud,
             status_every,
             history,
+            reply_timeout,
         } => connect::connect(
             &port,
             &connect::ConnectOptions {
@@ -117,24 +149,27 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     std::env::var_os("HOME")
                         .map(|h| PathBuf::from(h).join(".thermorph-desk-history"))
                 }),
-                drain: Duration::from_secs(2),
+                reply_timeout,
             },
         )?,
         Command::Record {
             port,
             out,
+            force,
             duration,
             hz,
             baud,
             reconnect,
             silence,
         } => {
+            catch_interrupt()?;
             let o = record::RecordOptions {
                 baud,
                 hz,
                 duration,
                 reconnect,
                 silence,
+                force,
                 ..Default::default()
             };
             // A bar over the duration, or a spinner; each shows rows and the latest line.
@@ -148,18 +183,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             bar.enable_steady_tick(Duration::from_millis(250));
             let started = std::time::Instant::now();
-            let result = record::record(&port, &out, &o, &mut |t, s| {
+            let result = record::record(&port, &out, &o, &INTERRUPT, &mut |t, s| {
                 bar.set_position(started.elapsed().as_secs());
                 bar.set_message(format!("{} rows  {}", s.rows, t.summary()));
             });
             bar.finish_and_clear();
             let s = result?;
             eprintln!(
-                "wrote {} rows to {} ({} gaps, {} garbage lines)",
+                "wrote {} rows to {} ({} gaps, {} garbage lines){}",
                 s.rows,
                 out.display(),
                 s.gaps,
-                s.garbage
+                s.garbage,
+                if s.interrupted {
+                    "; stopped by Ctrl-C, `stream off` sent"
+                } else {
+                    "; `stream off` sent"
+                }
             );
         }
         Command::Run {
@@ -168,13 +208,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             baud,
             reply_timeout,
             record,
+            force,
+            leave_running,
         } => {
+            catch_interrupt()?;
             script::run_file(
                 &port,
-                baud,
                 &script,
-                reply_timeout,
-                record.as_deref(),
+                &script::RunOptions {
+                    baud,
+                    reply_timeout,
+                    record,
+                    force,
+                    leave_running,
+                },
+                &INTERRUPT,
                 &mut |l| println!("{l}"),
             )?;
             println!("script passed");

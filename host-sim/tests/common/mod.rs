@@ -1,10 +1,10 @@
 //! Helpers the desk's end-to-end tests share: running `thermorph-desk` with a deadline, a
-//! scratch folder, a PNG's size.
+//! scratch folder, a PNG's size; a desk started in the background and interrupted (Ctrl-C).
 #![allow(dead_code)]
 
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The desk binary.
@@ -18,9 +18,18 @@ pub struct Outcome {
     pub took: Duration,
 }
 
-/// Run the desk with `args` (and `stdin`), killing it and failing if it outlives `limit`.
-pub fn desk(args: &[&str], stdin: &str, limit: Duration) -> Outcome {
-    let started = Instant::now();
+/// A desk process started by [`start`].
+pub struct Running {
+    child: Child,
+    args: Vec<String>,
+    started: Instant,
+    feeder: std::thread::JoinHandle<()>,
+    out_t: std::thread::JoinHandle<String>,
+    err_t: std::thread::JoinHandle<String>,
+}
+
+/// Start the desk with `args`, `stdin` fed to it.
+pub fn start(args: &[&str], stdin: &str) -> Running {
     let mut child = Command::new(DESK)
         .args(args)
         .env("HOME", std::env::temp_dir())
@@ -46,27 +55,56 @@ pub fn desk(args: &[&str], stdin: &str, limit: Duration) -> Outcome {
         let _ = err.read_to_string(&mut s);
         s
     });
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if started.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!(
-                "thermorph-desk {args:?} still running after {limit:?}; stderr: {}",
-                err_t.join().unwrap()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    feeder.join().unwrap();
-    Outcome {
-        ok: status.success(),
-        stdout: out_t.join().unwrap(),
-        stderr: err_t.join().unwrap(),
-        took: started.elapsed(),
+    Running {
+        child,
+        args: args.iter().map(|a| a.to_string()).collect(),
+        started: Instant::now(),
+        feeder,
+        out_t,
+        err_t,
     }
+}
+
+impl Running {
+    /// Send SIGINT, as Ctrl-C on its terminal does.
+    pub fn interrupt(&self) {
+        nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(self.child.id() as i32),
+            nix::sys::signal::Signal::SIGINT,
+        )
+        .expect("SIGINT to the desk");
+    }
+
+    /// Wait for the end, killing it and failing if it outlives `limit` (from its start).
+    pub fn finish(mut self, limit: Duration) -> Outcome {
+        let status = loop {
+            if let Some(s) = self.child.try_wait().unwrap() {
+                break s;
+            }
+            if self.started.elapsed() > limit {
+                let _ = self.child.kill();
+                let _ = self.child.wait();
+                panic!(
+                    "thermorph-desk {:?} still running after {limit:?}; stderr: {}",
+                    self.args,
+                    self.err_t.join().unwrap()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        self.feeder.join().unwrap();
+        Outcome {
+            ok: status.success(),
+            stdout: self.out_t.join().unwrap(),
+            stderr: self.err_t.join().unwrap(),
+            took: self.started.elapsed(),
+        }
+    }
+}
+
+/// Run the desk with `args` (and `stdin`), killing it and failing if it outlives `limit`.
+pub fn desk(args: &[&str], stdin: &str, limit: Duration) -> Outcome {
+    start(args, stdin).finish(limit)
 }
 
 pub fn scratch(name: &str) -> PathBuf {

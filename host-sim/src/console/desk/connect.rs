@@ -6,10 +6,15 @@
 //! prints line by line; a status line `| t=… mode … T1 … T2 …` of the latest telemetry is printed
 //! at most every `--status-every` seconds, and `.t` prints the latest telemetry line in full.
 //!
+//! A command that gets no reply within `--reply-timeout` is said so (``! no reply to `status`
+//! … within 2.0 s …``), as `run` says it. A line starting with a dot is the desk's own: one it does
+//! not know is refused here, never sent to the board.
+//!
 //! Leaving (`.quit`, Ctrl-D or Ctrl-C) sends nothing: the block stays in whatever mode it is in.
 //! Only a typed `stop` turns its outputs off.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -36,6 +41,24 @@ pub const LOCAL: [(&str, &str); 3] = [
     (".t", "print the latest telemetry line in full"),
     (".help", "this list (the board's commands: `help`)"),
 ];
+
+/// What the desk does with a line starting with a dot: `Ok` with the [`LOCAL`] command it is
+/// (`.q` and `.exit` are `.quit`), or the message refusing it (it is never sent to the board).
+pub fn local(line: &str) -> Result<&'static str, String> {
+    let word = line.split_whitespace().next().unwrap_or(line);
+    let word = match word {
+        ".q" | ".exit" => ".quit",
+        w => w,
+    };
+    LOCAL.iter().find(|l| l.0 == word).map(|l| l.0).ok_or_else(|| {
+        let names: Vec<&str> = LOCAL.iter().map(|l| l.0).collect();
+        format!(
+            "`{word}` is not a desk command (the desk's: {}); nothing sent. The board's commands \
+             have no dot: `help` lists them",
+            names.join(" ")
+        )
+    })
+}
 
 /// Completion candidates for the text before the cursor: where the word being completed starts
 /// and the words that fit.
@@ -116,8 +139,17 @@ pub struct ConnectOptions {
     pub status_every: Option<Duration>,
     /// History file.
     pub history: Option<std::path::PathBuf>,
-    /// On leaving, how long to wait for replies still due.
-    pub drain: Duration,
+    /// How long a command may wait for its reply before the desk says none came (and, on
+    /// leaving, how long it waits for replies still due).
+    pub reply_timeout: Duration,
+}
+
+/// The note for a command that got no reply in time.
+fn no_reply(line: &str, path: &str, timeout: Duration) -> String {
+    format!(
+        "! no reply to `{line}` from {path} within {:.1} s: is this a Thermorph console?",
+        timeout.as_secs_f64()
+    )
 }
 
 /// Run the interactive console on `path` until the user leaves or the port is lost.
@@ -140,6 +172,8 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
     // (nor the main thread, which prints its own lines directly between prompts).
     let direct = Arc::new(AtomicBool::new(false));
     let (tx, rx) = std::sync::mpsc::channel::<String>();
+    // Said by the printer thread once every line sent to it is out.
+    let (printed_tx, printed) = std::sync::mpsc::channel::<()>();
     {
         let direct = direct.clone();
         let mut external = rl.create_external_printer().ok();
@@ -152,6 +186,7 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
                     _ => println!("{msg}"),
                 }
             }
+            let _ = printed_tx.send(());
         });
     }
     let print = move |s: String| {
@@ -163,26 +198,39 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
     );
     let stop = Arc::new(AtomicBool::new(false));
     let lost = Arc::new(AtomicBool::new(false));
-    let replies = Arc::new(AtomicU64::new(0));
+    // The commands sent and not answered yet, oldest first, with when they were sent.
+    let pending: Arc<Mutex<VecDeque<(Instant, String)>>> = Arc::default();
     let latest: Arc<Mutex<Option<String>>> = Arc::new(Mutex::new(None));
     let thread = {
-        let (stop, lost, replies, latest, print) = (
+        let (stop, lost, pending, latest, print) = (
             stop.clone(),
             lost.clone(),
-            replies.clone(),
+            pending.clone(),
             latest.clone(),
             print.clone(),
         );
         let every = o.status_every;
+        let timeout = o.reply_timeout;
+        let path = path.to_string();
         std::thread::spawn(move || {
             let mut last_status: Option<Instant> = None;
             let mut last_garbage: Option<Instant> = None;
             let mut unreadable = 0u64;
             while !stop.load(Ordering::Relaxed) {
+                // Commands whose reply is overdue: said once, then forgotten.
+                if let Ok(mut p) = pending.lock() {
+                    while p.front().is_some_and(|(at, _)| at.elapsed() >= timeout) {
+                        if let Some((_, line)) = p.pop_front() {
+                            print(no_reply(&line, &path, timeout));
+                        }
+                    }
+                }
                 match reader.next_line(Instant::now() + Duration::from_millis(100)) {
                     Ok(Some(Line::Reply(r))) => {
                         print(format!("< {r}"));
-                        replies.fetch_add(1, Ordering::SeqCst);
+                        if let Ok(mut p) = pending.lock() {
+                            p.pop_front();
+                        }
                     }
                     Ok(Some(Line::Async(a))) => {
                         if let Some(t) = Telemetry::parse(&a) {
@@ -220,7 +268,6 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
             }
         })
     };
-    let mut sent = 0u64;
     let mut result = Ok(());
     loop {
         if lost.load(Ordering::SeqCst) {
@@ -234,26 +281,30 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
                     continue;
                 }
                 let _ = rl.add_history_entry(line);
-                match line {
-                    ".quit" | ".exit" | ".q" => break,
-                    ".t" => {
+                let desk = line.starts_with('.').then(|| local(line));
+                match desk {
+                    Some(Err(why)) => println!("! {why}"),
+                    Some(Ok(".quit")) => break,
+                    Some(Ok(".t")) => {
                         let l = latest.lock().ok().and_then(|l| l.clone());
                         println!(
                             "{}",
                             l.unwrap_or_else(|| "no telemetry yet (`stream on`)".into())
                         );
                     }
-                    ".help" => {
+                    Some(Ok(_)) => {
                         for (n, h) in LOCAL {
                             println!("{n:8} {h}");
                         }
                     }
-                    _ => {
+                    None => {
+                        if let Ok(mut p) = pending.lock() {
+                            p.push_back((Instant::now(), line.to_string()));
+                        }
                         if let Err(e) = link.send(line) {
                             result = Err(e.into());
                             break;
                         }
-                        sent += 1;
                     }
                 }
             }
@@ -266,8 +317,9 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
     }
     // Let the replies still due arrive before leaving; the editor is done, so print directly.
     direct.store(true, Ordering::SeqCst);
-    let until = Instant::now() + o.drain;
-    while replies.load(Ordering::SeqCst) < sent
+    // (The reader thread says which of them timed out.)
+    let until = Instant::now() + o.reply_timeout + Duration::from_millis(300);
+    while pending.lock().is_ok_and(|p| !p.is_empty())
         && Instant::now() < until
         && !lost.load(Ordering::SeqCst)
     {
@@ -275,6 +327,15 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
     }
     stop.store(true, Ordering::SeqCst);
     let _ = thread.join();
+    // Every line the reader passed on is printed before leaving (the channel closes with the
+    // last sender; bounded, in case the editor's printer is stuck).
+    drop(print);
+    let _ = printed.recv_timeout(Duration::from_millis(500));
+    if let Ok(mut p) = pending.lock() {
+        for (_, line) in p.drain(..) {
+            println!("{}", no_reply(&line, path, o.reply_timeout));
+        }
+    }
     if let Some(h) = &o.history {
         let _ = rl.save_history(h);
     }
@@ -305,5 +366,18 @@ mod tests {
         let (_, all) = complete("");
         assert_eq!(all.len(), COMMANDS.len() + LOCAL.len());
         assert!(complete(".q").1.contains(&".quit".to_string()));
+    }
+
+    #[test]
+    fn dot_lines_are_the_desks_own() {
+        assert_eq!(local(".quit"), Ok(".quit"));
+        assert_eq!(local(".q"), Ok(".quit"));
+        assert_eq!(local(".t"), Ok(".t"));
+        let e = local(".foo bar").unwrap_err();
+        assert!(e.contains("`.foo` is not a desk command"), "{e}");
+        assert!(
+            e.contains(".quit .t .help") && e.contains("nothing sent"),
+            "{e}"
+        );
     }
 }

@@ -61,8 +61,17 @@ pub struct Link {
 }
 
 impl Link {
-    /// Open `path` at `baud`, 8N1, no flow control.
+    /// Open `path` at `baud`, 8N1, no flow control. A regular file or a directory is refused
+    /// by name (never a serial port: most likely arguments given in the wrong order).
     pub fn open(path: &str, baud: u32) -> Result<Link, LinkError> {
+        if let Ok(m) = std::fs::metadata(path)
+            && (m.is_file() || m.is_dir())
+        {
+            let what = if m.is_dir() { "directory" } else { "file" };
+            return Err(LinkError::Open(format!(
+                "{path}: a {what}, not a serial port"
+            )));
+        }
         let port = serialport::new(path, baud)
             .timeout(POLL)
             .open()

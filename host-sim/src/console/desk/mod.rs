@@ -41,21 +41,57 @@ pub enum DeskError {
         /// Why.
         err: std::io::Error,
     },
-    /// A script file has a line that cannot be read.
-    #[error("{}: {err}", path.display())]
+    /// Script lines that cannot be read (every one of them, found before anything is sent), or
+    /// the line that failed when run: `FILE:LINE: reason` (`line LINE: reason` without a
+    /// file), one a line.
+    #[error("{}", script_lines(file.as_deref(), lines))]
     Script {
-        /// The script file.
-        path: PathBuf,
-        /// The line and what is wrong with it ([`DeskError::Line`]).
-        err: Box<DeskError>,
+        /// The script file, once known.
+        file: Option<PathBuf>,
+        /// Each line (1-based) and what is wrong with it.
+        lines: Vec<(usize, DeskError)>,
     },
-    /// A script line cannot be read, or failed when run.
-    #[error("line {line}: {err}")]
-    Line {
-        /// The line, 1-based.
-        line: usize,
-        /// What is wrong with it.
+    /// `run`'s SCRIPT is not a file one can read a script from (a device: the arguments are
+    /// probably swapped).
+    #[error(
+        "{}: {what}, not a script file; the port comes first: `thermorph-desk run PORT SCRIPT`",
+        path.display()
+    )]
+    NotAScript {
+        /// The path given as SCRIPT.
+        path: PathBuf,
+        /// What it is instead.
+        what: &'static str,
+    },
+    /// The run was interrupted (Ctrl-C, or the process was asked to end).
+    #[error("interrupted (Ctrl-C)")]
+    Interrupted,
+    /// A recording would overwrite an existing file.
+    #[error(
+        "{}: the file exists; pass --force to overwrite it (nothing was sent to the board)",
+        path.display()
+    )]
+    Exists {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A recording that had begun ended with an error; what it kept is said with it.
+    #[error(
+        "{err} (kept {rows} rows, {gaps} gaps in {}; {})",
+        path.display(),
+        if *stream_off { "`stream off` sent" } else { "could not send `stream off`" }
+    )]
+    RecordingEnded {
+        /// Why it ended.
         err: Box<DeskError>,
+        /// The CSV.
+        path: PathBuf,
+        /// Rows written.
+        rows: u64,
+        /// Gaps marked.
+        gaps: u64,
+        /// Whether the board acknowledged `stream off`.
+        stream_off: bool,
     },
     /// A command the library's parser refuses.
     #[error("`{command}`: {message}")]
@@ -80,8 +116,14 @@ pub enum DeskError {
     /// `stream on` got an error reply.
     #[error("`stream on` refused: {0}")]
     StreamRefused(String),
+    /// `stream off` got no `ok`: the telemetry stream may still be on.
+    #[error("`stream off` was not acknowledged: the board may still be streaming telemetry")]
+    StreamOffRefused,
     /// `status` lacks the field a condition names.
-    #[error("`status` has no field `{field}` (it has: {fields})")]
+    #[error(
+        "`status` has no field `{field}`{} (it has: {fields})",
+        did_you_mean(field, fields)
+    )]
     NoField {
         /// The field asked for.
         field: String,
@@ -156,6 +198,45 @@ pub enum DeskError {
     /// The serial ports cannot be listed.
     #[error("listing ports: {0}")]
     Ports(serialport::Error),
+}
+
+/// ` (did you mean `x`?)` for the field of `fields` (space separated) closest to `field`, if
+/// one is at most two edits away.
+fn did_you_mean(field: &str, fields: &str) -> String {
+    fields
+        .split_whitespace()
+        .map(|f| (edits(field, f), f))
+        .filter(|(d, _)| *d <= 2)
+        .min()
+        .map_or(String::new(), |(_, f)| format!(" (did you mean `{f}`?)"))
+}
+
+/// The edit distance between `a` and `b` (insertions, deletions, substitutions).
+fn edits(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let keep = prev + usize::from(ca != *cb);
+            prev = row[j + 1];
+            row[j + 1] = keep.min(prev + 1).min(row[j] + 1);
+        }
+    }
+    row[b.len()]
+}
+
+/// `FILE:LINE: reason` (or `line LINE: reason`), one a line.
+fn script_lines(file: Option<&std::path::Path>, lines: &[(usize, DeskError)]) -> String {
+    lines
+        .iter()
+        .map(|(n, e)| match file {
+            Some(f) => format!("{}:{n}: {e}", f.display()),
+            None => format!("line {n}: {e}"),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 /// A `wait` whose condition did not hold in time, with the last `status` seen.

@@ -14,16 +14,25 @@
 //! FIELD is a field of the `status` reply (`mode`, `phase`, `tc_k`, `t1_k`, `fault`, …); OP is
 //! one of `==`, `!=`, `<`, `<=`, `>`, `>=`; numbers compare as numbers, words as words. So
 //! `wait mode == form`, `wait fault != none within 30` and `wait tc_k >= 355 within 120` wait for
-//! a mode, a fault and a temperature. Commands are checked with the library's parser when the
-//! script is read; the run stops at the first failure. With `--record FILE.csv` the run turns
-//! the telemetry stream on and writes every telemetry line it receives, as `record` does (one
-//! serial port has room for one program, so the script's run records its own experiment).
+//! a mode, a fault and a temperature.
+//!
+//! Every line is checked when the script is read, before anything is sent: commands with the
+//! library's parser, FIELD against the fields the library's `status` reply has
+//! ([`status_fields`]); every bad line is reported as `FILE:LINE: reason`. The run stops at the
+//! first failure. A run that fails or is interrupted (Ctrl-C) once its commands have gone out
+//! sends `stop` (unless [`RunOptions::leave_running`]) and says in what state it left the
+//! block; a run that passes leaves the block as its script left it. With `--record FILE.csv` the run turns the telemetry
+//! stream on and writes every telemetry line it receives, as `record` does (one serial port has
+//! room for one program, so the script's run records its own experiment), and turns it off
+//! however the run ends.
 
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use super::link::{Line, Link};
+use super::link::{Line, Link, LinkError};
 use super::record::CsvSink;
-use super::telemetry::{Fields, fields, get};
+use super::telemetry::{Fields, fields, get, status_fields};
 use super::{DeskError, WaitTimeout};
 
 /// Default `wait` timeout.
@@ -174,17 +183,32 @@ fn cond(words: &[&str]) -> Result<Cond, DeskError> {
     }
 }
 
-/// A script line's error: `line N: …`.
+/// A script line's error: `line N: …` ([`DeskError::Script`] without a file yet).
 fn at_line(line: usize) -> impl Fn(DeskError) -> DeskError + Copy {
-    move |e| DeskError::Line {
-        line,
-        err: Box::new(e),
+    move |e| DeskError::Script {
+        file: None,
+        lines: vec![(line, e)],
     }
 }
 
-/// Parse a script; the error ([`DeskError::Line`]) names the line.
+/// `Err` unless `status` has the condition's field.
+fn check_field(c: &Cond, known: &[String]) -> Result<(), DeskError> {
+    if known.contains(&c.field) {
+        Ok(())
+    } else {
+        Err(DeskError::NoField {
+            field: c.field.clone(),
+            fields: known.join(" "),
+        })
+    }
+}
+
+/// Parse a script, checking every line; the error ([`DeskError::Script`]) names every bad
+/// line.
 pub fn parse(text: &str) -> Result<Script, DeskError> {
+    let known = status_fields();
     let mut out = Vec::new();
+    let mut bad = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let n = i + 1;
         let line = raw.split('#').next().unwrap_or("").trim();
@@ -199,9 +223,14 @@ pub fn parse(text: &str) -> Result<Script, DeskError> {
                         [.., "within", s] => (cond(&words[1..words.len() - 2])?, seconds(s)?),
                         _ => (cond(&words[1..])?, DEFAULT_WAIT),
                     };
+                    check_field(&c, &known)?;
                     Ok(Step::Wait { cond: c, within })
                 }
-                "expect" => Ok(Step::Expect(cond(&words[1..])?)),
+                "expect" => {
+                    let c = cond(&words[1..])?;
+                    check_field(&c, &known)?;
+                    Ok(Step::Expect(c))
+                }
                 "sleep" => match words[1..] {
                     [s] => Ok(Step::Sleep(seconds(s)?)),
                     _ => Err(DeskError::Usage("`sleep SECONDS`")),
@@ -235,11 +264,20 @@ pub fn parse(text: &str) -> Result<Script, DeskError> {
                     })
                 }
             }
-        })()
-        .map_err(at_line(n))?;
-        out.push((n, step));
+        })();
+        match step {
+            Ok(step) => out.push((n, step)),
+            Err(e) => bad.push((n, e)),
+        }
     }
-    Ok(out)
+    if bad.is_empty() {
+        Ok(out)
+    } else {
+        Err(DeskError::Script {
+            file: None,
+            lines: bad,
+        })
+    }
 }
 
 /// Send `line` and return its reply; telemetry that comes first goes to `sink`.
@@ -286,19 +324,29 @@ fn check(f: &Fields, c: &Cond) -> Result<bool, DeskError> {
     }
 }
 
-/// Run `script` on `link`, logging each step to `log`; stop at the first failure with an error
-/// naming the line.
+/// Run `script` on `link`, logging each step to `log`; stop at the first failure, or once
+/// `interrupt` is set, with an error naming the line. `sent` is set as soon as one of the
+/// script's commands has gone out (the block may then be in a state the script brought it to).
 pub fn run(
     link: &mut Link,
     script: &Script,
     reply_timeout: Duration,
     sink: &mut Option<CsvSink>,
+    interrupt: &AtomicBool,
+    sent: &mut bool,
     log: &mut dyn FnMut(&str),
 ) -> Result<(), DeskError> {
     let started = Instant::now();
+    let stopped = || interrupt.load(Ordering::SeqCst);
     for (n, step) in script {
         let at = || format!("[{:7.2} s] line {n}:", started.elapsed().as_secs_f64());
         let fail = at_line(*n);
+        if stopped() {
+            return Err(fail(DeskError::Interrupted));
+        }
+        if matches!(step, Step::Command { .. } | Step::ExpectErr { .. }) {
+            *sent = true;
+        }
         match step {
             Step::Command { line, any } => {
                 let r = command(link, line, reply_timeout, sink).map_err(fail)?;
@@ -352,11 +400,11 @@ pub fn run(
                     }
                     let next =
                         Instant::now() + POLL.min(until.saturating_duration_since(Instant::now()));
-                    drain(link, next, sink).map_err(fail)?;
+                    drain(link, next, sink, interrupt).map_err(fail)?;
                 }
             }
             Step::Sleep(d) => {
-                drain(link, Instant::now() + *d, sink).map_err(fail)?;
+                drain(link, Instant::now() + *d, sink, interrupt).map_err(fail)?;
                 log(&format!("{} slept {:.1} s", at(), d.as_secs_f64()));
             }
         }
@@ -364,54 +412,232 @@ pub fn run(
     Ok(())
 }
 
-/// Read lines until `until`, writing telemetry to `sink` (so nothing piles up while waiting).
-fn drain(link: &mut Link, until: Instant, sink: &mut Option<CsvSink>) -> Result<(), DeskError> {
-    while let Some(l) = link.next_line(until)? {
-        if let (Line::Async(a), Some(s)) = (l, sink.as_mut()) {
-            s.line(&a)?;
+/// Read lines until `until`, writing telemetry to `sink` (so nothing piles up while waiting);
+/// [`DeskError::Interrupted`] as soon as `interrupt` is set.
+fn drain(
+    link: &mut Link,
+    until: Instant,
+    sink: &mut Option<CsvSink>,
+    interrupt: &AtomicBool,
+) -> Result<(), DeskError> {
+    loop {
+        if interrupt.load(Ordering::SeqCst) {
+            return Err(DeskError::Interrupted);
+        }
+        let now = Instant::now();
+        if now >= until {
+            return Ok(());
+        }
+        let step = until.min(now + Duration::from_millis(100));
+        while let Some(l) = link.next_line(step)? {
+            if let (Line::Async(a), Some(s)) = (l, sink.as_mut()) {
+                s.line(&a)?;
+            }
         }
     }
-    Ok(())
 }
 
-/// Open `path` and run the script file `script_path`; with `record`, write the telemetry
-/// received meanwhile to that CSV (the stream is turned on first and off at the end).
-pub fn run_file(
-    path: &str,
-    baud: u32,
-    script_path: &std::path::Path,
-    reply_timeout: Duration,
-    record: Option<&std::path::Path>,
-    log: &mut dyn FnMut(&str),
-) -> Result<(), DeskError> {
+/// How `run` runs.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Baud rate.
+    pub baud: u32,
+    /// How long a command may wait for its reply.
+    pub reply_timeout: Duration,
+    /// Also record the telemetry received during the run to this CSV.
+    pub record: Option<PathBuf>,
+    /// Overwrite the recording's file if it exists.
+    pub force: bool,
+    /// On a failure or an interruption, send nothing: leave the block in the state the script
+    /// had brought it to (the desk still says what that state is).
+    pub leave_running: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            baud: super::link::DEFAULT_BAUD,
+            reply_timeout: Duration::from_secs(2),
+            record: None,
+            force: false,
+            leave_running: false,
+        }
+    }
+}
+
+/// Read and check the script file `script_path` ([`parse`]); errors name the file.
+pub fn read_file(script_path: &Path) -> Result<Script, DeskError> {
+    // A device given as SCRIPT (the arguments swapped: `run SCRIPT PORT`) would block a read,
+    // or read the board's own lines: refuse anything but a file.
+    if let Ok(m) = std::fs::metadata(script_path)
+        && !m.is_file()
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = m.file_type();
+        let what = if t.is_char_device() {
+            "a device (a serial port?)"
+        } else if t.is_dir() {
+            "a directory"
+        } else {
+            "not a regular file"
+        };
+        return Err(DeskError::NotAScript {
+            path: script_path.to_path_buf(),
+            what,
+        });
+    }
     let text = std::fs::read_to_string(script_path).map_err(|err| DeskError::File {
         path: script_path.to_path_buf(),
         err,
     })?;
-    let script = parse(&text).map_err(|e| DeskError::Script {
-        path: script_path.to_path_buf(),
-        err: Box::new(e),
-    })?;
-    let mut link = Link::open(path, baud)?;
-    let mut sink = record.map(CsvSink::create).transpose()?;
-    if sink.is_some() {
-        let r = command(&mut link, "stream on", reply_timeout, &mut sink)?;
-        if !r.starts_with("ok") {
-            return Err(DeskError::StreamRefused(r));
+    parse(&text).map_err(|e| in_file(e, script_path))
+}
+
+/// Name `file` in a script line's error.
+fn in_file(e: DeskError, file: &Path) -> DeskError {
+    match e {
+        DeskError::Script { lines, .. } => DeskError::Script {
+            file: Some(file.to_path_buf()),
+            lines,
+        },
+        e => e,
+    }
+}
+
+/// `Err` if `path` is a regular file or a directory: never a serial port (`run SCRIPT PORT`,
+/// the arguments swapped).
+fn check_port(path: &str) -> Result<(), DeskError> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() || m.is_dir() => Err(LinkError::Open(format!(
+            "{path}: a {}, not a serial port; the port comes first: `thermorph-desk run PORT SCRIPT`",
+            if m.is_dir() { "directory" } else { "file" }
+        ))
+        .into()),
+        _ => Ok(()),
+    }
+}
+
+/// Open `path` and run the script file `script_path` (checked whole before anything is sent);
+/// with [`RunOptions::record`], write the telemetry received meanwhile to that CSV (the stream
+/// is turned on first and off however the run ends). A failure or `interrupt` sends `stop`
+/// unless [`RunOptions::leave_running`] (or none of the script's commands had gone out yet);
+/// either way `log` is told the state the block is left in.
+pub fn run_file(
+    path: &str,
+    script_path: &Path,
+    o: &RunOptions,
+    interrupt: &AtomicBool,
+    log: &mut dyn FnMut(&str),
+) -> Result<(), DeskError> {
+    check_port(path)?;
+    let script = read_file(script_path)?;
+    if let Some(r) = &o.record {
+        super::record::check_out(r, o.force)?;
+    }
+    let mut link = Link::open(path, o.baud)?;
+    // The recording's file is created only once the board has answered `stream on`.
+    let mut sink = None;
+    if let Some(r) = &o.record {
+        let mut held = Vec::new();
+        let reply = link.command("stream on", o.reply_timeout, &mut |l| {
+            held.push(l.to_string())
+        })?;
+        if !reply.starts_with("ok") {
+            return Err(DeskError::StreamRefused(reply));
+        }
+        let s = sink.insert(match CsvSink::create(r, o.force) {
+            Ok(s) => s,
+            Err(e) => {
+                let _ = link.command("stream off", o.reply_timeout, &mut |_| {});
+                return Err(e);
+            }
+        });
+        for l in &held {
+            s.line(l)?;
         }
     }
-    let result = run(&mut link, &script, reply_timeout, &mut sink, log);
+    let mut sent = false;
+    let result = run(
+        &mut link,
+        &script,
+        o.reply_timeout,
+        &mut sink,
+        interrupt,
+        &mut sent,
+        log,
+    )
+    .map_err(|e| in_file(e, script_path));
+    if result.is_err() {
+        if sent {
+            leave(&mut link, o, &mut sink, log);
+        } else {
+            log("the run failed before any of its commands was sent: the block is left as it was");
+        }
+    }
     if sink.is_some() {
         // Best effort: the run's result matters more than the stream's state.
-        let _ = command(&mut link, "stream off", reply_timeout, &mut sink);
+        match command(&mut link, "stream off", o.reply_timeout, &mut sink) {
+            Ok(r) if r.starts_with("ok") => {}
+            Ok(r) => log(&format!("`stream off` got `{r}`")),
+            Err(e) => log(&format!("could not send `stream off`: {e}")),
+        }
     }
     if let Some(s) = &sink {
         log(&format!(
-            "recorded {} telemetry rows ({} gaps)",
-            s.rows, s.gaps
+            "recorded {} telemetry rows ({} gaps) to {}",
+            s.rows,
+            s.gaps,
+            s.path().display()
         ));
     }
     result
+}
+
+/// After a failed or interrupted run: send `stop` (unless [`RunOptions::leave_running`]) and
+/// say in what state the block is left.
+fn leave(link: &mut Link, o: &RunOptions, sink: &mut Option<CsvSink>, log: &mut dyn FnMut(&str)) {
+    let state =
+        |link: &mut Link, sink: &mut Option<CsvSink>| match status(link, o.reply_timeout, sink) {
+            Ok(f) => {
+                let g = |n| get(&f, n).unwrap_or("?").to_string();
+                format!(
+                    "mode {} (phase {}), heater {} %, fan {} %, springs {}, fault {}",
+                    g("mode"),
+                    g("phase"),
+                    g("heater_pct"),
+                    g("fan_pct"),
+                    g("springs"),
+                    g("fault")
+                )
+            }
+            Err(e) => format!("in a state unknown ({e})"),
+        };
+    if o.leave_running {
+        let s = state(link, sink);
+        log(&format!(
+            "the run failed; --leave-running: nothing sent, the block is left in {s} (type `stop` \
+             to end it)"
+        ));
+        return;
+    }
+    match command(link, "stop", o.reply_timeout, sink) {
+        Ok(r) if r.starts_with("ok") => {
+            let s = state(link, sink);
+            log(&format!(
+                "the run failed: sent `stop` -> {r}; the block is left in {s}"
+            ));
+        }
+        Ok(r) => {
+            let s = state(link, sink);
+            log(&format!(
+                "the run failed: sent `stop` but it got `{r}`; the block may still be running: {s}"
+            ));
+        }
+        Err(e) => log(&format!(
+            "the run failed: could not send `stop` ({e}); the block may still be running as the \
+             script left it"
+        )),
+    }
 }
 
 #[cfg(test)]
@@ -507,6 +733,30 @@ mod tests {
         );
         assert!(parse("sleep -1").is_err());
         assert!(parse("expect mode").is_err());
+    }
+
+    #[test]
+    fn every_bad_line_is_found_before_anything_runs() {
+        let e =
+            parse("mode standby\nwait tck >= 300\nexpect fault == none\nexpect faults == none\n")
+                .unwrap_err()
+                .to_string();
+        let lines: Vec<&str> = e.lines().collect();
+        assert_eq!(lines.len(), 2, "{e}");
+        assert!(
+            lines[0].starts_with("line 2: `status` has no field `tck` (did you mean `tc_k`?)"),
+            "{e}"
+        );
+        assert!(
+            lines[1].starts_with("line 4: `status` has no field `faults` (did you mean `fault`?)"),
+            "{e}"
+        );
+        // No suggestion for a name nothing is close to; the fields are listed.
+        let e = parse("wait colour == red").unwrap_err().to_string();
+        assert!(!e.contains("did you mean") && e.contains("tc_k"), "{e}");
+        // Named with the file once it is known.
+        let e = in_file(parse("\nsleep x").unwrap_err(), Path::new("s.txt"));
+        assert_eq!(e.to_string(), "s.txt:2: `x` is not a number of seconds");
     }
 
     #[test]

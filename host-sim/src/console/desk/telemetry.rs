@@ -5,6 +5,9 @@
 //! [`TELEMETRY_FIELDS`]; the CSV is `time_s` (host seconds since the recording started, steady
 //! across board resets), those fields in that order, and `gap` (`-`, or why rows may be missing
 //! just before this one: `reset`, `reconnect`, `silence`).
+//!
+//! [`status_fields`] are the `status` reply's field names as the library writes them, so a
+//! script's `wait`/`expect` can be checked before anything is sent.
 
 use thermorph::supervisor::report::TELEMETRY_FIELDS;
 
@@ -42,6 +45,36 @@ pub fn fields(text: &str) -> Fields {
 /// Return the value of `name` in `f`.
 pub fn get<'a>(f: &'a Fields, name: &str) -> Option<&'a str> {
     f.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str())
+}
+
+/// The field names of a `status` reply, in the order the library writes them, learned from the
+/// library itself: a fresh supervisor is given a frame (so the frame's fields are there), then
+/// one hot enough to latch a fault (so the fault's `reason` is there too), and asked for
+/// `status`.
+pub fn status_fields() -> Vec<String> {
+    use thermorph::measurement::{Measurement, Quality};
+    use thermorph::settings::Settings;
+    use thermorph::supervisor::Supervisor;
+    use thermorph::units::{Kelvin, Millis};
+    let frame = |ms: u64, k: f32| Measurement {
+        at: Millis(ms),
+        seq: ms as u32,
+        regions: [Kelvin::new(k); thermorph::mtts::REGIONS],
+        hottest: Kelvin::new(k),
+        filled_pixels: 0,
+        quality: Quality::Resolved,
+        bound: Kelvin::lit(0.5),
+    };
+    let mut s = Supervisor::new(Millis(0), Settings::DEFAULT);
+    s.step(Millis(100), Some(&frame(100, 300.0)), None);
+    s.step(Millis(200), Some(&frame(200, 900.0)), None);
+    let status = thermorph::command::parse("status").ok();
+    let reply = s.step(Millis(210), None, status).reply;
+    let text = reply.as_ref().map_or("", |r| r.as_str());
+    fields(text.strip_prefix("ok").unwrap_or(""))
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect()
 }
 
 /// A parsed telemetry line: the library's fields, in [`TELEMETRY_FIELDS`] order (`None` where
@@ -145,6 +178,20 @@ mod tests {
         assert_eq!(header.split(',').count(), row.split(',').count());
         assert!(header.starts_with("time_s,t_s,mode,"));
         assert!(row.starts_with("1.500,12.345,standby,") && row.ends_with(",reset"));
+    }
+
+    #[test]
+    fn status_fields_come_from_the_library() {
+        let f = status_fields();
+        for n in [
+            "mode", "phase", "tc_k", "t1_k", "filled", "springs", "fault", "reason",
+        ] {
+            assert!(f.iter().any(|x| x == n), "{n} not in {f:?}");
+        }
+        // Every telemetry field but the board's clock is a `status` field too.
+        for n in TELEMETRY_FIELDS.iter().filter(|n| **n != "t_s") {
+            assert!(f.iter().any(|x| x == n), "{n} not in {f:?}");
+        }
     }
 
     #[test]
