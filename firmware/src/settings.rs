@@ -57,7 +57,10 @@ pub struct Settings {
     /// ceiling until the colder region is at `hot_k`, the fastest the heater can soften the
     /// wall (and what the soak's "can it soften" projection assumes); the observer's inner-layer
     /// cap keeps the unseen inner layer below `t_max_k`. (With readiness by Tc, 0.5 was faster;
-    /// readiness is now by softness.)
+    /// readiness is now by softness. 0.5 stayed the default until the wall's refit, where a
+    /// loop on half the film drove the heater and the fan in turn at ≈ 2 Hz through recovery's
+    /// hold — 25 fan switches in the default cycle, one with 0 — and ended 1.5° bent, 0.1°
+    /// with 0.)
     pub w1_recover: f32,
     /// Weight of T1 in Tc in forming (ordering: T1 = the colder, heater side): 0 cools until the
     /// hotter region is at `form_end_k`.
@@ -206,7 +209,7 @@ impl Settings {
         functional_band_k: 50.0,
         w1_standby: 1.0,
         w1_step: 0.0,
-        w1_recover: 0.5,
+        w1_recover: 0.0,
         w1_form: 0.0,
         heater_cap_k: 393.0,
         heater_cap_band_k: 4.0,

@@ -236,7 +236,7 @@ impl ObserverParams {
             // load, which the model does not carry): with 12, recovery's hold kept the loaded
             // springs ≈ 7.5 K under the estimate, 0.97 austenite, and the column came back 10°
             // bent at 298 K (12° at 263 K); with 13.2 they sit 3.8 K under it and the cycle
-            // ends within 0.6° at every ambient from 263 to 323 K. An unloaded spring held at
+            // ends within 0.4° at every ambient from 263 to 323 K. An unloaded spring held at
             // the band then runs ≈ 2.9 K above its estimate.
             ambient_w_per_k: 13.2 * PI * 2.3e-3 * SPRING_WIRE_M,
             column_w_per_k: 0.017,
