@@ -307,13 +307,15 @@ fn observer_error_table_over_the_cycle() {
             assert!(mean(&spring) < 6.0, "{label}: springs mean");
             assert!(spring.max < 20.0, "{label}: springs max {}", spring.max);
         } else {
-            // A ±20 % plant with the observer's default parameters. Measured (2026-11), mean /
-            // max: +20 % inner 0.38 / 1.66 K, frozen 0.004 / 0.100, springs 5.2 / 17.8 K,
-            // austenite 0.08 / 0.29; −20 % inner 0.34 / 1.68 K, frozen 0.005 / 0.060, springs
-            // 10.0 / 26.5 K, austenite 0.39 / 0.83 (the springs get 0.78× the heat the model
-            // gives them and lose 1.2× as much: the model's are ahead). Asserted with ≈1.5–2×.
+            // A ±20 % plant with the observer's default parameters. Measured (2026-11-25, the
+            // wall's refit, recovery on the colder region), mean / max: +20 % inner 0.27 /
+            // 1.39 K, frozen 0.004 / 0.079, springs 7.2 / 22.2 K, austenite 0.05 / 0.27; −20 %
+            // inner 0.15 / 3.06 K (recovery's reheat drives the film to its cap, which the
+            // slower wall follows late), frozen 0.002 / 0.032, springs 8.8 / 24.0 K, austenite
+            // 0.33 / 0.77 (the springs get 0.78× the heat the model gives them and lose 1.2× as
+            // much: the model's are ahead). Asserted with ≈1.5–2×.
             assert!(mean(&inner) < 0.8, "{label}: inner mean {}", mean(&inner));
-            assert!(inner.max < 3.0, "{label}: inner max {}", inner.max);
+            assert!(inner.max < 4.5, "{label}: inner max {}", inner.max);
             assert!(
                 mean(&frozen) < 0.01,
                 "{label}: frozen mean {}",
