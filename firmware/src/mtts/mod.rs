@@ -210,7 +210,7 @@ pub struct Output {
     pub cylinder_min: Option<Kelvin>,
     /// Hottest sensor pixel of the frame (wherever it lies: a spring burning beside the
     /// cylinder shows there), if any pixel lies on the cylinder
-    /// ([`regions::overlap_and_range`]).
+    /// ([`Scratch::hottest_k`]).
     pub hottest: Option<Kelvin>,
     /// The clusters.
     pub clusters: Clusters,
@@ -329,6 +329,9 @@ pub struct Scratch {
     pub work: [f32; IMG_PIXELS],
     /// The last frame's histogram of upsampled values.
     pub hist: Histogram,
+    /// The last frame's highest value, K (broken pixels filled): the range
+    /// [`Mtts::stage_upsample`] finds for the histogram.
+    pub hottest_k: f32,
 }
 
 impl Default for Scratch {
@@ -346,6 +349,7 @@ impl Scratch {
             xy: Coords::ZERO,
             work: [0.0; IMG_PIXELS],
             hist: Histogram::EMPTY,
+            hottest_k: f32::NAN,
         }
     }
 }
@@ -420,6 +424,7 @@ impl Mtts {
             });
         }
         scratch.hist.reset(lo, hi, self.config.bins as usize)?;
+        scratch.hottest_k = hi;
         let Scratch { up, hist, work, .. } = scratch;
         self.upsampler.histogram(work, hist, up);
         Ok(filled)
@@ -446,11 +451,16 @@ impl Mtts {
         filled: u16,
         scratch: &mut Scratch,
     ) -> Output {
-        let Scratch { work, xy, .. } = scratch;
+        let Scratch {
+            work,
+            xy,
+            hottest_k,
+            ..
+        } = scratch;
         let (mut g, fresh) = regions::update_geometry(work, &self.geometry, xy);
         let sep = lattice::separate(work, xy, &mut g, self.prior);
         self.geometry = g;
-        let (o, range) = regions::overlap_and_range(work, &g, xy, clusters);
+        let (o, cylinder_min) = regions::overlap_and_min(work, &g, xy, clusters);
         let pick = regions::assign(&o, clusters.k);
         let mut regions: [Region; REGIONS] = core::array::from_fn(|z| {
             let zone_pixels = o[z].iter().sum();
@@ -479,8 +489,9 @@ impl Mtts {
             // `max(0.0)`), so nothing downstream changes.
             bound: Kelvin::new(sep.bound_k).unwrap_or(Kelvin::lit(0.0)),
             clustered,
-            cylinder_min: range.and_then(|r| Kelvin::new(r.0)),
-            hottest: range.and_then(|r| Kelvin::new(r.1)),
+            cylinder_min: cylinder_min.and_then(Kelvin::new),
+            // As `cylinder_min`, given when a pixel lies on the cylinder.
+            hottest: cylinder_min.and(Kelvin::new(*hottest_k)),
             clusters: *clusters,
             geometry: g,
             fresh,

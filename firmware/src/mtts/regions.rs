@@ -347,23 +347,22 @@ pub type Overlap = [[u16; MAX_K]; REGIONS];
 
 /// Count, for every pixel, its zone and its value's cluster.
 pub fn overlap(img: &[f32; IMG_PIXELS], g: &Geometry, xy: &Coords, cl: &Clusters) -> Overlap {
-    overlap_and_range(img, g, xy, cl).0
+    overlap_and_min(img, g, xy, cl).0
 }
 
-/// [`overlap`], with the lowest value over the cylinder (core and edges, zones 1–3) and the
-/// highest pixel of the whole frame — one pass instead of two; `None` when no pixel lies on the
-/// cylinder. The hottest pixel is not limited to the fitted cylinder: a spring switched on by a
-/// shorted MOSFET runs beside it, and a wire hundreds of kelvin above the block pulls the
-/// geometry fit off the cylinder (a 550 K spring on a tilted column: a fitted half-width of
-/// 1.4 px instead of 8), so only the whole frame is sure to hold it.
-pub fn overlap_and_range(
+/// [`overlap`], with the lowest value over the cylinder (core and edges, zones 1–3), `None`
+/// when no pixel lies on it — one pass instead of two. (The hottest pixel MTTS reports is the
+/// whole frame's, [`super::Scratch::hottest_k`]: a spring switched on by a shorted MOSFET runs
+/// beside the cylinder, and a wire hundreds of kelvin above the block pulls the geometry fit
+/// off it — a 550 K spring on a tilted column: a fitted half-width of 1.4 px instead of 8.)
+pub fn overlap_and_min(
     img: &[f32; IMG_PIXELS],
     g: &Geometry,
     xy: &Coords,
     cl: &Clusters,
-) -> (Overlap, Option<(f32, f32)>) {
+) -> (Overlap, Option<f32>) {
     let mut o = [[0u16; MAX_K]; REGIONS];
-    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut lo = f32::INFINITY;
     for p in 0..IMG_PIXELS {
         let v = img[p];
         let z = g.zone_of(xy.u[p], xy.t[p]) as usize;
@@ -372,11 +371,8 @@ pub fn overlap_and_range(
         if z <= Zone::Edge as usize && v < lo {
             lo = v;
         }
-        if v > hi {
-            hi = v;
-        }
     }
-    (o, (lo.is_finite() && hi.is_finite()).then_some((lo, hi)))
+    (o, lo.is_finite().then_some(lo))
 }
 
 /// Assign a cluster to every region (see the module doc); `None` for a zone with no pixels
