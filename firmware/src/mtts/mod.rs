@@ -349,7 +349,8 @@ impl Scratch {
             xy: Coords::ZERO,
             work: [0.0; IMG_PIXELS],
             hist: Histogram::EMPTY,
-            hottest_k: f32::NAN,
+            // Zero, as every field: an all-zero static lies in .bss, not in flash.
+            hottest_k: 0.0,
         }
     }
 }
