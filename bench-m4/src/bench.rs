@@ -145,6 +145,7 @@ fn main() -> ! {
             &xy,
             &mut g,
             thermorph::mtts::Prior::Unknown,
+            f32::from(thermorph::mtts::DEFAULT_EXPOSED_PCT) / 100.0,
         ))
     });
     let (_, t_ov) = measure(|| {

@@ -93,6 +93,10 @@ enum Command {
         /// The mode's prior: unknown, heater-hotter or surface-hotter.
         #[arg(long, default_value = "unknown")]
         prior: String,
+        /// The block's design: share of each lattice unit the heater shows through, 15–90 %
+        /// (the thesis's lattice: 71).
+        #[arg(long, default_value_t = thermorph::mtts::DEFAULT_EXPOSED_PCT)]
+        exposed_pct: u8,
     },
     /// Print a standard rendered scene as an image CSV (truth in `#` comment lines); without a
     /// name, list the scenes.
@@ -181,6 +185,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             method,
             seed,
             prior,
+            exposed_pct,
         } => {
             let method = host_sim::imaging::mtts_cli::parse_method(&method)?;
             let config = thermorph::mtts::Config {
@@ -188,6 +193,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 k,
                 method,
                 seed,
+                exposed_pct,
                 ..Default::default()
             };
             let prior = host_sim::imaging::mtts_cli::parse_prior(&prior)?;

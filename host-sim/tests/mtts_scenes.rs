@@ -174,3 +174,48 @@ fn methods_are_deterministic_and_exact_is_never_worse_in_sse() {
         }
     }
 }
+
+#[test]
+fn a_wrong_prior_is_never_confidently_wrong_on_a_standard_scene() {
+    // The opposite of the mode's prior: forming's first seconds hand the heating prior to a
+    // block whose hot zone has already inverted (issue 20: `forming-inversion` came back
+    // swapped, `resolved` with a 0.2 K bound).
+    let mut scratch = Box::new(Scratch::new());
+    for scene in standard_scenes() {
+        let wrong = match mode_prior(&scene) {
+            Prior::HeaterHotter => Prior::SurfaceHotter,
+            _ => Prior::HeaterHotter,
+        };
+        for seed in 1..=4 {
+            let r = scene.render(seed);
+            let mut m = Mtts::new(Config::default()).unwrap();
+            m.set_prior(wrong);
+            let out = m.process(&r.image_k, &mut scratch).unwrap();
+            let bound = out.bound.k() as f64;
+            let (t1, t2) = (k_or_nan(out.t1()) as f64, k_or_nan(out.t2()) as f64);
+            match out.quality {
+                Quality::Resolved => {
+                    for (z, t) in [t1, t2].into_iter().enumerate() {
+                        let err = (t - r.truth_k[z]).abs();
+                        assert!(
+                            err <= bound.max(1.0),
+                            "{} seed {seed}: T{} off by {err:.2} K, bound {bound:.2} K",
+                            scene.name,
+                            z + 1
+                        );
+                    }
+                }
+                Quality::Merged => {
+                    let d = scene.geometry.exposed;
+                    let mean = d * r.truth_k[0] + (1.0 - d) * r.truth_k[1];
+                    assert!((t1 - mean).abs() <= bound.max(1.0), "{}", scene.name);
+                }
+                Quality::Fallback => panic!("{}: the lattice is visible", scene.name),
+            }
+            if scene.name == "forming-inversion" {
+                assert_eq!(out.quality, Quality::Resolved, "the image decides");
+                assert!(t1 < t2 - 10.0, "against the prior");
+            }
+        }
+    }
+}

@@ -3,13 +3,15 @@
 //! bound and a per-frame quality (resolved, merged, fallback).
 //!
 //! Constants (weights, thresholds, spreads, grid) were tuned on the scene family's seen seeds
-//! only (`host_sim::scene_family::SEEN`).
+//! only (`host_sim::imaging::view_family::SEEN`): periods 4–16 px, exposed fractions
+//! 0.2–0.85, optics from the footprint alone to σ 0.6 px, tilt ±35°, broken and hot pixels.
 //!
 //! Model. Along the axis coordinate t the core shows a square wave: stripes of the hotter
 //! target, a fraction h of each period P, on the colder one. A sensor pixel integrates its
 //! footprint (a unit square, projected on the tilted axis: two boxes of widths cos α and
 //! sin α) through the optics' spread (a Gaussian; the datasheet gives no numeric profile, so
-//! its σ is a nuisance parameter tried at each of [`PSF_SIGMAS_PX`]), so its value is
+//! its σ is a nuisance parameter fitted over the grid [`PSF_SIGMAS_PX`], from none — an
+//! MLX90640 pixel may be as sharp as its footprint — to 0.6 px), so its value is
 //! `a + b·f(t)` with f the square wave seen through that transfer function H:
 //! `f(t) = h + Σ_k 2·sin(πkh)/(πk)·H(k/P)·cos(2πk(t − c)/P)`, a the colder temperature, b the
 //! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
@@ -18,23 +20,35 @@
 //!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's), refined to the minimum
 //!    of the residual of a least-squares fit of mean and fundamental;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
-//!    that lie below 0.75 cycles per pixel (at most three, fewer if ill-conditioned); c is
-//!    the fundamental's phase;
+//!    that lie below 0.75 cycles per pixel (at most five, fewer if ill-conditioned: a thin
+//!    stripe — the thesis's 1.4 px SMP strips — lives in the higher ones); c is the
+//!    fundamental's phase;
 //! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
 //!    (weighted by their normal matrix, i.e. the per-pixel least squares) give a misfit χ²,
-//!    with the noise estimated from the fit's residual.
+//!    with the noise estimated from the fit's residual. The exposed fraction is thus fitted
+//!    per frame (the best h), and so is the spread.
 //!
-//! Which target is hotter is ambiguous in the image alone: hot stripes of fraction h are the
-//! heater if the exposed fraction d = h, or the surface if d = 1 − h. The block's exposed
-//! fraction lies in [`EXPOSED_MIN`]…[`EXPOSED_MAX`] (view angles), so each hypothesis has its
-//! own h range and best χ². The supervisor's [`Prior`] (or, without one, the previous frame's
-//! decision) adds a bonus of [`PRIOR_CHI2`] (or [`CONTINUITY_CHI2`]) to its hypothesis: it picks
-//! between hypotheses the image both allows, and never overrides a clear spatial verdict. With
-//! nothing to pick between two allowed hypotheses the frame is [`Quality::Merged`].
+//! Which target is hotter: hot stripes of fraction h are the heater if the exposed fraction
+//! d = h, or the surface if d = 1 − h. The block's design fixes d within
+//! [`EXPOSED_TOLERANCE`] ([`super::Config::exposed_pct`]: the lattice's gap over its unit; the
+//! view and the lattice's waviness move it a little), so each hypothesis has its own h window
+//! and best χ², and the image decides whenever heater and surface stripes differ in width:
+//! the thesis's block (71 % exposed) shows hot stripes 0.71 of the period wide while heating
+//! and 0.29 wide once forming has inverted the hot zone. A best χ² lower by at least
+//! [`AMBIGUOUS_CHI2`] is a clear spatial verdict and stands whatever the prior says. Only
+//! between hypotheses the image both allows — a block built near 50 % exposed, whose heater
+//! and surface stripes are equally wide, or a lattice too faint to tell — does the supervisor's
+//! [`Prior`] (or, without one, the previous frame's decision, [`CONTINUITY_CHI2`]) pick; a
+//! wrong prior there is the one way to a swapped frame, and the supervisor hands one only where
+//! the mode's physics is sure of it. With nothing to pick between two allowed hypotheses the
+//! frame is [`Quality::Merged`].
 //!
-//! The bound: the spread of T1 and T2 over the h whose χ² is within [`CONFIDENCE_CHI2`] of the
-//! best (χ² with the fit's residual variance, which includes the model's own mismatch), plus
-//! two standard errors of (a, b) from the pixel noise (the scatter within ¼ px bins). A frame
+//! The bound: the spread of T1 and T2 over the (h, σ) whose χ² is within [`CONFIDENCE_CHI2`]
+//! of the best (χ² with the fit's residual variance, which includes the model's own mismatch)
+//! and over the best candidates of the neighbouring spreads (σ is a grid; the truth lies
+//! between two of its values), plus two standard errors of (a, b) from the pixel noise (the
+//! scatter within ¼ px bins); scaled by [`BOUND_SCALE`] and floored by [`BOUND_FLOOR_K`], so
+//! that ≥ 95 % of resolved frames lie within it (measured on the unseen seeds). A frame
 //! is resolved when the hypothesis is decided and the bound is at most [`RESOLVED_BOUND_K`] or
 //! at most [`RESOLVED_FRACTION`] of the estimated gap; else merged: both targets carry the core's
 //! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
@@ -45,36 +59,48 @@ use super::regions::{CORE_U, Coords, Geometry};
 use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
-pub const EXPOSED_MIN: f32 = 0.3;
+pub const EXPOSED_MIN: f32 = 0.15;
 /// Largest exposed fraction.
-pub const EXPOSED_MAX: f32 = 0.8;
+pub const EXPOSED_MAX: f32 = 0.9;
+/// How far the exposed fraction a frame shows may lie from the block's design
+/// ([`super::Config::exposed_pct`]): the lattice's waviness and the view angle.
+pub const EXPOSED_TOLERANCE: f32 = 0.06;
 /// The optics' point-spread function: Gaussian standard deviation, pixels (nominal).
 pub const PSF_SIGMA_PX: f32 = 0.35;
 /// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
-/// no numeric pixel-sensitivity profile), pixels.
-pub const PSF_SIGMAS_PX: [f32; 2] = [0.28, 0.42];
+/// no numeric pixel-sensitivity profile), pixels: from the footprint alone to a blur wider
+/// than a pixel's half.
+pub const PSF_SIGMAS_PX: [f32; 7] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+/// The step of [`PSF_SIGMAS_PX`] (its values are 0, 1, 2… steps), pixels.
+const PSF_STEP_PX: f32 = 0.1;
 /// Shortest lattice period searched, pixels.
 pub const PERIOD_MIN_PX: f32 = 2.9;
 /// Longest lattice period searched, pixels.
 pub const PERIOD_MAX_PX: f32 = 24.0;
 /// Least fundamental amplitude of the axial profile to (re)detect the lattice, K.
 pub const MIN_LATTICE_K: f32 = 0.3;
-/// χ² bonus of the hypothesis the supervisor's prior expects.
+/// χ² bonus of the hypothesis the supervisor's prior expects: more than [`AMBIGUOUS_CHI2`], so
+/// between hypotheses the image both allows the prior always picks.
 pub const PRIOR_CHI2: f32 = 60.0;
 /// χ² bonus of the previous frame's hypothesis when there is no prior.
 pub const CONTINUITY_CHI2: f32 = 4.0;
 /// χ² margin within which two hypotheses are both allowed by the image.
-pub const AMBIGUOUS_CHI2: f32 = 60.0;
+pub const AMBIGUOUS_CHI2: f32 = 16.0;
 /// χ² margin of the confidence set over h.
 pub const CONFIDENCE_CHI2: f32 = 4.0;
 /// Largest fraction of the estimated gap |T1 − T2| the bound of a resolved frame may reach
 /// (when it exceeds [`RESOLVED_BOUND_K`]): the targets stand apart by several bounds.
-pub const RESOLVED_FRACTION: f32 = 0.25;
+pub const RESOLVED_FRACTION: f32 = 0.35;
+/// Factor on the bound's statistical part (the confidence set and two standard errors), for
+/// what the model leaves out: calibrated for ≥ 95 % coverage on the seen seeds.
+pub const BOUND_SCALE: f32 = 1.3;
+/// Least bound, K: the model's floor (the core's straight edges, the footprint as two boxes).
+pub const BOUND_FLOOR_K: f32 = 0.1;
 /// Bound up to which a decided frame is resolved whatever its gap, K.
 pub const RESOLVED_BOUND_K: f32 = 1.0;
 
 /// Harmonics fitted at most.
-const HARMONICS: usize = 3;
+const HARMONICS: usize = 5;
 /// Unknowns of the harmonic fit at most.
 const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
@@ -84,13 +110,17 @@ const FREQ_STEP: f32 = 0.03;
 /// Relative frequency step of the least-squares refinement.
 const REFINE_STEP: f32 = 0.04;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
-const H_FIRST: f32 = 0.2;
-const H_STEP: f32 = 0.03;
-const H_COUNT: usize = 21;
+const H_FIRST: f32 = 0.1;
+const H_STEP: f32 = 0.025;
+const H_COUNT: usize = 33;
 /// Spreads tried.
 const PSFS: usize = PSF_SIGMAS_PX.len();
-/// Candidates: every h under every spread.
-const CANDIDATES: usize = H_COUNT * PSFS;
+/// Most h grid points in one hypothesis's window (2·[`EXPOSED_TOLERANCE`] / `H_STEP` + 1,
+/// rounded up).
+const SLOTS: usize = 6;
+const _: () = assert!((((2.0 * EXPOSED_TOLERANCE + 2e-4) / H_STEP) as usize) < SLOTS);
+/// Candidates kept: each window's h under every spread.
+const CANDIDATES: usize = 2 * SLOTS * PSFS;
 
 /// Result of one frame's separation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -367,10 +397,13 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
         rss: 0.0,
     };
     // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
-    // sample at their mean position, their count its weight.
+    // sample at their mean position, their count its weight. The normal matrix's entries are
+    // products of cos and sin of jθ and kθ (j, k ≤ H), each half a sum or difference of the cos
+    // or sin of mθ (m ≤ 2H): the bins accumulate those 4H + 1 sums, not the (2H + 1)(2H + 2)/2
+    // products.
     let (mut yy, mut bins) = (0f32, 0f32);
-    // The normal matrix's upper triangle, packed row by row.
-    let mut tri = [0f32; NP * (NP + 1) / 2];
+    let mut cs = [0f32; 2 * HARMONICS + 1];
+    let mut sn = [0f32; 2 * HARMONICS + 1];
     for b in 0..p.used {
         let w = p.cnt[b];
         if w == 0.0 {
@@ -378,39 +411,45 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
         }
         let inv = 1.0 / w;
         let (s1, c1) = sin_cos_turns(nu * (p.tsum[b] * inv));
-        let mut x = [0f32; NP];
-        x[0] = 1.0;
+        let y = p.sum[b] * inv;
+        let wy = w * y;
+        cs[0] += w;
+        f.rhs[0] += wy;
         let (mut c, mut s) = (c1, s1);
-        for k in 0..harmonics {
-            x[1 + 2 * k] = c;
-            x[2 + 2 * k] = s;
+        // Fixed sizes (sums past 2·harmonics are unused): unrolled, no bounds checks.
+        for m in 1..=2 * HARMONICS {
+            cs[m] += w * c;
+            sn[m] += w * s;
+            if m <= HARMONICS {
+                f.rhs[2 * m - 1] += wy * c;
+                f.rhs[2 * m] += wy * s;
+            }
             let nc = c * c1 - s * s1;
             s = s * c1 + c * s1;
             c = nc;
         }
-        let y = p.sum[b] * inv;
-        // Fixed sizes (unused harmonics are zero): unrolled, no bounds checks.
-        let mut k = 0;
-        for i in 0..NP {
-            let wx = w * x[i];
-            f.rhs[i] += wx * y;
-            for &xj in &x[i..] {
-                tri[k] += wx * xj;
-                k += 1;
-            }
-        }
-        yy += w * y * y;
+        yy += wy * y;
         bins += 1.0;
     }
     if bins < n as f32 + 4.0 {
         return None;
     }
-    let mut k = 0;
-    for i in 0..NP {
-        for j in i..NP {
-            f.normal[i][j] = tri[k];
-            f.normal[j][i] = tri[k];
-            k += 1;
+    f.normal[0][0] = cs[0];
+    for k in 1..=harmonics {
+        f.normal[0][2 * k - 1] = cs[k];
+        f.normal[0][2 * k] = sn[k];
+        for j in 1..=k {
+            let (d, a) = (k - j, k + j);
+            // cos jθ·cos kθ, sin jθ·sin kθ, cos jθ·sin kθ, sin jθ·cos kθ.
+            f.normal[2 * j - 1][2 * k - 1] = 0.5 * (cs[d] + cs[a]);
+            f.normal[2 * j][2 * k] = 0.5 * (cs[d] - cs[a]);
+            f.normal[2 * j - 1][2 * k] = 0.5 * (sn[a] + sn[d]);
+            f.normal[2 * j][2 * k - 1] = 0.5 * (sn[a] - sn[d]);
+        }
+    }
+    for i in 0..n {
+        for j in 0..i {
+            f.normal[i][j] = f.normal[j][i];
         }
     }
     f.theta = solve(&f.normal, &f.rhs, n)?;
@@ -427,47 +466,76 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     Some(f)
 }
 
-/// Residual sum of squares (weighted, K²) of the least-squares fit of the mean and the
-/// fundamental at `nu` to the fine bins; `None` if it is ill-conditioned.
-fn fundamental_rss(p: &Profile, nu: f32) -> Option<f32> {
-    let (mut n0, mut nc, mut ns, mut ncc, mut ncs, mut nss) = (0f32, 0f32, 0f32, 0f32, 0f32, 0f32);
-    let (mut r0, mut rc, mut rs, mut yy) = (0f32, 0f32, 0f32, 0f32);
+/// Sums of one least-squares fit of the mean and the fundamental.
+#[derive(Clone, Copy, Default)]
+struct FundamentalSums {
+    nc: f32,
+    ns: f32,
+    ncc: f32,
+    ncs: f32,
+    nss: f32,
+    rc: f32,
+    rs: f32,
+}
+
+impl FundamentalSums {
+    fn add(&mut self, w: f32, wy: f32, cs: f32, sn: f32) {
+        let (wc, ws) = (w * cs, w * sn);
+        self.nc += wc;
+        self.ns += ws;
+        self.ncc += wc * cs;
+        self.ncs += wc * sn;
+        self.nss += ws * sn;
+        self.rc += wy * cs;
+        self.rs += wy * sn;
+    }
+
+    /// The residual sum of squares, given the sums shared by every frequency.
+    fn rss(&self, n0: f32, r0: f32, yy: f32) -> Option<f32> {
+        let mut a = [[0f32; NP]; NP];
+        a[0][0] = n0;
+        a[0][1] = self.nc;
+        a[1][0] = self.nc;
+        a[0][2] = self.ns;
+        a[2][0] = self.ns;
+        a[1][1] = self.ncc;
+        a[1][2] = self.ncs;
+        a[2][1] = self.ncs;
+        a[2][2] = self.nss;
+        let mut r = [0f32; NP];
+        r[0] = r0;
+        r[1] = self.rc;
+        r[2] = self.rs;
+        let x = solve(&a, &r, 3)?;
+        Some(yy - (x[0] * r0 + x[1] * self.rc + x[2] * self.rs))
+    }
+}
+
+/// Residual sums of squares (weighted, K²) of the least-squares fits of the mean and the
+/// fundamental at `nu − d`, `nu` and `nu + d` to the fine bins, in one pass (the outer two by
+/// the angle-sum formulas); `None` where a fit is ill-conditioned.
+fn fundamental_rss3(p: &Profile, nu: f32, d: f32) -> [Option<f32>; 3] {
+    let (mut n0, mut r0, mut yy) = (0f32, 0f32, 0f32);
+    let mut fits = [FundamentalSums::default(); 3];
     for b in 0..p.used {
         let w = p.cnt[b];
         if w == 0.0 {
             continue;
         }
         let inv = 1.0 / w;
-        let (sn, cs) = sin_cos_turns(nu * (p.tsum[b] * inv));
+        let t = p.tsum[b] * inv;
+        let (sn, cs) = sin_cos_turns(nu * t);
+        let (sd, cd) = sin_cos_turns(d * t);
         let y = p.sum[b] * inv;
-        let (wc, ws) = (w * cs, w * sn);
+        let wy = w * y;
         n0 += w;
-        nc += wc;
-        ns += ws;
-        ncc += wc * cs;
-        ncs += wc * sn;
-        nss += ws * sn;
-        r0 += w * y;
-        rc += wc * y;
-        rs += ws * y;
-        yy += w * y * y;
+        r0 += wy;
+        yy += wy * y;
+        fits[0].add(w, wy, cs * cd + sn * sd, sn * cd - cs * sd);
+        fits[1].add(w, wy, cs, sn);
+        fits[2].add(w, wy, cs * cd - sn * sd, sn * cd + cs * sd);
     }
-    let mut a = [[0f32; NP]; NP];
-    a[0][0] = n0;
-    a[0][1] = nc;
-    a[1][0] = nc;
-    a[0][2] = ns;
-    a[2][0] = ns;
-    a[1][1] = ncc;
-    a[1][2] = ncs;
-    a[2][1] = ncs;
-    a[2][2] = nss;
-    let mut r = [0f32; NP];
-    r[0] = r0;
-    r[1] = rc;
-    r[2] = rs;
-    let x = solve(&a, &r, 3)?;
-    Some(yy - (x[0] * r0 + x[1] * rc + x[2] * rs))
+    fits.map(|f| f.rss(n0, r0, yy))
 }
 
 /// Solve the symmetric positive definite system `a·x = b` (size n) by Cholesky; `None` when a
@@ -532,12 +600,31 @@ fn h_at(j: usize) -> f32 {
     H_FIRST + (j % H_COUNT) as f32 * H_STEP
 }
 
-fn in_range(hyp: Hyp, h: f32) -> bool {
-    let d = match hyp {
-        Hyp::HeaterHot => h,
-        Hyp::SurfaceHot => 1.0 - h,
+/// The exposed fractions a frame of a block designed with `design` may show.
+fn window(design: f32) -> (f32, f32) {
+    (
+        (design - EXPOSED_TOLERANCE).max(EXPOSED_MIN) - 1e-4,
+        (design + EXPOSED_TOLERANCE).min(EXPOSED_MAX) + 1e-4,
+    )
+}
+
+/// The grid indices `i` (h = h_at(i)) a hypothesis allows in the window `(lo, hi)` of exposed
+/// fractions: a range, empty when none.
+fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize> {
+    let (hlo, hhi) = match hyp {
+        Hyp::HeaterHot => (lo, hi),
+        Hyp::SurfaceHot => (1.0 - hi, 1.0 - lo),
     };
-    (EXPOSED_MIN - 1e-4..=EXPOSED_MAX + 1e-4).contains(&d)
+    let first = ((hlo - H_FIRST) / H_STEP).max(0.0);
+    let first = first as usize + usize::from(first > floor(first));
+    let last = ((hhi - H_FIRST) / H_STEP).max(-1.0);
+    let end = if last < 0.0 {
+        0
+    } else {
+        (last as usize + 1).min(H_COUNT)
+    };
+    let first = first.min(end);
+    first..end.min(first + SLOTS)
 }
 
 /// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
@@ -547,7 +634,9 @@ pub fn separate(
     xy: &Coords,
     g: &mut Geometry,
     prior: Prior,
+    design_exposed: f32,
 ) -> Separation {
+    let win = window(design_exposed);
     let u_core = lattice_core_u(g.half_width_px);
     let Some(prof) = Profile::of(img, xy, u_core) else {
         // No core pixel at all (cannot happen with a positive half-width): the image mean.
@@ -601,11 +690,7 @@ pub fn separate(
     // (a parabola through ν(1 ± δ) and ν).
     let mut nu = nu;
     let d = REFINE_STEP * nu;
-    if let (Some(a), Some(c), Some(b)) = (
-        fundamental_rss(&prof, nu - d),
-        fundamental_rss(&prof, nu),
-        fundamental_rss(&prof, nu + d),
-    ) {
+    if let [Some(a), Some(c), Some(b)] = fundamental_rss3(&prof, nu, d) {
         let den = a - 2.0 * c + b;
         if den > 0.0 {
             nu += (0.5 * (a - b) / den).clamp(-1.5, 1.5) * d;
@@ -636,9 +721,22 @@ pub fn separate(
     let (a1, b1) = (fit.theta[1], fit.theta[2]);
     let r1 = crate::fmath::sqrt(a1 * a1 + b1 * b1).max(1e-12);
     let (cpsi, spsi) = (a1 / r1, b1 / r1);
-    let mtf: [[f32; HARMONICS]; PSFS] = core::array::from_fn(|s| {
-        core::array::from_fn(|k| transfer_with((k + 1) as f32 * nu, g.axis_slope, PSF_SIGMAS_PX[s]))
-    });
+    // The footprint's transfer per harmonic, times the Gaussian's: the spreads are multiples
+    // i·δ of one step, so exp(−2(πσν)²) = E^(i²) with E at δ (one `expf` per harmonic).
+    let mut mtf = [[0f32; HARMONICS]; PSFS];
+    for k in 0..harmonics {
+        let f = (k + 1) as f32 * nu;
+        let boxes = transfer_with(f, g.axis_slope, 0.0);
+        let x = core::f32::consts::PI * PSF_STEP_PX * f;
+        let e = libm::expf(-2.0 * x * x);
+        for (i, row) in mtf.iter_mut().enumerate() {
+            let mut gauss = 1.0;
+            for _ in 0..i * i {
+                gauss *= e;
+            }
+            row[k] = boxes * gauss;
+        }
+    }
     let dnd: f32 = (0..n).map(|i| fit.theta[i] * fit.rhs[i]).sum();
     let g00 = fit.normal[0][0];
     let r0 = fit.rhs[0];
@@ -680,10 +778,36 @@ pub fn separate(
         }
         ur[i] = acc;
     }
-    let mut cand = [Candidate::default(); CANDIDATES];
     // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
+    let (range_a, range_b) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
+    // Only the two windows' candidates are computed and kept: key = spread·2·SLOTS + the
+    // window's base (0 heater hot, SLOTS surface hot) + the h's place in the window (a few
+    // hundred bytes of stack, not the whole grid's). Windows that overlap (a design near 50 %)
+    // compute their common h twice.
+    let base_of = |hyp: Hyp| match hyp {
+        Hyp::HeaterHot => 0,
+        Hyp::SurfaceHot => SLOTS,
+    };
+    let range_of = |hyp: Hyp| match hyp {
+        Hyp::HeaterHot => range_a.clone(),
+        Hyp::SurfaceHot => range_b.clone(),
+    };
+    // The h grid index of a key.
+    let h_index = |key: usize| {
+        let w = key % (2 * SLOTS);
+        if w < SLOTS {
+            range_a.start + w
+        } else {
+            range_b.start + w - SLOTS
+        }
+    };
+    let mut cand = [Candidate::default(); CANDIDATES];
+    let wanted = |i: usize| range_a.contains(&i) || range_b.contains(&i);
     let mut shape = [[0f32; HARMONICS]; H_COUNT];
     for (i, sh) in shape.iter_mut().enumerate() {
+        if !wanted(i) {
+            continue;
+        }
         let (s1, c1) = sin_cos_turns(0.5 * h_at(i));
         let (mut sk, mut ck) = (s1, c1);
         for (k, x) in sh.iter_mut().enumerate().take(harmonics) {
@@ -693,12 +817,17 @@ pub fn separate(
             sk = nsk;
         }
     }
-    for (j, cd) in cand.iter_mut().enumerate() {
-        let (psf, h) = (j / H_COUNT, h_at(j));
+    let inv_sigma2 = 1.0 / fit.sigma2;
+    let keys = |hyp: Hyp, psf: usize| {
+        let first = psf * 2 * SLOTS + base_of(hyp);
+        range_of(hyp).enumerate().map(move |(k, i)| (first + k, i))
+    };
+    let every = |psf: usize| keys(Hyp::HeaterHot, psf).chain(keys(Hyp::SurfaceHot, psf));
+    for (psf, (key, i)) in (0..PSFS).flat_map(|psf| every(psf).map(move |x| (psf, x))) {
         let mut c = [0f32; U];
-        c[0] = h;
+        c[0] = h_at(i);
         for k in 0..HARMONICS {
-            c[k + 1] = shape[j % H_COUNT][k] * mtf[psf][k];
+            c[k + 1] = shape[i][k] * mtf[psf][k];
         }
         let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
         for i in 0..U {
@@ -713,8 +842,13 @@ pub fn separate(
             }
         }
         let det = g00 * g11 - g01 * g01;
-        let (mut a, mut b) = if det > 1e-6 * g00 * g11 {
-            ((g11 * r0 - g01 * rv) / det, (g00 * rv - g01 * r0) / det)
+        let regular = det > 1e-6 * g00 * g11;
+        let inv_det = if regular { 1.0 / det } else { 0.0 };
+        let (mut a, mut b) = if regular {
+            (
+                (g11 * r0 - g01 * rv) * inv_det,
+                (g00 * rv - g01 * r0) * inv_det,
+            )
         } else {
             (r0 / g00, 0.0)
         };
@@ -725,30 +859,37 @@ pub fn separate(
         } else {
             a * r0 + b * rv
         };
-        let (va, vb, cab) = if det > 1e-6 * g00 * g11 {
-            (g11 / det, g00 / det, -g01 / det)
+        let (va, vb, cab) = if regular {
+            (g11 * inv_det, g00 * inv_det, -g01 * inv_det)
         } else {
             (1.0 / g00, 0.0, 0.0)
         };
         let var_hot = va + vb + 2.0 * cab;
-        *cd = Candidate {
+        cand[key] = Candidate {
             a,
             b,
             var: if var_hot > va { var_hot } else { va },
-            chi2: ((dnd - explained) / fit.sigma2).max(0.0),
+            chi2: ((dnd - explained) * inv_sigma2).max(0.0),
         };
     }
-    let best_of = |hyp: Hyp| {
+    // The best candidate (its key) of a hypothesis at the spreads `psfs`.
+    let best_in = |hyp: Hyp, psfs: core::ops::Range<usize>| {
         let mut best: Option<usize> = None;
-        for (i, c) in cand.iter().enumerate() {
-            if in_range(hyp, h_at(i)) && best.is_none_or(|j| c.chi2 < cand[j].chi2) {
-                best = Some(i);
+        for psf in psfs {
+            for (j, _) in keys(hyp, psf) {
+                if best.is_none_or(|b| cand[j].chi2 < cand[b].chi2) {
+                    best = Some(j);
+                }
             }
         }
-        best.unwrap_or(0)
+        best
     };
-    let (ia, ib) = (best_of(Hyp::HeaterHot), best_of(Hyp::SurfaceHot));
-    let (ca, cb) = (cand[ia].chi2, cand[ib].chi2);
+    let (ia, ib) = (
+        best_in(Hyp::HeaterHot, 0..PSFS),
+        best_in(Hyp::SurfaceHot, 0..PSFS),
+    );
+    let chi2_of = |i: Option<usize>| i.map_or(f32::INFINITY, |i| cand[i].chi2);
+    let (ca, cb) = (chi2_of(ia), chi2_of(ib));
     let (bonus_a, bonus_b, informed) = match (prior, g.heater_hotter) {
         (Prior::HeaterHotter, _) => (PRIOR_CHI2, 0.0, true),
         (Prior::SurfaceHotter, _) => (0.0, PRIOR_CHI2, true),
@@ -756,12 +897,21 @@ pub fn separate(
         (Prior::Unknown, Some(false)) => (0.0, CONTINUITY_CHI2, true),
         (Prior::Unknown, None) => (0.0, 0.0, false),
     };
-    let hyp = if ca - bonus_a <= cb - bonus_b {
+    // A clear spatial verdict stands whatever the prior says; between hypotheses the image
+    // both allows, the prior (or the previous frame) picks.
+    let clear = libm::fabsf(ca - cb) >= AMBIGUOUS_CHI2;
+    let hyp = if clear {
+        if ca <= cb {
+            Hyp::HeaterHot
+        } else {
+            Hyp::SurfaceHot
+        }
+    } else if ca - bonus_a <= cb - bonus_b {
         Hyp::HeaterHot
     } else {
         Hyp::SurfaceHot
     };
-    let decided = informed || libm::fabsf(ca - cb) >= AMBIGUOUS_CHI2;
+    let decided = informed || clear;
     // (T1, T2) of a candidate under a hypothesis, K.
     let temps = |c: &Candidate, hyp: Hyp| {
         let (hot, cold) = (core.reference + c.a + c.b, core.reference + c.a);
@@ -770,18 +920,20 @@ pub fn separate(
             Hyp::SurfaceHot => (cold, hot),
         }
     };
-    let ibest = if hyp == Hyp::HeaterHot { ia } else { ib };
+    // At least one hypothesis has a window (the design is within EXPOSED_MIN…EXPOSED_MAX).
+    let chosen = if hyp == Hyp::HeaterHot { ia } else { ib };
+    let ibest = chosen.or(ia).or(ib).unwrap_or(0);
     let best = cand[ibest];
     let (t1, t2) = temps(&best, hyp);
     let mean = core.reference + fit.theta[0];
     // Envelopes over the confidence sets: around the estimate, and around the mean.
     let mut spread = 0f32;
     let mut merged_spread = 0f32;
-    for (i, c) in cand.iter().enumerate() {
-        let h = h_at(i);
-        for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
-            let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
-            if !in_range(hy, h) || c.chi2 > cmin + CONFIDENCE_CHI2 {
+    for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
+        let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
+        for (j, _) in (0..PSFS).flat_map(|psf| keys(hy, psf)) {
+            let c = &cand[j];
+            if c.chi2 > cmin + CONFIDENCE_CHI2 {
                 continue;
             }
             let (x1, x2) = temps(c, hy);
@@ -798,9 +950,29 @@ pub fn separate(
             }
         }
     }
+    // The spread is a grid: the truth lies between two of its values. What the best candidate
+    // would be at the neighbouring spreads (each one's best h in the hypothesis) is within the
+    // bound too.
+    let psf_best = ibest / (2 * SLOTS);
+    for psf in [psf_best.wrapping_sub(1), psf_best + 1] {
+        if psf >= PSFS {
+            continue;
+        }
+        if let Some(j) = best_in(hyp, psf..psf + 1) {
+            let (x1, x2) = temps(&cand[j], hyp);
+            let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2));
+            if e > spread {
+                spread = e;
+            }
+        }
+    }
+    // Calibrated on the seen seeds: what the grids and the model's approximations (the core's
+    // straight edges, the footprint's two boxes) add.
+    let spread = BOUND_SCALE * spread + BOUND_FLOOR_K;
+    let merged_spread = BOUND_SCALE * merged_spread + BOUND_FLOOR_K;
     // The lattice as zones see it: the heater stripes start at `phase`.
     let period = 1.0 / nu;
-    let h = h_at(ibest);
+    let h = h_at(h_index(ibest));
     let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period;
     let (exposed, start) = match hyp {
         Hyp::HeaterHot => (h, centre - 0.5 * h * period),
@@ -854,10 +1026,11 @@ mod tests {
     #[test]
     fn cholesky_solves() {
         let mut a = [[0f32; NP]; NP];
-        let b = [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 0.0];
-        a[0] = [4.0, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0];
-        a[1] = [1.0, 3.0, 0.2, 0.0, 0.0, 0.0, 0.0];
-        a[2] = [0.5, 0.2, 2.0, 0.0, 0.0, 0.0, 0.0];
+        let mut b = [0f32; NP];
+        b[..3].copy_from_slice(&[1.0, 2.0, 3.0]);
+        a[0][..3].copy_from_slice(&[4.0, 1.0, 0.5]);
+        a[1][..3].copy_from_slice(&[1.0, 3.0, 0.2]);
+        a[2][..3].copy_from_slice(&[0.5, 0.2, 2.0]);
         let x = solve(&a, &b, 3).unwrap();
         for i in 0..3 {
             let r: f32 = (0..3).map(|j| a[i][j] * x[j]).sum();

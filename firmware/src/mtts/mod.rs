@@ -89,6 +89,11 @@ pub enum MttsError {
         /// The count asked for.
         bins: u16,
     },
+    /// Design exposed fraction outside 15…90 %.
+    BadExposed {
+        /// The percentage asked for.
+        exposed_pct: u8,
+    },
     /// No pixel holds a plausible temperature.
     NoValidPixels,
     /// More pixels were broken than [`Config::max_filled`] allows to fill in (the sensor-loss
@@ -107,6 +112,9 @@ impl core::fmt::Display for MttsError {
             Self::BadScale { scale } => write!(f, "upsampling factor {scale} is not 1-8"),
             Self::BadK { k } => write!(f, "cluster count {k} is not 2-8"),
             Self::BadBins { bins } => write!(f, "histogram bins {bins} is not 2-512"),
+            Self::BadExposed { exposed_pct } => {
+                write!(f, "exposed fraction {exposed_pct} % is not 15-90")
+            }
             Self::NoValidPixels => write!(f, "no valid pixel in the frame"),
             Self::TooManyBroken { broken, limit } => {
                 write!(f, "{broken} broken pixels, more than the {limit} allowed")
@@ -158,6 +166,11 @@ pub struct Config {
     /// Most broken pixels a frame may have filled in; above it the frame is refused
     /// ([`MttsError::TooManyBroken`]).
     pub max_filled: u16,
+    /// The block's design: the share of each lattice unit through which the heater shows,
+    /// percent (the thesis's block: 21.35 mm of 30 mm, 71 %). A frame's own fraction is fitted
+    /// within [`lattice::EXPOSED_TOLERANCE`] of it; it tells the heater's stripes from the
+    /// surface's wherever the two differ in width (away from 50 %).
+    pub exposed_pct: u8,
 }
 
 /// Default [`Config::max_filled`]: 32 pixels (4 % of the frame). The MLX90640 datasheet allows
@@ -165,6 +178,10 @@ pub struct Config {
 /// while filled pixels stay isolated enough to be interpolated and cannot cover more than a
 /// quarter of the smallest cylinder core (≈ 6 × 24 px at 100 mm).
 pub const DEFAULT_MAX_FILLED: u16 = 32;
+
+/// Default [`Config::exposed_pct`]: the thesis's lattice, rounded to a percent.
+pub const DEFAULT_EXPOSED_PCT: u8 =
+    (crate::block::LATTICE_GAP_MM * 100.0 / crate::block::LATTICE_UNIT_MM + 0.5) as u8;
 
 impl Default for Config {
     /// s = 4, K = 5, 128 bins, exact: SPEC section 3 (bins: the Cortex-M4 budget).
@@ -176,6 +193,7 @@ impl Default for Config {
             method: Method::Exact,
             seed: 1,
             max_filled: DEFAULT_MAX_FILLED,
+            exposed_pct: DEFAULT_EXPOSED_PCT,
         }
     }
 }
@@ -374,6 +392,11 @@ impl Mtts {
         if !(2..=cluster::MAX_BINS as u16).contains(&config.bins) {
             return Err(MttsError::BadBins { bins: config.bins });
         }
+        if !(15..=90).contains(&config.exposed_pct) {
+            return Err(MttsError::BadExposed {
+                exposed_pct: config.exposed_pct,
+            });
+        }
         Ok(Mtts {
             upsampler: Upsampler::new(config.scale)?,
             config,
@@ -459,7 +482,13 @@ impl Mtts {
             ..
         } = scratch;
         let (mut g, fresh) = regions::update_geometry(work, &self.geometry, xy);
-        let sep = lattice::separate(work, xy, &mut g, self.prior);
+        let sep = lattice::separate(
+            work,
+            xy,
+            &mut g,
+            self.prior,
+            f32::from(self.config.exposed_pct) / 100.0,
+        );
         self.geometry = g;
         let (o, cylinder_min) = regions::overlap_and_min(work, &g, xy, clusters);
         let pick = regions::assign(&o, clusters.k);

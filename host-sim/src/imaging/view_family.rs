@@ -1,19 +1,32 @@
 //! A family of camera views, not a list: randomized geometry and optics of the block seen by
 //! the MLX90640, for tuning MTTS on one seed range and reporting on another it never saw.
 //!
-//! Each seed draws, uniformly: lattice period 3–8 px; cylinder width 6–20 px; exposed (heater)
-//! fraction 0.3–0.8; tilt ±15°; axis shift ±3 px and any lattice phase; camera distance
-//! 50–100 mm (SPEC section 1), which sets the radiation halo (a 12 mm band, at the 110° × 75°
-//! sensor's 3.44° per pixel); noise 0–0.5 K rms; SMP surface 300–365 K, the heater 0–20 K
-//! from it of either sign, background 288–308 K. The period and width are drawn in pixels
-//! directly: their ranges already span the distance range and both fields of view.
+//! Each seed draws, uniformly: lattice period 4–16 px; cylinder width 6–20 px; exposed (heater)
+//! fraction 0.2–0.85; tilt ±35° (a bent column's middle leans by half its bend); axis shift
+//! ±3 px and any lattice phase; camera distance 50–100 mm (SPEC section 1), which sets the
+//! radiation halo (a 12 mm band, at the 110° × 75° sensor's 3.44° per pixel); noise
+//! 0.05–0.5 K rms; SMP surface 300–365 K, the heater 1–15 K from it of either sign, background
+//! 278–318 K (cold and warm rooms); up to 4 broken pixels (`NaN`, as the driver reports a pixel
+//! the EEPROM flags) and up to 2 hot pixels (5–40 K above their neighbours, flagged by
+//! nothing). The period and width are drawn in pixels directly: their ranges already span the
+//! distance range and both fields of view.
 //!
 //! Optics: each pixel integrates its square footprint convolved with a Gaussian
 //! point-spread function, evaluated on an 8 × 8 subgrid per pixel. The datasheet gives the
 //! field of view (55° × 35° or 110° × 75° over 32 × 24 pixels) but no numeric sensitivity
-//! profile, so the spread is drawn per seed, σ = 0.25–0.45 px, around the firmware's model
-//! (`thermorph::mtts::lattice::PSF_SIGMA_PX` = 0.35 px): the firmware never gets the exact
+//! profile, so the spread is drawn per seed: none at all (the footprint alone, the sharpest an
+//! MLX90640 can be) for one member in five, else σ = 0–0.6 px. The firmware fits the spread
+//! among its own grid (`thermorph::mtts::lattice::PSF_SIGMAS_PX`) and never gets the exact
 //! optics it is tested on.
+//!
+//! The block's design: a member also carries the exposed fraction its builder would configure
+//! (`thermorph::mtts::Config::exposed_pct`): the lattice's gap over its unit, which the view
+//! shows within ±0.04 (the lattice's waviness and the view angle), so the firmware is never
+//! told the exact fraction either.
+//!
+//! [`thesis`] draws the thesis's own corner: the 21.35 mm gap of each 30 mm unit (exposed
+//! ≈ 0.71), about five units over the 24 rows (period 4.6–5.4 px), no spread beyond the
+//! footprint, 0.1–0.5 K noise, gaps 1–12 K, tilted and shifted, broken and hot pixels.
 
 use std::ops::Range;
 
@@ -26,6 +39,18 @@ use crate::sensor::virtual_mlx::Rng;
 pub const SEEN: Range<u64> = 0..1_000_000;
 /// Seeds kept for reporting: never used while tuning.
 pub const UNSEEN: Range<u64> = 1_000_000..2_000_000;
+
+/// A pixel the image shows wrong: broken (`NaN`) or hot (an offset, K).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BadPixel {
+    /// Pixel index, row-major.
+    pub index: usize,
+    /// `None`: broken (reported `NaN`); `Some(dt)`: reads `dt` kelvin too hot.
+    pub offset_k: Option<f64>,
+}
+
+/// Most bad pixels a member carries.
+pub const MAX_BAD: usize = 6;
 
 /// One member of the family.
 #[derive(Clone, Copy, Debug)]
@@ -40,27 +65,70 @@ pub struct Member {
     pub noise_k: f64,
     /// Camera distance, mm.
     pub distance_mm: f64,
-    /// Point-spread function: Gaussian standard deviation, pixels.
+    /// Point-spread function: Gaussian standard deviation, pixels (0: the footprint alone).
     pub psf_sigma_px: f64,
+    /// The exposed fraction the block's builder configures (the design), percent.
+    pub design_exposed_pct: u8,
+    /// Broken and hot pixels (the first `bad_count`).
+    pub bad: [BadPixel; MAX_BAD],
+    /// How many of `bad` are in use.
+    pub bad_count: usize,
+}
+
+/// Draw one member from `rng` within the given ranges.
+struct Ranges {
+    period_px: (f64, f64),
+    exposed: (f64, f64),
+    tilt_deg: f64,
+    gap_k: (f64, f64),
+    psf_px: (f64, f64),
+    noise_k: (f64, f64),
 }
 
 impl Member {
     /// Draw the member of `seed`.
     pub fn draw(seed: u64) -> Member {
-        let mut rng = Rng::new(seed ^ 0x5CE7_E5EE_D000_0000);
+        Self::draw_in(
+            seed,
+            0x5CE7_E5EE_D000_0000,
+            &Ranges {
+                period_px: (4.0, 16.0),
+                exposed: (0.2, 0.85),
+                tilt_deg: 35.0,
+                gap_k: (1.0, 15.0),
+                // A draw below 0 is the footprint alone: one member in five.
+                psf_px: (-0.15, 0.6),
+                noise_k: (0.05, 0.5),
+            },
+        )
+    }
+
+    fn draw_in(seed: u64, salt: u64, r: &Ranges) -> Member {
+        let mut rng = Rng::new(seed ^ salt);
         let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
-        let period_px = u(3.0, 8.0);
+        let period_px = u(r.period_px.0, r.period_px.1);
         let half_width_px = 0.5 * u(6.0, 20.0);
-        let exposed = u(0.3, 0.8);
-        let tilt_deg = u(-15.0, 15.0);
+        let exposed = u(r.exposed.0, r.exposed.1);
+        let tilt_deg = u(-r.tilt_deg, r.tilt_deg);
         let shift = u(-3.0, 3.0);
         let phase_px = u(0.0, period_px);
         let distance_mm = u(50.0, 100.0);
-        let noise_k = u(0.0, 0.5);
+        let noise_k = u(r.noise_k.0, r.noise_k.1);
         let surface_k = u(300.0, 365.0);
-        let gap_k = u(-20.0, 20.0);
-        let background_k = u(288.0, 308.0);
-        let psf_sigma_px = u(0.25, 0.45);
+        let gap_k = u(r.gap_k.0, r.gap_k.1) * if u(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+        let background_k = u(278.0, 318.0);
+        let psf_sigma_px = u(r.psf_px.0, r.psf_px.1).max(0.0);
+        let design = (exposed + u(-0.04, 0.04)).clamp(0.0, 1.0);
+        let bad_count = (u(0.0, MAX_BAD as f64 + 1.0) as usize).min(MAX_BAD);
+        let mut bad = [BadPixel {
+            index: 0,
+            offset_k: None,
+        }; MAX_BAD];
+        for (i, b) in bad.iter_mut().enumerate().take(bad_count) {
+            b.index = (u(0.0, IMG_PIXELS as f64) as usize).min(IMG_PIXELS - 1);
+            // The first four broken, the rest hot.
+            b.offset_k = (i >= 4).then(|| u(5.0, 40.0));
+        }
         let mm_per_px = distance_mm * (110.0f64 / 32.0).to_radians();
         let geometry = Geometry {
             axis_col0: 15.5 + shift,
@@ -81,6 +149,9 @@ impl Member {
             noise_k,
             distance_mm,
             psf_sigma_px,
+            design_exposed_pct: (100.0 * design).round() as u8,
+            bad,
+            bad_count,
         }
     }
 
@@ -95,16 +166,42 @@ impl Member {
         d * self.temps.heater_k + (1.0 - d) * self.temps.surface_k
     }
 
-    /// Render the member (noise seeded by its seed).
+    /// Render the member (noise seeded by its seed), with its broken and hot pixels.
     pub fn render(&self) -> Rendered {
-        render_psf(
+        let mut r = render_psf(
             &self.geometry,
             &self.temps,
             self.psf_sigma_px,
             self.noise_k,
             self.seed,
-        )
+        );
+        for b in &self.bad[..self.bad_count] {
+            r.image_k[b.index] = match b.offset_k {
+                None => f32::NAN,
+                Some(dt) => r.image_k[b.index] + dt as f32,
+            };
+        }
+        r
     }
+}
+
+/// The thesis's own corner of the family (module doc): the member of `seed`.
+pub fn thesis(seed: u64) -> Member {
+    let exposed = thermorph::block::LATTICE_GAP_FRACTION as f64;
+    let mut m = Member::draw_in(
+        seed,
+        0x7E51_5000_0000_0000,
+        &Ranges {
+            period_px: (4.6, 5.4),
+            exposed: (exposed - 0.02, exposed + 0.02),
+            tilt_deg: 20.0,
+            gap_k: (1.0, 12.0),
+            psf_px: (0.0, 0.0),
+            noise_k: (0.1, 0.5),
+        },
+    );
+    m.design_exposed_pct = (100.0 * exposed).round() as u8;
+    m
 }
 
 /// Φ(x), the standard normal distribution function (erfc, to 1e-7).
@@ -206,11 +303,17 @@ mod tests {
         for s in 0..200 {
             let m = Member::draw(s);
             let g = m.geometry;
-            assert!((3.0..8.0).contains(&g.period_px));
+            assert!((4.0..16.0).contains(&g.period_px));
             assert!((3.0..10.0).contains(&g.half_width_px));
-            assert!((0.3..0.8).contains(&g.exposed));
-            assert!(g.tilt_deg.abs() <= 15.0 && m.gap_k().abs() <= 20.0);
-            assert!((0.0..0.5).contains(&m.noise_k));
+            assert!((0.2..0.85).contains(&g.exposed));
+            assert!(g.tilt_deg.abs() <= 35.0);
+            assert!((1.0..=15.0).contains(&m.gap_k().abs()));
+            assert!((0.05..0.5).contains(&m.noise_k));
+            assert!((0.0..0.6).contains(&m.psf_sigma_px));
+            assert!((f64::from(m.design_exposed_pct) / 100.0 - g.exposed).abs() <= 0.045);
+            let r = m.render();
+            let broken = r.image_k.iter().filter(|v| v.is_nan()).count();
+            assert!(broken <= 4 && m.bad_count <= MAX_BAD);
         }
     }
 

@@ -189,13 +189,15 @@ impl Default for SensorArgs {
 }
 
 /// The fixed scene: room background, a warm cylinder across the middle columns with hotter
-/// stripes where heaters show through the lattice, K.
+/// stripes where the heater shows through the lattice's gaps — 4 rows of each 6, near the
+/// block's design of 71 % (`thermorph::mtts::Config::exposed_pct`), so MTTS tells the heater
+/// from the surface by the stripes' width — K.
 pub fn demo_scene() -> [f32; PIXELS] {
     let mut f = [298.0f32; PIXELS];
     for (p, t) in f.iter_mut().enumerate() {
         let (row, col) = (p / 32, p % 32);
         if (10..22).contains(&col) {
-            *t = if row % 6 < 2 { 338.0 } else { 323.0 };
+            *t = if row % 6 < 4 { 338.0 } else { 323.0 };
         } else if col == 9 || col == 22 {
             *t = 310.0;
         }
