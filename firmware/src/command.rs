@@ -138,7 +138,7 @@ impl fmt::Display for ArgError {
             Self::OnOrOff => f.write_str("usage: stream on|off [HZ]"),
             Self::RateWithOff => f.write_str("`stream off` takes no rate"),
             Self::PoseUsage => {
-                f.write_str("usage: mode pose ANGLE [SPRINGS] [form] (ANGLE 0–65 degrees)")
+                f.write_str("usage: mode pose ANGLE [SPRINGS] [form] (ANGLE 0 to 65 degrees)")
             }
         }
     }

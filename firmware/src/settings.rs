@@ -987,7 +987,7 @@ pub const PARAMS: &[Param] = &[
     ),
     param!(
         "pose_tol_deg",
-        "°",
+        "deg",
         0.5,
         10.0,
         "a pose is reached within this of its angle",

@@ -77,8 +77,11 @@ fn poses_form_near_their_targets_without_a_fault() {
         if c.target_deg <= 30.0 {
             let e = o.error_deg().unwrap_or(f64::INFINITY);
             assert!(e <= 3.0, "{what}: error {e}");
+            // From straight within 3 min; from a formed 40° down to 20° the springs still
+            // austenite from the first pose hold the bend until they rest (≈ 7 min at 318 K).
+            let limit_s = if c.from_deg.is_some() { 480.0 } else { 180.0 };
             assert!(
-                o.reach_s.is_some_and(|t| t < 180.0),
+                o.reach_s.is_some_and(|t| t < limit_s),
                 "{what}: {:?}",
                 o.reach_s
             );

@@ -107,7 +107,7 @@ impl fmt::Display for Notice {
                 write!(f, "autotune aborted: {why}; the gains are unchanged")
             }
             Notice::PoseReached { deg, sd_deg } => {
-                write!(f, "ok pose reached {deg:.1}±{sd_deg:.1}")
+                write!(f, "ok pose reached {deg:.1}+-{sd_deg:.1}")
             }
             Notice::PoseOutOfReach { deg } => write!(f, "pose out of reach at {deg:.1}"),
         }

@@ -6,7 +6,7 @@
 //! the step did before the next. A step lasts `POSE_S_PER_DEG` per degree still missing
 //! (at least [`MIN_STEP_S`], at most `step_s`): the steps shrink as the bend nears the
 //! target. Within `pose_tol_deg` after a settle the target is reached (`# pose reached
-//! ANGLE±U`, a notice, unlogged); the mode then holds `hot_k` with the springs off, stepping again if the bend
+//! ANGLE+-U`, a notice, unlogged: the console is ASCII); the mode then holds `hot_k` with the springs off, stepping again if the bend
 //! sags out of the tolerance, until `hold_timeout_s` — or, with `form`, it forms at once
 //! (phase `cool`), still stepping the springs while the bend sags below the target and the
 //! wall is soft enough to take it, and ends in standby.
