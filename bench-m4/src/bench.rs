@@ -10,6 +10,7 @@ use thermorph::units::k_or_nan;
 
 mod control;
 mod observer;
+mod posture;
 
 mod data {
     include!(concat!(env!("OUT_DIR"), "/data.rs"));
@@ -277,6 +278,7 @@ fn main() -> ! {
     hprintln!("root4_vsqrt insns_per_call={}", t / n as u64);
     control::bench(overhead);
     observer::bench(overhead);
+    posture::bench(overhead);
     finish(debug::EXIT_SUCCESS)
 }
 

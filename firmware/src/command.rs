@@ -93,6 +93,9 @@ pub enum ArgError {
     OnOrOff,
     /// `stream off` with a rate.
     RateWithOff,
+    /// `mode pose` without an angle in 0–65°, or with a word after it that is neither
+    /// springs nor `form`.
+    PoseUsage,
 }
 
 impl fmt::Display for ArgError {
@@ -134,6 +137,9 @@ impl fmt::Display for ArgError {
             }
             Self::OnOrOff => f.write_str("usage: stream on|off [HZ]"),
             Self::RateWithOff => f.write_str("`stream off` takes no rate"),
+            Self::PoseUsage => {
+                f.write_str("usage: mode pose ANGLE [SPRINGS] [form] (ANGLE 0 to 65 degrees)")
+            }
         }
     }
 }
@@ -176,6 +182,16 @@ pub enum Command {
     Status,
     /// Enter a mode; the springs for the stepping modes (default: the last used, at first A).
     Mode(ModeId, Option<SpringMask>),
+    /// `mode pose ANGLE [SPRINGS] [form]`: bend to `target_deg` with the springs (default: the
+    /// last used), forming once reached with `form`.
+    Pose {
+        /// The target bend, degrees (0–65).
+        target_deg: f32,
+        /// The springs to bend with.
+        springs: Option<SpringMask>,
+        /// Form once reached.
+        form: bool,
+    },
     /// Pause stepping (springs off, timers held).
     Pause,
     /// Resume paused stepping.
@@ -233,8 +249,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     },
     CommandSpec {
         name: "mode",
-        args: "standby|step-small|step-large|form|recover [SPRINGS]",
-        help: "enter a mode; SPRINGS: letters of A, B, C for stepping",
+        args: "standby|step-small|step-large|form|recover [SPRINGS] | pose ANGLE [SPRINGS] [form]",
+        help: "enter a mode; SPRINGS: letters of A, B, C for stepping and pose",
     },
     CommandSpec {
         name: "pause",
@@ -317,7 +333,9 @@ const POW10: [f64; 23] = [
 /// integer, scaled once by an exact power of ten in f64 and rounded to f32: the same value as
 /// core's for every input of up to 15 significant digits with a decimal exponent within ±22
 /// (f64's one rounding then f32's; a test compares the two on the shortest, three-decimal and
-/// exponent forms of 200 000 random f32s), within an ulp beyond.
+/// exponent forms of 200 000 random f32s), within an ulp beyond. Not inlined: three commands
+/// parse numbers, and one copy is what the board's flash has room for.
+#[inline(never)]
 fn number(word: &str) -> Option<f32> {
     let b = word.as_bytes();
     let (neg, mut i) = match b.first()? {
@@ -390,6 +408,31 @@ fn number(word: &str) -> Option<f32> {
     v.is_finite().then_some(v)
 }
 
+/// `mode pose`'s arguments after `pose`: ANGLE [SPRINGS] [form].
+fn parse_pose<'a>(mut words: impl Iterator<Item = &'a str>) -> Result<Command, ParseError> {
+    let bad = ParseError::BadArguments(ArgError::PoseUsage);
+    let target_deg = words
+        .next()
+        .and_then(number)
+        .filter(|v| (0.0..=crate::supervisor::pose::MAX_TARGET_DEG).contains(v))
+        .ok_or(bad)?;
+    let (mut springs, mut form) = (None, false);
+    for w in words {
+        if !form && w.eq_ignore_ascii_case("form") {
+            form = true;
+        } else if springs.is_none() && !form {
+            springs = Some(SpringMask::parse(w).ok_or(bad)?);
+        } else {
+            return Err(bad);
+        }
+    }
+    Ok(Command::Pose {
+        target_deg,
+        springs,
+        form,
+    })
+}
+
 /// Parse one line (without its end).
 pub fn parse(line: &str) -> Result<Command, ParseError> {
     let mut words = line.split([' ', '\t']).filter(|w| !w.is_empty());
@@ -401,6 +444,9 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
     let spec = &COMMANDS[index];
     let bad = ParseError::BadArguments;
     let a = words.next();
+    if spec.name == "mode" && a.is_some_and(|w| w.eq_ignore_ascii_case("pose")) {
+        return parse_pose(words);
+    }
     let b = words.next();
     if words.next().is_some() {
         // `set hot_k 358 K`: a unit after the value.
@@ -566,6 +612,33 @@ mod tests {
         assert_eq!(parse("mode form A"), bad(ArgError::SpringsNotTaken));
         assert_eq!(parse("mode step-small ABD"), bad(ArgError::UnknownSprings));
         assert_eq!(parse("mode fly"), bad(ArgError::UnknownMode));
+        assert_eq!(
+            parse("mode pose 30 BC form"),
+            Ok(Command::Pose {
+                target_deg: 30.0,
+                springs: SpringMask::parse("BC"),
+                form: true
+            })
+        );
+        assert_eq!(
+            parse("MODE POSE 12.5"),
+            Ok(Command::Pose {
+                target_deg: 12.5,
+                springs: None,
+                form: false
+            })
+        );
+        for line in [
+            "mode pose",
+            "mode pose 70",
+            "mode pose -1",
+            "mode pose x",
+            "mode pose 30 AD",
+            "mode pose 30 form A",
+            "mode pose 30 A B",
+        ] {
+            assert_eq!(parse(line), bad(ArgError::PoseUsage), "{line}");
+        }
         assert_eq!(parse("mode"), bad(ArgError::NoMode));
         assert_eq!(parse("set hot_k nan"), bad(ArgError::NotANumber));
         assert_eq!(parse("set hot_k inf"), bad(ArgError::NotANumber));
@@ -590,7 +663,7 @@ mod tests {
         let said = |line: &str| std::format!("{}", parse(line).unwrap_err());
         assert_eq!(
             said("mode fly"),
-            "unknown mode; one of standby, step-small, step-large, form, recover"
+            "unknown mode; one of standby, step-small, step-large, form, recover, pose"
         );
         assert_eq!(
             said("mode step-large D"),
@@ -598,7 +671,7 @@ mod tests {
         );
         assert_eq!(
             said("mode form AB"),
-            "springs are for step-small and step-large only"
+            "springs are for step-small and step-large and pose only"
         );
         assert_eq!(said("set hot_k abc"), "not a number");
         assert_eq!(

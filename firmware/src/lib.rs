@@ -12,6 +12,7 @@
 //! - [`sensing`]: the sensor policy (setup, bus recovery, subpage pairing, frozen and
 //!   implausible data) from subpages to one [`measurement::Measurement`] a frame.
 //! - [`measurement`]: what sensing hands control, one [`measurement::Measurement`] a frame.
+//! - [`posture`]: the column's bend from the camera's axis tilt and a model of the springs.
 //! - [`outputs`]: heater and fan duty and the spring gates, the only things a decision drives.
 //! - [`block`]: the block's geometry.
 //! - [`console`]: the line-based serial console protocol: assembling bytes into lines.
@@ -35,6 +36,7 @@ pub mod mlx90640;
 pub mod mtts;
 pub mod observer;
 pub mod outputs;
+pub mod posture;
 pub mod sensing;
 pub mod settings;
 pub mod storage;

@@ -34,6 +34,34 @@ pub struct Measurement {
     /// How far T1 and T2 may each lie from their values (for a merged or fallback frame: from
     /// the area-weighted mean both carry), K.
     pub bound: Kelvin,
+    /// The cylinder's axis tilt in the image, if this frame re-estimated it.
+    pub tilt: Option<Tilt>,
+}
+
+/// The cylinder's axis tilt in the image as MTTS fitted it: for a constant-curvature column
+/// fixed at its base the visible middle leans by half the bend's component in the image plane
+/// (the posture estimate, [`crate::posture`], turns it into a bend).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tilt {
+    /// The axis's angle from the image's vertical, degrees (positive: leaning towards higher
+    /// columns down the image).
+    pub deg: f32,
+    /// The fit's standard error of that angle, degrees.
+    pub sd_deg: f32,
+}
+
+impl Tilt {
+    /// The tilt of an axis `col = a + slope·row` whose slope has the standard error
+    /// `slope_se` (columns per row); `None` unless both are finite.
+    pub fn from_slope(slope: f32, slope_se: f32) -> Option<Tilt> {
+        if !(slope.is_finite() && slope_se.is_finite()) {
+            return None;
+        }
+        Some(Tilt {
+            deg: libm::atanf(slope).to_degrees(),
+            sd_deg: (slope_se / (1.0 + slope * slope)).to_degrees(),
+        })
+    }
 }
 
 impl Measurement {
@@ -128,7 +156,17 @@ mod tests {
             filled_pixels: 0,
             quality,
             bound: Kelvin::new(bound).unwrap(),
+            tilt: None,
         }
+    }
+
+    #[test]
+    fn a_tilt_is_the_slopes_angle_with_its_error_through_the_derivative() {
+        let t = Tilt::from_slope(1.0, 0.02).unwrap();
+        assert!((t.deg - 45.0).abs() < 1e-4, "{t:?}");
+        assert!((t.sd_deg - 0.01f32.to_degrees()).abs() < 1e-4, "{t:?}");
+        assert_eq!(Tilt::from_slope(f32::NAN, 0.1), None);
+        assert_eq!(Tilt::from_slope(0.1, f32::INFINITY), None);
     }
 
     #[test]

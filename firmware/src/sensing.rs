@@ -363,6 +363,11 @@ pub fn to_measurement(
         filled_pixels: out.filled_pixels,
         quality: out.quality,
         bound: out.bound,
+        tilt: if out.fresh.cylinder_fresh {
+            crate::measurement::Tilt::from_slope(out.fresh.tilt_slope, out.fresh.tilt_slope_se)
+        } else {
+            None
+        },
     };
     // Tc is the supervisor's to compute (it carries no field here); under the hint in force it
     // only decides whether the frame is plausible enough to publish.

@@ -191,6 +191,9 @@ pub struct Settings {
     pub smp_frozen_centre_k: f32,
     /// Observer: width of the frozen fraction's logistic, K.
     pub smp_frozen_width_k: f32,
+    /// A pose (`mode pose ANGLE`) has reached its target once the bend estimate is within
+    /// this of it after a settle, degrees.
+    pub pose_tol_deg: f32,
 }
 
 impl Settings {
@@ -266,6 +269,7 @@ impl Settings {
         sma_mf_k: ObserverParams::DEFAULT.springs.mf_k,
         smp_frozen_centre_k: ObserverParams::DEFAULT.frozen_centre_k,
         smp_frozen_width_k: ObserverParams::DEFAULT.frozen_width_k,
+        pose_tol_deg: 2.0,
     };
 
     /// The springs' pre-warm target at an estimated ambient, K: `spring_prewarm_k`, raised by
@@ -980,6 +984,14 @@ pub const PARAMS: &[Param] = &[
         10.0,
         "wall's frozen fraction: width",
         |s| s.smp_frozen_width_k
+    ),
+    param!(
+        "pose_tol_deg",
+        "deg",
+        0.5,
+        10.0,
+        "a pose is reached within this of its angle",
+        |s| s.pose_tol_deg
     ),
 ];
 

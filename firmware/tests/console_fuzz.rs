@@ -240,6 +240,7 @@ impl Console {
             filled_pixels: 0,
             bound: Kelvin::lit(0.5),
             quality: Quality::Resolved,
+            tilt: None,
         };
         self.sup.period(Millis(self.now_ms), None, Some(&m), None);
     }

@@ -185,6 +185,11 @@ impl Block {
             filled_pixels: 0,
             quality,
             bound: Kelvin::new(bound).unwrap(),
+            // Whatever the frame, a tilt (NaN with a NaN frame): the bend estimate takes it.
+            tilt: Some(thermorph::measurement::Tilt {
+                deg: 0.5 * (t1 - 300.0),
+                sd_deg: 0.2,
+            }),
         }
     }
 }

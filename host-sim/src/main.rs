@@ -115,6 +115,9 @@ enum Command {
     },
     /// Measure the MTTS work-precision table (speed against error) and print it as markdown.
     MttsWp(host_sim::imaging::mtts_wp::WpArgs),
+    /// Run posture control (`mode pose ANGLE SPRINGS form`) over targets, spring sets and
+    /// ambients, camera on, and print the posture and bend-estimate tables (docs/posture.md).
+    PoseTable,
     /// Run the thesis's experiments (camera on, the firmware's supervisor) and print each
     /// SPEC section 8 figure beside the thesis's, with its tolerance and pass/fail.
     Paper {
@@ -210,6 +213,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::PlantWp { out } => host_sim::plant::wp::run(&out, 20),
         Command::MttsWp(args) => host_sim::imaging::mtts_wp::run(&args),
+        Command::PoseTable => host_sim::runs::pose::cli(),
         Command::Paper {
             json,
             no_camera,

@@ -9,7 +9,7 @@ use core::hint::black_box;
 
 use cortex_m_semihosting::hprintln;
 use thermorph::command::Command;
-use thermorph::measurement::{Measurement, Quality};
+use thermorph::measurement::{Measurement, Quality, Tilt};
 use thermorph::outputs::SpringMask;
 use thermorph::settings::Settings;
 use thermorph::supervisor::ModeId;
@@ -27,6 +27,11 @@ fn frame(at_ms: u64, seq: u32, t2: f32) -> Measurement {
         filled_pixels: 0,
         quality: Quality::Resolved,
         bound: Kelvin::lit(0.5),
+        // A bending column's tilt: every frame corrects the bend estimate.
+        tilt: Some(Tilt {
+            deg: 0.02 * (at_ms % 1000) as f32,
+            sd_deg: 0.3,
+        }),
     }
 }
 

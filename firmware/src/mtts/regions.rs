@@ -180,10 +180,35 @@ fn floor(x: f32) -> f32 {
 }
 
 /// What the region finder could estimate this frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Fresh {
     /// The cylinder was re-estimated (else the previous geometry was kept).
     pub cylinder_fresh: bool,
+    /// The re-estimated axis slope from the rows the image's sides do not clip
+    /// ([`CylinderFit::tilt_slope`]), columns per row; 0 when the cylinder was not
+    /// re-estimated.
+    pub tilt_slope: f32,
+    /// Its standard error, columns per row ([`CylinderFit::slope_se`]).
+    pub tilt_slope_se: f32,
+}
+
+/// A cylinder fitted to one image ([`fit_cylinder`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CylinderFit {
+    /// Axis column at row 0, pixels.
+    pub col0: f32,
+    /// Axis slope, columns per row.
+    pub slope: f32,
+    /// The axis slope fitted to the rows the image's side columns do not clip (a row whose
+    /// mask reaches the first or last column has its centroid pulled inwards: a steep tilt
+    /// would read short), columns per row; NaN with fewer than four such rows. The posture
+    /// estimate's tilt; the zones keep `slope`.
+    pub tilt_slope: f32,
+    /// Standard error of `tilt_slope`, columns per row: the rows' centroid scatter about that
+    /// axis (each row weighted by its pixel count) through the least-squares design.
+    pub slope_se: f32,
+    /// Half-width perpendicular to the axis, pixels.
+    pub half_width_px: f32,
 }
 
 /// Return the 95th percentile of |v − bg|, to 1/256 of its range: a counting pass over 256
@@ -271,7 +296,7 @@ fn percentiles_20_95(v: &[f32; IMG_PIXELS]) -> (f32, f32) {
 
 /// Re-estimate the cylinder from an image (finite values); `None` when the contrast is too low
 /// or too few rows show it.
-pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
+pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<CylinderFit> {
     // The background: the median of the outer columns (the cylinder is near the middle). The
     // cylinder may be warmer or colder than it (a cold block in a warm room, or a heater
     // colder than the background in forming), so the mask is on the distance from it.
@@ -282,6 +307,8 @@ pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
     }
     let thr = 0.5 * top;
     let mut widths = [0f32; IMG_ROWS];
+    let mut centroids = [(0f32, 0f32, 0f32); IMG_ROWS];
+    let mut unclipped = 0;
     let mut nrows = 0;
     let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0f32, 0f32, 0f32, 0f32, 0f32);
     for r in 0..IMG_ROWS {
@@ -302,6 +329,13 @@ pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
             sxx += n * x * x;
             sxy += n * x * y;
             widths[nrows] = n;
+            let clipped = [row[0], row[IMG_COLS - 1]]
+                .iter()
+                .any(|&v| libm::fabsf(v - bg) > thr);
+            if !clipped {
+                centroids[unclipped] = (x, y, n);
+                unclipped += 1;
+            }
             nrows += 1;
         }
     }
@@ -315,11 +349,50 @@ pub fn fit_cylinder(img: &[f32; IMG_PIXELS]) -> Option<(f32, f32, f32)> {
         0.0
     };
     let col0 = (sy - slope * sx) / sw;
+    let (tilt_slope, slope_se) = line_fit(&centroids[..unclipped]);
     let w = &mut widths[..nrows];
     w.sort_unstable_by(f32::total_cmp);
     let median = w[nrows / 2];
     let half = 0.5 * median / crate::fmath::sqrt(1.0 + slope * slope);
-    Some((col0, slope, half.max(1.0)))
+    Some(CylinderFit {
+        col0,
+        slope,
+        tilt_slope,
+        slope_se,
+        half_width_px: half.max(1.0),
+    })
+}
+
+/// The weighted least-squares slope of `col = a + slope·row` through rows' (row, centroid,
+/// pixel count), and its standard error: the residual variance per unit weight (rows − 2
+/// degrees of freedom) times sw/det, the slope's entry of the inverse normal matrix. NaN and
+/// infinity with fewer than four rows.
+fn line_fit(rows: &[(f32, f32, f32)]) -> (f32, f32) {
+    if rows.len() < 4 {
+        return (f32::NAN, f32::INFINITY);
+    }
+    let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0f32, 0f32, 0f32, 0f32, 0f32);
+    for &(x, y, n) in rows {
+        sw += n;
+        sx += n * x;
+        sy += n * y;
+        sxx += n * x * x;
+        sxy += n * x * y;
+    }
+    let det = sw * sxx - sx * sx;
+    if det <= 1e-3 {
+        return (f32::NAN, f32::INFINITY);
+    }
+    let slope = (sw * sxy - sx * sy) / det;
+    let col0 = (sy - slope * sx) / sw;
+    let ss: f32 = rows
+        .iter()
+        .map(|&(x, y, n)| n * (y - col0 - slope * x) * (y - col0 - slope * x))
+        .sum();
+    (
+        slope,
+        crate::fmath::sqrt(ss / (rows.len() as f32 - 2.0) * sw / det),
+    )
 }
 
 /// Update the cylinder from a frame (keeping the previous one when it cannot be
@@ -332,11 +405,13 @@ pub fn update_geometry(
 ) -> (Geometry, Fresh) {
     let mut g = *prev;
     let mut q = Fresh::default();
-    if let Some((col0, slope, half)) = fit_cylinder(img) {
-        g.axis_col0 = col0;
-        g.axis_slope = slope;
-        g.half_width_px = half;
+    if let Some(fit) = fit_cylinder(img) {
+        g.axis_col0 = fit.col0;
+        g.axis_slope = fit.slope;
+        g.half_width_px = fit.half_width_px;
         q.cylinder_fresh = true;
+        q.tilt_slope = fit.tilt_slope;
+        q.tilt_slope_se = fit.slope_se;
     }
     g.coords_into(xy);
     (g, q)
@@ -454,10 +529,29 @@ mod tests {
     #[test]
     fn finds_a_shifted_tilted_cylinder() {
         let img = cylinder_image(13.0, 0.15, 6.0, false);
-        let (col0, slope, half) = fit_cylinder(&img).unwrap();
+        let fit = fit_cylinder(&img).unwrap();
+        let (col0, slope, half) = (fit.col0, fit.slope, fit.half_width_px);
         assert!((col0 - 13.0).abs() < 1.0, "{col0}");
         assert!((slope - 0.15).abs() < 0.05, "{slope}");
         assert!((half - 6.0).abs() < 1.5, "{half}");
+        // The slope's standard error covers its error and is finite.
+        assert!(fit.slope_se.is_finite() && fit.slope_se >= 0.0, "{fit:?}");
+        assert!(
+            (fit.tilt_slope - 0.15).abs() < 4.0 * fit.slope_se + 0.01,
+            "{fit:?}"
+        );
+    }
+
+    #[test]
+    fn a_steep_tilt_reads_true_from_the_rows_the_sides_do_not_clip() {
+        // 32°: below row ≈ 12 the cylinder runs off the image's right side.
+        let img = cylinder_image(15.5, 0.62, 8.0, false);
+        let fit = fit_cylinder(&img).unwrap();
+        assert!((fit.tilt_slope - 0.62).abs() < 0.03, "{fit:?}");
+        assert!(
+            (fit.slope - 0.62).abs() > 2.0 * (fit.tilt_slope - 0.62).abs(),
+            "the zones' slope reads short: {fit:?}"
+        );
     }
 
     #[test]
@@ -473,7 +567,8 @@ mod tests {
             }
         });
         assert_eq!(border_median(&img), 305.0);
-        let (col0, slope, half) = fit_cylinder(&img).unwrap();
+        let fit = fit_cylinder(&img).unwrap();
+        let (col0, slope, half) = (fit.col0, fit.slope, fit.half_width_px);
         assert!((col0 - 14.0).abs() < 0.6, "{col0}");
         assert!(slope.abs() < 0.05, "{slope}");
         assert!((half - 6.0).abs() < 1.0, "{half}");

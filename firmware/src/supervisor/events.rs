@@ -74,6 +74,18 @@ pub enum Notice {
     },
     /// An autotune gave up (why); the gains are unchanged.
     TuneAborted(&'static str),
+    /// A pose reached its target: the estimated bend and its standard deviation, degrees.
+    PoseReached {
+        /// The estimated bend, degrees.
+        deg: f32,
+        /// Its standard deviation, degrees.
+        sd_deg: f32,
+    },
+    /// A pose's springs pull all they can and the bend is short of the target, degrees.
+    PoseOutOfReach {
+        /// The estimated bend, degrees.
+        deg: f32,
+    },
 }
 
 impl fmt::Display for Notice {
@@ -94,6 +106,10 @@ impl fmt::Display for Notice {
             Notice::TuneAborted(why) => {
                 write!(f, "autotune aborted: {why}; the gains are unchanged")
             }
+            Notice::PoseReached { deg, sd_deg } => {
+                write!(f, "ok pose reached {deg:.1}+-{sd_deg:.1}")
+            }
+            Notice::PoseOutOfReach { deg } => write!(f, "pose out of reach at {deg:.1}"),
         }
     }
 }

@@ -96,6 +96,7 @@ pub mod events;
 pub mod forming;
 pub mod memory;
 pub mod mode;
+pub mod pose;
 pub mod recovery;
 pub mod report;
 pub mod safety;
@@ -108,6 +109,7 @@ use crate::control::{Pid, PidConfig, SplitRange};
 use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
 use crate::observer::{Estimate, Observer, SpringState};
 use crate::outputs::{Duty, Outputs, SpringMask};
+use crate::posture::{Bend, Posture};
 use crate::settings::{PARAMS, SetError, Settings};
 use crate::units::{Kelvin, Millis, Seconds};
 use events::{EventKind, EventLog};
@@ -119,6 +121,7 @@ pub use events::{Notice, Warning};
 pub use forming::Forming;
 pub use memory::{SpringMemory, SpringRecord};
 pub use mode::{Mode, ModeId, PauseError};
+pub use pose::{PosePhase, Posing};
 pub use recovery::{RecoverPhase, Recovering};
 pub use stepping::{StepKind, StepPhase, Stepping};
 
@@ -203,6 +206,8 @@ pub struct Supervisor {
     /// The estimate of what the camera cannot see: the wall through its thickness, the
     /// springs, the ambient.
     observer: Observer,
+    /// The column's bend: the camera's axis tilt fused with the model of the springs.
+    posture: Posture,
     stream: Option<Stream>,
     button_pressed: bool,
     store: Option<store::StoreRequest>,
@@ -293,6 +298,7 @@ impl Supervisor {
             started: now,
             springs: SpringMask::from_bits(1),
             observer: observer_with(&settings, &springs),
+            posture: Posture::new(),
             stream: None,
             button_pressed: false,
             store: None,
@@ -400,6 +406,16 @@ impl Supervisor {
         &self.observer
     }
 
+    /// Return the column's bend as estimated (camera and model, up to this step).
+    pub fn bend(&self) -> Bend {
+        self.posture.bend()
+    }
+
+    /// Return the posture estimate.
+    pub fn posture(&self) -> &Posture {
+        &self.posture
+    }
+
     /// Return the sensing hint of the mode.
     pub fn sensing_hint(&self) -> SensingHint {
         self.mode.sensing(&self.settings, self.film_fallback)
@@ -456,6 +472,12 @@ impl Supervisor {
                 controlled_temperature(&m, &self.sensing_hint()).map_or(f32::NAN, Kelvin::k);
             self.correct_observer(&m);
             self.last = Some(m);
+        }
+        // The bend: the model follows the observer's springs and wall; a frame's tilt corrects.
+        self.posture
+            .predict(&self.observer.estimate(), Seconds::from_ms(elapsed_ms));
+        if let Some(t) = fresh.and_then(|m| m.tilt) {
+            self.posture.correct(t);
         }
 
         // 2. The command.
@@ -680,6 +702,7 @@ impl Supervisor {
             last_heater: self.outputs.heater,
             last_springs: self.outputs.springs,
             estimate: &estimate,
+            bend: self.posture.bend(),
             observer: &self.observer,
             safety: &self.safety,
             events: &mut self.events,
@@ -827,6 +850,23 @@ impl Supervisor {
             Command::Autotune => {
                 self.enter(now, Mode::Autotune(Tuning::start(&self.settings)));
                 Reply::ok("autotune started")
+            }
+            Command::Pose {
+                target_deg,
+                springs,
+                form,
+            } => {
+                let springs = springs.unwrap_or(self.springs);
+                // What the springs reach against the soft wall, less the tolerance: a target
+                // beyond is refused now, not found out after a soak.
+                let reach_deg = Posture::reach_deg(springs, self.settings.soft_frozen_max)
+                    - self.settings.pose_tol_deg;
+                let reply = Reply::pose(target_deg, springs, reach_deg, form);
+                if target_deg <= reach_deg {
+                    self.springs = springs;
+                    self.enter(now, Mode::Posing(Posing::new(target_deg, springs, form)));
+                }
+                reply
             }
             Command::Mode(id, springs) => {
                 if let Some(sp) = springs.filter(|_| id.takes_springs()) {

@@ -10,6 +10,7 @@
 use super::autotune::Tuning;
 use super::events::{EventKind, EventLog, Notice, Warning};
 use super::forming::Forming;
+use super::pose::{PosePhase, Posing};
 use super::recovery::{RecoverPhase, Recovering};
 use super::safety::Safety;
 use super::stepping::{StepKind, StepPhase, Stepping};
@@ -17,6 +18,7 @@ use crate::measurement::{Measurement, SensingHint};
 use crate::mtts::Prior;
 use crate::observer::{Estimate, Observer};
 use crate::outputs::{Duty, SPRINGS, SpringMask};
+use crate::posture::Bend;
 use crate::settings::Settings;
 use crate::units::Millis;
 
@@ -34,6 +36,8 @@ pub enum ModeId {
     Form,
     /// Mode 4: reheat, straighten with the springs, cool straight.
     Recover,
+    /// Bend to an angle by the bend estimate (`mode pose ANGLE [SPRINGS] [form]`).
+    Pose,
     /// A relay autotune.
     Autotune,
     /// Everything off until a `mode` command.
@@ -44,12 +48,13 @@ pub enum ModeId {
 
 impl ModeId {
     /// Every mode, the ones a `mode` command asks for first, in the thesis's order.
-    pub const ALL: [ModeId; 8] = [
+    pub const ALL: [ModeId; 9] = [
         ModeId::Standby,
         ModeId::StepSmall,
         ModeId::StepLarge,
         ModeId::Form,
         ModeId::Recover,
+        ModeId::Pose,
         ModeId::Autotune,
         ModeId::Stopped,
         ModeId::Faulted,
@@ -63,6 +68,7 @@ impl ModeId {
             ModeId::StepLarge => "step-large",
             ModeId::Form => "form",
             ModeId::Recover => "recover",
+            ModeId::Pose => "pose",
             ModeId::Autotune => "autotune",
             ModeId::Stopped => "stopped",
             ModeId::Faulted => "fault",
@@ -77,7 +83,8 @@ impl ModeId {
             | ModeId::StepSmall
             | ModeId::StepLarge
             | ModeId::Form
-            | ModeId::Recover => true,
+            | ModeId::Recover
+            | ModeId::Pose => true,
             ModeId::Autotune | ModeId::Stopped | ModeId::Faulted => false,
         }
     }
@@ -85,7 +92,7 @@ impl ModeId {
     /// Whether the mode drives the springs (a `mode` command may name them).
     pub const fn takes_springs(self) -> bool {
         match self {
-            ModeId::StepSmall | ModeId::StepLarge => true,
+            ModeId::StepSmall | ModeId::StepLarge | ModeId::Pose => true,
             ModeId::Standby
             | ModeId::Form
             | ModeId::Recover
@@ -103,6 +110,7 @@ impl ModeId {
             | ModeId::StepLarge
             | ModeId::Form
             | ModeId::Recover
+            | ModeId::Pose
             | ModeId::Autotune => true,
             ModeId::Standby | ModeId::Stopped | ModeId::Faulted => false,
         }
@@ -127,6 +135,8 @@ pub enum Mode {
     Forming(Forming),
     /// Mode 4.
     Recovery(Recovering),
+    /// Bending to an angle by the bend estimate.
+    Posing(Posing),
     /// A relay autotune.
     Autotune(Tuning),
     /// Everything off until a `mode` command.
@@ -181,7 +191,8 @@ impl Mode {
             ModeId::Recover => Mode::Recovery(Recovering::new(s)),
             ModeId::Autotune => Mode::Autotune(Tuning::start(s)),
             ModeId::Stopped => Mode::Stopped,
-            ModeId::Faulted => return None,
+            // A pose needs its angle (`Command::Pose`); a fault is latched, never asked for.
+            ModeId::Pose | ModeId::Faulted => return None,
         })
     }
 
@@ -192,6 +203,7 @@ impl Mode {
             Mode::Stepping(st) => st.advance(c),
             Mode::Forming(f) => f.advance(c),
             Mode::Recovery(r) => r.advance(c),
+            Mode::Posing(p) => p.advance(c),
             Mode::Autotune(t) => t.advance(c),
             Mode::Stopped | Mode::Faulted => return None,
         })
@@ -204,6 +216,7 @@ impl Mode {
             Mode::Standby
             | Mode::Forming(_)
             | Mode::Recovery(_)
+            | Mode::Posing(_)
             | Mode::Autotune(_)
             | Mode::Stopped
             | Mode::Faulted => Err(PauseError::NotStepping),
@@ -223,8 +236,11 @@ impl Mode {
             Mode::Recovery(r) if matches!(r.phase, RecoverPhase::Cool { .. }) => {
                 hint(Prior::SurfaceHotter, s.w1_form)
             }
+            Mode::Posing(p) if matches!(p.phase, PosePhase::Form { .. }) => {
+                hint(Prior::SurfaceHotter, s.w1_form)
+            }
             Mode::Stopped | Mode::Faulted => hint(Prior::Unknown, s.w1_standby),
-            Mode::Stepping(_) => heating(s.w1_step),
+            Mode::Stepping(_) | Mode::Posing(_) => heating(s.w1_step),
             Mode::Recovery(_) => heating(s.w1_recover),
             Mode::Standby | Mode::Autotune(_) => heating(s.w1_standby),
         }
@@ -240,6 +256,7 @@ impl Mode {
             },
             Mode::Forming(_) => ModeId::Form,
             Mode::Recovery(_) => ModeId::Recover,
+            Mode::Posing(_) => ModeId::Pose,
             Mode::Autotune(_) => ModeId::Autotune,
             Mode::Stopped => ModeId::Stopped,
             Mode::Faulted => ModeId::Faulted,
@@ -269,6 +286,13 @@ impl Mode {
                 RecoverPhase::Hold { .. } => "hold",
                 RecoverPhase::Cool { .. } => "cool",
             },
+            Mode::Posing(p) => match p.phase {
+                PosePhase::Soak { .. } => "soak",
+                PosePhase::Step { .. } => "spring",
+                PosePhase::Settle { .. } => "settle",
+                PosePhase::Hold => "hold",
+                PosePhase::Form { .. } => "cool",
+            },
             Mode::Standby
             | Mode::Forming(_)
             | Mode::Autotune(_)
@@ -287,6 +311,13 @@ impl Mode {
                 RecoverPhase::Heat { .. }
                 | RecoverPhase::Pulse { .. }
                 | RecoverPhase::Hold { .. } => None,
+            },
+            Mode::Posing(p) => match p.phase {
+                PosePhase::Form { since, .. } => Some(since),
+                PosePhase::Soak { .. }
+                | PosePhase::Step { .. }
+                | PosePhase::Settle { .. }
+                | PosePhase::Hold => None,
             },
             Mode::Standby
             | Mode::Stepping(_)
@@ -320,6 +351,8 @@ pub(super) struct Ctx<'a> {
     pub last_springs: SpringMask,
     /// The observer's estimate at this step (the wall's softness, the springs).
     pub estimate: &'a Estimate,
+    /// The bend estimate at this step.
+    pub bend: Bend,
     /// The observer (for what the heater can make of the wall, [`Observer::softest`]).
     pub observer: &'a Observer,
     /// The fault checks (spring on-time and duty).

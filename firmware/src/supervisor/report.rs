@@ -85,6 +85,24 @@ impl Reply {
         Reply::with(|r| write!(r, "err {code}: {message}"))
     }
 
+    /// `mode pose`'s reply: the target, the springs and what they can reach (or why not).
+    pub(super) fn pose(target_deg: f32, springs: SpringMask, reach_deg: f32, form: bool) -> Reply {
+        Reply::with(|r| {
+            if target_deg > reach_deg {
+                write!(
+                    r,
+                    "err out-of-reach: springs {springs} reach {reach_deg:.1}"
+                )
+            } else {
+                write!(
+                    r,
+                    "ok mode pose {target_deg:.1} springs={springs} reach_deg={reach_deg:.1}{}",
+                    if form { " form" } else { "" }
+                )
+            }
+        })
+    }
+
     /// The reply to a line refused by the parser.
     pub fn parse_error(e: crate::command::ParseError) -> Reply {
         Reply::with(|r| write!(r, "err {}: {e}", e.code()))
@@ -154,6 +172,7 @@ impl Reply {
                 s.outputs.springs
             )?;
             write!(r, " select={}", s.springs)?;
+            write_bend(r, &s.posture.bend())?;
             write_estimate(r, &s.observer.estimate())?;
             match s.fault {
                 Some(f) => write!(r, " fault={} reason=\"{}\"", f.code(), f.reason()),
@@ -259,6 +278,11 @@ fn write_param(r: &mut impl Write, p: &Param, v: f32) -> fmt::Result {
     }
 }
 
+/// The bend estimate's fields: ` bend_deg=… bend_sd_deg=…`.
+fn write_bend(r: &mut impl Write, b: &crate::posture::Bend) -> fmt::Result {
+    write!(r, " bend_deg={:.2} bend_sd_deg={:.2}", b.deg, b.sd_deg)
+}
+
 fn write_k(r: &mut impl Write, name: &str, v: f32) -> fmt::Result {
     if v.is_finite() {
         write!(r, " {name}={v:.2}")
@@ -334,8 +358,8 @@ fn write_estimate(r: &mut impl Write, e: &Estimate) -> fmt::Result {
     Ok(())
 }
 
-/// The loop's telemetry fields, the line's first ones.
-const LOOP_FIELDS: [&str; 12] = [
+/// The loop's telemetry fields, the line's first ones (with the bend estimate's last).
+const LOOP_FIELDS: [&str; 14] = [
     "t_s",
     "mode",
     "phase",
@@ -348,6 +372,8 @@ const LOOP_FIELDS: [&str; 12] = [
     "springs",
     "quality",
     "fault",
+    "bend_deg",
+    "bend_sd_deg",
 ];
 
 /// The telemetry line's fields, in order (docs/console.md's table is checked against this):
@@ -394,6 +420,7 @@ pub fn telemetry(s: &Supervisor, now: Millis, out: &mut impl Write) -> fmt::Resu
         s.last.map_or("-", |m| m.quality.name()),
         s.fault.map_or("none", |f| f.code())
     )?;
+    write_bend(out, &s.posture.bend())?;
     write_estimate(out, &s.observer.estimate())?;
     out.write_str("\r\n")
 }

@@ -47,6 +47,7 @@ impl Block {
             filled_pixels: 0,
             quality: Quality::Resolved,
             bound: Kelvin::lit(0.5),
+            tilt: None,
         }
     }
 }
@@ -324,8 +325,8 @@ fn set_get_and_spring_limits() {
     assert!(r.line("help").starts_with("ok commands: help [COMMAND];"));
     assert_eq!(
         r.line("help mode"),
-        "ok mode standby|step-small|step-large|form|recover [SPRINGS]: enter a mode; SPRINGS: \
-         letters of A, B, C for stepping"
+        "ok mode standby|step-small|step-large|form|recover [SPRINGS] | pose ANGLE [SPRINGS] \
+         [form]: enter a mode; SPRINGS: letters of A, B, C for stepping and pose"
     );
     assert_eq!(
         r.line("HELP save"),
@@ -520,6 +521,7 @@ fn frame_of(t1: f32, t2: f32, quality: Quality, bound: f32) -> Measurement {
         filled_pixels: 0,
         quality,
         bound: Kelvin::new(bound).unwrap(),
+        tilt: None,
     }
 }
 
@@ -1145,4 +1147,28 @@ fn autotune_announces_its_result_and_that_save_keeps_it() {
     assert!(said.starts_with("# autotune aborted: "), "{said}");
     assert!(said.ends_with("; the gains are unchanged"), "{said}");
     assert_eq!(r.sup.settings().gains, Settings::DEFAULT.gains);
+}
+
+#[test]
+fn a_pose_beyond_its_springs_reach_is_refused_and_one_within_reach_steps_by_the_estimate() {
+    let mut r = Rig::new();
+    r.run(5.0);
+    // One spring against the soft wall reaches ≈ 42°: 60° is refused, nothing changes.
+    let reply = r.line("mode pose 60 A");
+    assert!(reply.starts_with("err out-of-reach"), "{reply}");
+    assert_eq!(r.sup.mode().name(), "standby");
+    let reply = r.line("mode pose 20 BC form");
+    assert!(
+        reply.starts_with("ok mode pose 20.0 springs=BC reach_deg="),
+        "{reply}"
+    );
+    assert!(reply.ends_with(" form"), "{reply}");
+    assert_eq!(
+        (r.sup.mode().name(), r.sup.mode().phase_name()),
+        ("pose", "soak")
+    );
+    // It soaks as stepping does, with the springs off.
+    r.run(1.0);
+    assert_eq!(r.sup.outputs().springs, SpringMask::NONE);
+    assert!(r.line("status").contains(" bend_deg="));
 }

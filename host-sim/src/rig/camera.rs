@@ -8,7 +8,7 @@
 //! arc) projected on the image plane.
 
 use embassy_futures::block_on;
-use thermorph::measurement::{Measurement, Quality, SensingHint};
+use thermorph::measurement::{Measurement, Quality, SensingHint, Tilt};
 use thermorph::mlx90640::{Config as SensorConfig, Mlx90640};
 use thermorph::mtts::{IMG_PIXELS, REGIONS};
 use thermorph::sensing::{Outcome, Pipeline, PipelineConfig, Sensor};
@@ -133,9 +133,8 @@ impl Camera {
             if faults.view == Some(CameraFault::BurningFilm) {
                 temps.heater_k = BURNING_FILM_K;
             }
-            let plane = obs.bend_plane_deg.to_radians();
             let geometry = Geometry {
-                tilt_deg: 0.5 * obs.bend_deg * plane.cos(),
+                tilt_deg: true_tilt_deg(obs),
                 springs: true,
                 ..Geometry::default()
             };
@@ -185,8 +184,19 @@ pub fn open_loop_hint() -> SensingHint {
     }
 }
 
+/// The camera's tilt for the column of `obs`, degrees: half the bend's component in the image
+/// plane (the chord of a constant-curvature arc), the plane measured from spring A and the
+/// image plane through it.
+pub fn true_tilt_deg(obs: &Observation) -> f64 {
+    0.5 * obs.bend_deg * obs.bend_plane_deg.to_radians().cos()
+}
+
+/// The standard error a camera-off measurement gives its (true) tilt, degrees.
+pub const TRUTH_TILT_SD_DEG: f32 = 0.1;
+
 /// The camera-off measurement: the true region temperatures of `obs` at `at` (frame number
-/// `seq`), resolved (the supervisor computes Tc from them, as from a camera frame).
+/// `seq`), resolved (the supervisor computes Tc from them, as from a camera frame), and the
+/// true tilt ([`true_tilt_deg`]).
 pub fn truth_measurement(obs: &Observation, at: Millis, seq: u32) -> Measurement {
     Measurement {
         at,
@@ -196,6 +206,10 @@ pub fn truth_measurement(obs: &Observation, at: Millis, seq: u32) -> Measurement
         filled_pixels: 0,
         quality: Quality::Resolved,
         bound: Kelvin::lit(0.0),
+        tilt: Some(Tilt {
+            deg: true_tilt_deg(obs) as f32,
+            sd_deg: TRUTH_TILT_SD_DEG,
+        }),
     }
 }
 

@@ -6,12 +6,14 @@
 //! - [`series`]: a run's time series (one row a period) and its CSV.
 //! - [`cycle_figures`]: the thesis cycle's figures measured on a time series.
 //! - [`paper`]: `host-sim paper`, the thesis's experiments against the real supervisor.
+//! - [`pose`]: `host-sim pose-table`, posture control over targets, springs and ambients.
 //! - [`sweep`]: `host-sim sweep`, a scene over a grid of overrides, in parallel.
 //! - [`plot`]: the PNG plots (of a run and of a desk recording).
 
 pub mod cycle_figures;
 pub mod paper;
 pub mod plot;
+pub mod pose;
 pub mod run;
 pub mod scenario;
 pub mod series;

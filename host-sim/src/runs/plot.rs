@@ -724,12 +724,15 @@ fn twin_ranges(bend: Option<&[f64]>, k_b: Option<&[f64]>) -> (Range<f64>, Range<
     (y, y2)
 }
 
-/// Draw the bending angle (left axis) and the bending stiffness (right axis).
+/// Draw the bending angle (left axis), the firmware's estimate of it where the table has one
+/// (`est_bend_deg`, a simulator run's; a desk recording's `bend_deg` is the estimate itself),
+/// and the bending stiffness (right axis).
 fn bending_panel(
     area: &Area<'_>,
     time: &[f64],
     x: Range<f64>,
     bend: Option<&[f64]>,
+    est: Option<&[f64]>,
     k_b: Option<&[f64]>,
     x_desc: Option<&str>,
 ) -> Result<PanelPx, PlotError> {
@@ -776,6 +779,15 @@ fn bending_panel(
         for seg in segments(time, b) {
             chart
                 .draw_series(strokes(seg, blue.stroke_width(2)))
+                .map_err(err)?;
+        }
+    }
+    if let Some(e) = est {
+        let orange = RGBColor(230, 120, 20);
+        keys.push(line("estimate, camera + model (left)", orange));
+        for seg in segments(time, e) {
+            chart
+                .draw_series(strokes(seg, orange.stroke_width(1)))
                 .map_err(err)?;
         }
     }
@@ -961,6 +973,7 @@ pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, PlotEr
     let fan = table.num_any(&["fan_duty_pct", "fan_pct"]);
     let springs = spring_columns(table);
     let bend = table.num("bend_deg");
+    let est_bend = table.num("est_bend_deg");
     let k_b = table.num("k_b_nmm_per_rad");
     let modes = table.text("mode").map(|m| bands(&time, &m));
     let gaps: Vec<f64> = table
@@ -1156,6 +1169,7 @@ pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, PlotEr
                     &time,
                     x.clone(),
                     bend.as_deref(),
+                    est_bend.as_deref(),
                     k_b.as_deref(),
                     last,
                 )?;

@@ -22,9 +22,11 @@ use std::time::Instant;
 
 use serde::Serialize;
 use thermorph::app::Line;
+use thermorph::posture::Posture;
 use thermorph::settings::Settings;
 use thermorph::supervisor::report::Reply;
 use thermorph::supervisor::{Notice, Supervisor};
+use thermorph::units::Seconds;
 
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, camera_temps};
@@ -208,6 +210,7 @@ pub fn run_with(
     // A line `react` decided at a period's start, sent at the next one's: the reaction time of
     // someone polling `status`, one scene period.
     let mut reacted: Option<String> = None;
+    let mut model_only = Posture::new();
     for k in 0..steps {
         let t1_us = (k as u64 + 1) * period_us;
         loop {
@@ -254,11 +257,13 @@ pub fn run_with(
             }
             keep_warnings(&mut said, board.time_s(), &mut warnings);
             if row_start.is_none() {
-                row_start = Some((
-                    board.inputs(),
-                    board.commanded().springs_on,
-                    board.supervisor().map(control_row),
-                ));
+                let mut control = board.supervisor().map(control_row);
+                if let Some(c) = &mut control {
+                    // The model alone, beside the supervisor's fused estimate.
+                    model_only.predict(&c.estimate, Seconds::from_ms((period_us / 1000) as u32));
+                    c.model_bend_deg = model_only.model_deg() as f64;
+                }
+                row_start = Some((board.inputs(), board.commanded().springs_on, control));
             }
             let now_us = board.time_us();
             if now_us >= t1_us {
@@ -311,10 +316,12 @@ fn record(at_s: f64, line: &str, reply: Option<Reply>) -> ReplyRecord {
     }
 }
 
-/// The supervisor's state for the time series.
+/// The supervisor's state for the time series (the model-only bend NaN: [`run`] fills it).
 pub fn control_row(s: &Supervisor) -> ControlRow {
     ControlRow {
         estimate: s.estimate(),
+        bend: s.bend(),
+        model_bend_deg: f64::NAN,
         mode: s.mode().name(),
         phase: s.mode().phase_name(),
         target_k: s.target_k() as f64,

@@ -6,6 +6,7 @@ use std::io::Write;
 
 use thermorph::mtts::{Quality, REGIONS};
 use thermorph::observer::Estimate;
+use thermorph::posture::Bend;
 
 use crate::plant::{Inputs, Observation};
 
@@ -47,6 +48,10 @@ pub struct ControlRow {
     pub fault: Option<&'static str>,
     /// The observer's estimate at the period's start (the wall, the springs, the ambient).
     pub estimate: Estimate,
+    /// The supervisor's bend estimate (camera and model) at the period's start.
+    pub bend: Bend,
+    /// The same model without the camera (run beside the supervisor's), degrees.
+    pub model_bend_deg: f64,
 }
 
 /// The CSV header.
@@ -56,10 +61,12 @@ austenite_a,austenite_b,austenite_c,frozen_fraction,bend_deg,bend_plane_deg,k_b_
 heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_k,tc_k,fault,\
 est_frozen_fraction,est_frozen_std,est_inner_k,est_inner_std_k,est_outer_k,est_ambient_k,\
 est_spring_a_k,est_spring_b_k,est_spring_c_k,est_spring_a_std_k,est_spring_b_std_k,\
-est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c,quality";
+est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c,est_bend_deg,est_bend_sd_deg,\
+model_bend_deg,quality";
 
 /// The estimate's columns in an open-loop run (no observer).
-const NO_ESTIMATE: &str = ",nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan";
+const NO_ESTIMATE: &str =
+    ",nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan";
 
 /// Write the time series as CSV (`nan` where there is no measurement; `quality` is the MTTS
 /// frame's, `resolved`, `merged` or `fallback`, and `none` without a frame).
@@ -158,10 +165,12 @@ fn write_rows(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
                     .chain([e.layers_k[e.layers_k.len() - 1], e.ambient_k])
                     .chain(e.springs_k)
                     .chain(e.springs_std_k)
-                    .chain(e.austenite);
+                    .chain(e.austenite)
+                    .chain([c.bend.deg, c.bend.sd_deg]);
                 for v in values {
                     write!(out, ",{}", k(v as f64))?;
                 }
+                write!(out, ",{}", k(c.model_bend_deg))?;
             }
             None => write!(out, ",-,-,nan,nan,none{NO_ESTIMATE}")?,
         }

@@ -10,6 +10,7 @@
 //! | `wait FIELD OP VALUE [within S]` | polls `status` until the condition holds (default 60 s) |
 //! | `expect FIELD OP VALUE` | one `status`; the condition must hold now |
 //! | `sleep S` | waits S seconds |
+//! | `pose ANGLE [SPRINGS] [form] [within S]` | sends `mode pose …` (the reply must be `ok …`), then waits until the pose holds its target (phase `hold`) or, with `form`, has formed and handed back to standby (default 600 s) |
 //!
 //! FIELD is a field of the `status` reply (`mode`, `phase`, `tc_k`, `t1_k`, `fault`, …); OP is
 //! one of `==`, `!=`, `<`, `<=`, `>`, `>=`; numbers compare as numbers, words as words. So
@@ -37,6 +38,8 @@ use super::{DeskError, WaitTimeout};
 
 /// Default `wait` timeout.
 pub const DEFAULT_WAIT: Duration = Duration::from_secs(60);
+/// Default `pose` timeout: a soak, the steps and (with `form`) the forming.
+pub const DEFAULT_POSE_WAIT: Duration = Duration::from_secs(600);
 /// How often `wait` asks for `status`.
 pub const POLL: Duration = Duration::from_millis(200);
 
@@ -225,6 +228,28 @@ pub fn parse(text: &str) -> Result<Script, DeskError> {
                     };
                     check_field(&c, &known)?;
                     Ok(Step::Wait { cond: c, within })
+                }
+                "pose" => {
+                    let (args, within) = match words[1..] {
+                        [.., "within", s] => (&words[1..words.len() - 2], seconds(s)?),
+                        _ => (&words[1..], DEFAULT_POSE_WAIT),
+                    };
+                    let command = format!("mode pose {}", args.join(" "));
+                    check_command(&command)?;
+                    let form = args.iter().any(|w| w.eq_ignore_ascii_case("form"));
+                    let done = if form {
+                        cond(&["mode", "==", "standby"])?
+                    } else {
+                        cond(&["phase", "==", "hold"])?
+                    };
+                    out.push((
+                        n,
+                        Step::Command {
+                            line: command,
+                            any: false,
+                        },
+                    ));
+                    Ok(Step::Wait { cond: done, within })
                 }
                 "expect" => {
                     let c = cond(&words[1..])?;
@@ -699,6 +724,38 @@ mod tests {
         );
         assert_eq!(s[6].1, Step::Sleep(Duration::from_millis(500)));
         assert!(matches!(&s[7].1, Step::Wait { within, .. } if *within == DEFAULT_WAIT));
+    }
+
+    #[test]
+    fn pose_sends_the_mode_and_waits_for_its_end() {
+        let s = parse("pose 30 AB form within 400\npose 12.5\n").unwrap();
+        assert_eq!(s.len(), 4);
+        assert_eq!(
+            s[0],
+            (
+                1,
+                Step::Command {
+                    line: "mode pose 30 AB form".into(),
+                    any: false
+                }
+            )
+        );
+        assert_eq!(
+            s[1].1,
+            Step::Wait {
+                cond: Cond {
+                    field: "mode".into(),
+                    op: Op::Eq,
+                    value: "standby".into()
+                },
+                within: Duration::from_secs(400)
+            }
+        );
+        assert!(matches!(&s[3].1, Step::Wait { cond, within }
+            if cond.field == "phase" && cond.value == "hold" && *within == DEFAULT_POSE_WAIT));
+        // The pose's arguments are the library parser's to check.
+        assert!(parse("pose 90 AB\n").is_err());
+        assert!(parse("pose\n").is_err());
     }
 
     #[test]
