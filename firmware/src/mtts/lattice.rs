@@ -65,8 +65,6 @@ pub const EXPOSED_MAX: f32 = 0.9;
 /// How far the exposed fraction a frame shows may lie from the block's design
 /// ([`super::Config::exposed_pct`]): the lattice's waviness and the view angle.
 pub const EXPOSED_TOLERANCE: f32 = 0.06;
-/// The optics' point-spread function: Gaussian standard deviation, pixels (nominal).
-pub const PSF_SIGMA_PX: f32 = 0.35;
 /// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
 /// no numeric pixel-sensitivity profile), pixels: from the footprint alone to a blur wider
 /// than a pixel's half.
@@ -170,13 +168,9 @@ fn sinc(x: f32) -> f32 {
 }
 
 /// Transfer function of pixel footprint and optics at `nu` cycles per pixel along an axis of
-/// slope `slope` (columns per row).
-pub fn transfer(nu: f32, slope: f32) -> f32 {
-    transfer_with(nu, slope, PSF_SIGMA_PX)
-}
-
-/// [`transfer`] with a point-spread function of standard deviation `sigma_px`.
-pub fn transfer_with(nu: f32, slope: f32, sigma_px: f32) -> f32 {
+/// slope `slope` (columns per row), through a Gaussian point-spread function of standard
+/// deviation `sigma_px`.
+pub fn transfer(nu: f32, slope: f32, sigma_px: f32) -> f32 {
     let inv = 1.0 / crate::fmath::sqrt(1.0 + slope * slope);
     let (ca, sa) = (inv, libm::fabsf(slope) * inv);
     let g = core::f32::consts::PI * sigma_px * nu;
@@ -726,7 +720,7 @@ pub fn separate(
     let mut mtf = [[0f32; HARMONICS]; PSFS];
     for k in 0..harmonics {
         let f = (k + 1) as f32 * nu;
-        let boxes = transfer_with(f, g.axis_slope, 0.0);
+        let boxes = transfer(f, g.axis_slope, 0.0);
         let x = core::f32::consts::PI * PSF_STEP_PX * f;
         let e = libm::expf(-2.0 * x * x);
         // E^(i²), stepped by E^((i+1)² − i²) = E^(2i + 1), itself stepped by E².
@@ -1046,11 +1040,12 @@ mod tests {
 
     #[test]
     fn transfer_is_one_at_zero_and_falls() {
-        assert!((transfer(0.0, 0.3) - 1.0).abs() < 1e-6);
-        assert!(transfer(0.25, 0.0) < transfer(0.1, 0.0));
+        let sigma = 0.35;
+        assert!((transfer(0.0, 0.3, sigma) - 1.0).abs() < 1e-6);
+        assert!(transfer(0.25, 0.0, sigma) < transfer(0.1, 0.0, sigma));
         // A box of one pixel: sinc(0.5) · Gaussian.
         let want = (2.0 / core::f32::consts::PI)
-            * libm::expf(-2.0 * (core::f32::consts::PI * PSF_SIGMA_PX * 0.5).powi(2));
-        assert!((transfer(0.5, 0.0) - want).abs() < 1e-5);
+            * libm::expf(-2.0 * (core::f32::consts::PI * sigma * 0.5).powi(2));
+        assert!((transfer(0.5, 0.0, sigma) - want).abs() < 1e-5);
     }
 }
