@@ -971,17 +971,6 @@ pub fn members_outcomes(
         .collect()
 }
 
-/// Mean, 95th percentile and max of `v` (zeros when empty).
-pub fn distribution(v: &mut [f64]) -> (f64, f64, f64) {
-    if v.is_empty() {
-        return (0.0, 0.0, 0.0);
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    let p95 = v[((0.95 * (n - 1) as f64).round() as usize).min(n - 1)];
-    (v.iter().sum::<f64>() / n as f64, p95, v[n - 1])
-}
-
 /// Exposed-fraction bands of the family table.
 pub const FAMILY_EXPOSED: [(f64, f64); 6] = [
     (0.2, 0.35),
@@ -1074,71 +1063,76 @@ fn in_band(x: f64, (lo, hi): (f64, f64)) -> bool {
     x >= lo && x < hi
 }
 
-/// Table by exposed-fraction band × period band over members whose gap is at least 3 K.
-pub fn family_markdown(outs: &[FamilyOutcome]) -> String {
+/// A table of [`CellStats`] rows: `labels` names the label columns (`"a | b"`), each row's
+/// label fills them.
+fn stats_table(labels: &str, rows: impl IntoIterator<Item = (String, CellStats)>) -> String {
+    let columns = labels.split(" | ").count() + STATS_HEADER.matches(" | ").count() + 1;
     let mut s = String::new();
-    let _ = writeln!(s, "| exposed | period px | {STATS_HEADER}");
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
-    for &e in &FAMILY_EXPOSED {
-        for &p in &FAMILY_PERIODS {
-            let st = CellStats::of(outs.iter().filter(|o| {
-                in_band(o.exposed, e) && in_band(o.period_px, p) && o.gap_k.abs() >= 3.0
-            }));
-            if st.n > 0 {
-                let _ = writeln!(s, "| {}–{} | {}–{} | {}", e.0, e.1, p.0, p.1, st.cells());
-            }
-        }
+    let _ = writeln!(s, "| {labels} | {STATS_HEADER}");
+    let _ = writeln!(s, "|{}", "---|".repeat(columns));
+    for (label, st) in rows {
+        let _ = writeln!(s, "| {label} | {}", st.cells());
     }
     s
+}
+
+/// Members whose gap is at least 3 K.
+fn clear_gap(o: &FamilyOutcome) -> bool {
+    o.gap_k.abs() >= 3.0
+}
+
+/// Table by exposed-fraction band × period band over members whose gap is at least 3 K.
+pub fn family_markdown(outs: &[FamilyOutcome]) -> String {
+    let rows = FAMILY_EXPOSED.iter().flat_map(|&e| {
+        FAMILY_PERIODS.iter().filter_map(move |&p| {
+            let st = CellStats::of(
+                outs.iter()
+                    .filter(|o| in_band(o.exposed, e) && in_band(o.period_px, p) && clear_gap(o)),
+            );
+            (st.n > 0).then(|| (format!("{}–{} | {}–{}", e.0, e.1, p.0, p.1), st))
+        })
+    });
+    stats_table("exposed | period px", rows)
 }
 
 /// Table by exposed-fraction band (every period) over members whose gap is at least 3 K.
 pub fn family_exposed_markdown(outs: &[FamilyOutcome]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "| exposed | {STATS_HEADER}");
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
-    for &e in &FAMILY_EXPOSED {
+    let rows = FAMILY_EXPOSED.iter().map(|&e| {
         let st = CellStats::of(
             outs.iter()
-                .filter(|o| in_band(o.exposed, e) && o.gap_k.abs() >= 3.0),
+                .filter(|o| in_band(o.exposed, e) && clear_gap(o)),
         );
-        let _ = writeln!(s, "| {}–{} | {}", e.0, e.1, st.cells());
-    }
-    s
+        (format!("{}–{}", e.0, e.1), st)
+    });
+    stats_table("exposed", rows)
 }
 
 /// Table by gap band, one row per prior case.
 pub fn family_gap_markdown(cases: &[(&str, &[FamilyOutcome])]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "| prior | abs gap K | {STATS_HEADER}");
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
-    for (name, outs) in cases {
-        for &g in &FAMILY_GAPS {
+    let rows = cases.iter().flat_map(|&(name, outs)| {
+        FAMILY_GAPS.iter().map(move |&g| {
             let st = CellStats::of(outs.iter().filter(|o| in_band(o.gap_k.abs(), g)));
-            let _ = writeln!(s, "| {name} | {}–{} | {}", g.0, g.1, st.cells());
-        }
-    }
-    s
+            (format!("{name} | {}–{}", g.0, g.1), st)
+        })
+    });
+    stats_table("prior | abs gap K", rows)
 }
 
 /// Table by point-spread band over members whose gap is at least 3 K.
 pub fn family_psf_markdown(outs: &[FamilyOutcome]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "| PSF σ px | {STATS_HEADER}");
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
-    for &b in &FAMILY_PSFS {
+    let rows = FAMILY_PSFS.iter().map(|&b| {
         let st = CellStats::of(
             outs.iter()
-                .filter(|o| in_band(o.psf_sigma_px, b) && o.gap_k.abs() >= 3.0),
+                .filter(|o| in_band(o.psf_sigma_px, b) && clear_gap(o)),
         );
         let label = if b.1 < 1e-6 {
             "none (footprint)".to_string()
         } else {
             format!("{}–{}", if b.0 < 1e-6 { 0.0 } else { b.0 }, b.1)
         };
-        let _ = writeln!(s, "| {label} | {}", st.cells());
-    }
-    s
+        (label, st)
+    });
+    stats_table("PSF σ px", rows)
 }
 
 /// The headline: members at periods ≥ 4 px and gaps ≥ 3 K.

@@ -75,7 +75,7 @@ pub struct Member {
     pub bad_count: usize,
 }
 
-/// Draw one member from `rng` within the given ranges.
+/// The ranges a family draws its members from (uniformly).
 struct Ranges {
     period_px: (f64, f64),
     exposed: (f64, f64),
