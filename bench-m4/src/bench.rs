@@ -137,7 +137,12 @@ fn main() -> ! {
         );
     }
     let g0 = thermorph::mtts::regions::Geometry::DEFAULT;
-    let (_, t_cyl) = measure(|| black_box(thermorph::mtts::regions::fit_cylinder(&scratch.work)));
+    let (_, t_cyl) = measure(|| {
+        black_box(thermorph::mtts::regions::fit_cylinder(
+            &scratch.work,
+            (scratch.coldest_k, scratch.hottest_k),
+        ))
+    });
     let (xy, t_xy) = measure(|| g0.coords_all());
     let (_, t_lat) = measure(|| {
         let mut g = g0;

@@ -1,4 +1,6 @@
-//! Float functions `core` does not provide: square root, fourth root, exact powers of two.
+//! Float functions `core` does not provide: square root, fourth root, exact powers of two, sine
+//! and cosine in `f32` (libm's `sinf`/`cosf` work in `f64`, which the Cortex-M4's FPU lacks:
+//! linking them costs ≈ 10 KiB of soft-float code and far more time).
 //!
 //! On the Cortex-M4F the square root is the FPU's `VSQRT.F32` (exact, correctly rounded, a
 //! handful of cycles); elsewhere it is `libm::sqrtf`, which is also correctly rounded, so both
@@ -59,6 +61,27 @@ pub fn pow2_f64(n: i32) -> f64 {
     f64::from_bits(((n + 1023) as u64) << 52)
 }
 
+/// Sine and cosine of 2π·x (x in turns, |x| < 2^31), without a library call: reduction to an
+/// eighth of a turn and Taylor polynomials (error < 1e-6); exactly (0, 1) at x = 0.
+pub fn sin_cos_turns(x: f32) -> (f32, f32) {
+    let floor = |x: f32| {
+        let i = x as i32 as f32;
+        if i > x { i - 1.0 } else { i }
+    };
+    let r = x - floor(x + 0.5);
+    let q = floor(r * 4.0 + 0.5);
+    let p = core::f32::consts::TAU * (r - 0.25 * q);
+    let p2 = p * p;
+    let s = p * (1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0)));
+    let c = 1.0 - p2 / 2.0 * (1.0 - p2 / 12.0 * (1.0 - p2 / 30.0 * (1.0 - p2 / 56.0)));
+    match q as i32 {
+        0 => (s, c),
+        1 => (c, -s),
+        -1 => (-c, s),
+        _ => (-s, -c),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -78,5 +101,17 @@ mod tests {
         }
         assert!(sqrt(-1.0).is_nan());
         assert!((root4(8.1e9) - 300.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn sin_cos_matches_libm() {
+        for i in -400..400 {
+            let x = i as f32 * 0.01237;
+            let (s, c) = sin_cos_turns(x);
+            let a = core::f32::consts::TAU * x;
+            assert!((s - libm::sinf(a)).abs() < 2e-6, "{x}");
+            assert!((c - libm::cosf(a)).abs() < 2e-6, "{x}");
+        }
+        assert_eq!(sin_cos_turns(0.0), (0.0, 1.0));
     }
 }

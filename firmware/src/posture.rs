@@ -193,6 +193,27 @@ fn equilibrium(
     b
 }
 
+/// Fixed-point rounds of [`Posture::form_aim_deg`].
+const AIM_ROUNDS: usize = 4;
+/// Gauss–Newton iterations of a rest bend (from the stored bend, or the last round's rest).
+const REST_ITERATIONS: usize = 8;
+
+/// The rest bend of a wall frozen about `stored_deg` along `u` with every spring martensite
+/// ([`Posture::rest_deg`]): (its component along `u`, degrees; the bend vector, rad), solved
+/// from `from` or the stored bend.
+fn rest_along(u: [f32; 2], stored_deg: f32, from: Option<[f32; 2]>) -> (f32, [f32; 2]) {
+    let stored = [
+        u[0] * stored_deg.to_radians(),
+        u[1] * stored_deg.to_radians(),
+    ];
+    let k = stiffness_nmm_per_rad(1.0);
+    let mut b = from.unwrap_or(stored);
+    for _ in 0..REST_ITERATIONS {
+        b = equilibrium(&[0.0; SPRINGS], k, stored, b);
+    }
+    ((b[0] * u[0] + b[1] * u[1]).to_degrees(), b)
+}
+
 fn norm(v: [f32; 2]) -> f32 {
     crate::fmath::sqrt(v[0] * v[0] + v[1] * v[1])
 }
@@ -285,21 +306,26 @@ impl Posture {
         ]
     }
 
-    /// Correct with a frame's tilt: the camera measures the bend's component in the image
-    /// plane, twice the tilt.
-    pub fn correct(&mut self, tilt: Tilt) {
+    /// Correct with a frame's tilt: the camera measures the bend's component along its
+    /// image's rows, twice the tilt; the rows lie at `azimuth_deg` from spring A (towards B;
+    /// the `cam_azimuth_deg` setting), so the measurement is `b·(cos α, sin α)`.
+    pub fn correct(&mut self, tilt: Tilt, azimuth_deg: f32) {
         let sd = (2.0 * tilt.sd_deg).max(2.0 * TILT_SD_FLOOR_DEG);
         let z = 2.0 * tilt.deg;
-        if !(z.is_finite() && sd.is_finite()) {
+        if !(z.is_finite() && sd.is_finite() && azimuth_deg.is_finite()) {
             return;
         }
+        let (s, c) = crate::fmath::sin_cos_turns(azimuth_deg / 360.0);
         let [pxx, pxy, pyy] = self.cov;
-        let s = pxx + sd * sd;
-        let innovation = z - self.vector_deg()[0];
-        let (kx, ky) = (pxx / s, pxy / s);
+        // P·Hᵀ with H = (c, s); at α = 0 exactly the x-only update (c = 1, s = 0).
+        let ph = [pxx * c + pxy * s, pxy * c + pyy * s];
+        let innovation_var = c * ph[0] + s * ph[1] + sd * sd;
+        let v = self.vector_deg();
+        let innovation = z - (c * v[0] + s * v[1]);
+        let (kx, ky) = (ph[0] / innovation_var, ph[1] / innovation_var);
         self.correction_deg[0] += kx * innovation;
         self.correction_deg[1] += ky * innovation;
-        self.cov = [pxx - kx * pxx, pxy - kx * pxy, pyy - ky * pxy];
+        self.cov = [pxx - kx * ph[0], pxy - kx * ph[1], pyy - ky * ph[1]];
     }
 
     /// The estimated bend's plane from spring A, degrees (−180…180; 0 when straight).
@@ -332,6 +358,56 @@ impl Posture {
     /// The model's bend alone, degrees (no camera).
     pub fn model_deg(&self) -> f32 {
         norm(self.model_rad).to_degrees()
+    }
+
+    /// The bend a formed column comes to rest at once its springs have cooled, degrees (signed
+    /// along the plane of `springs`): the wall frozen about `stored_deg` in that plane, every
+    /// spring martensite. The springs on the bend's outside are stretched past their free
+    /// length even as martensite: their pull springs the glassy wall back from its stored bend
+    /// (about 6° at 30° with A and B) once the selected springs no longer pull against it.
+    ///
+    /// Springs cooled to a room above Mf (318 K) keep part of their austenite, which the
+    /// observer's cooling branch would credit with holding some of the bend; measured, the
+    /// formed bend springs back nearly as far there (aiming with the observer's rest fraction
+    /// left a 20° pose with A and B 4.8° short at 318 K, against 0.2° without), so the rest is
+    /// taken as martensite in every room (docs/posture.md).
+    pub fn rest_deg(springs: SpringMask, stored_deg: f32) -> f32 {
+        let u = Self::plane_unit(springs);
+        rest_along(u, stored_deg, None).0
+    }
+
+    /// The bend to form `springs`' pose at — hold while the wall freezes, so the wall stores
+    /// it — for the column to rest at `target_deg` once the springs have cooled
+    /// ([`Posture::rest_deg`]), degrees: `target_deg` plus the spring-back, found by a few
+    /// fixed-point rounds (the rest bend moves with the stored one almost one for one).
+    pub fn form_aim_deg(springs: SpringMask, target_deg: f32) -> f32 {
+        let u = Self::plane_unit(springs);
+        let mut stored = target_deg;
+        let mut from = None;
+        for _ in 0..AIM_ROUNDS {
+            let (rest, b) = rest_along(u, stored, from);
+            if !rest.is_finite() {
+                return target_deg;
+            }
+            stored += target_deg - rest;
+            from = Some(b);
+        }
+        stored
+    }
+
+    /// The unit vector of the plane `springs` pull in (spring A's for none).
+    fn plane_unit(springs: SpringMask) -> [f32; 2] {
+        let mut v = [0.0f32; 2];
+        for i in (0..SPRINGS).filter(|&i| springs.contains(i)) {
+            let c = direction(i);
+            v = [v[0] + c[0], v[1] + c[1]];
+        }
+        let n = norm(v);
+        if n < 1e-3 {
+            [1.0, 0.0]
+        } else {
+            [v[0] / n, v[1] / n]
+        }
     }
 
     /// How far `springs`, fully austenite, bend the column from straight with the wall at
@@ -442,10 +518,13 @@ mod tests {
         let model = p.bend();
         for _ in 0..20 {
             p.predict(&e, Seconds::from_ms(250));
-            p.correct(Tilt {
-                deg: 10.0,
-                sd_deg: 0.2,
-            });
+            p.correct(
+                Tilt {
+                    deg: 10.0,
+                    sd_deg: 0.2,
+                },
+                0.0,
+            );
         }
         let b = p.bend();
         assert!((b.deg - 40.0).abs() < 1.5, "{b:?} (model {model:?})");
@@ -464,15 +543,85 @@ mod tests {
         let seen_deg = 0.5 * before.deg * p.plane_deg_now().to_radians().cos();
         for _ in 0..20 {
             p.predict(&locked, Seconds::from_ms(250));
-            p.correct(Tilt {
-                deg: seen_deg,
-                sd_deg: 0.2,
-            });
+            p.correct(
+                Tilt {
+                    deg: seen_deg,
+                    sd_deg: 0.2,
+                },
+                0.0,
+            );
         }
         let after = p.bend();
         assert!((after.deg - before.deg).abs() < 0.5, "{before:?} {after:?}");
         assert!(after.sd_deg > 0.6 * before.sd_deg, "{before:?} {after:?}");
         assert!(after.sd_deg > 2.0 * b.sd_deg, "{after:?} against {b:?}");
+    }
+
+    #[test]
+    fn a_turned_camera_sees_the_plane_its_rows_lie_in() {
+        // Springs A+B pull in the 60° plane; the model says ≈ 47°, the truth is 40°.
+        let e = estimate([1.0, 1.0, 0.0], 0.0);
+        let seen = |azimuth_deg: f32| {
+            let mut p = Posture::new();
+            settle(&mut p, &e);
+            let model = p.bend();
+            for _ in 0..20 {
+                p.predict(&e, Seconds::from_ms(250));
+                let deg = 0.5 * 40.0 * (60.0 - azimuth_deg).to_radians().cos();
+                p.correct(Tilt { deg, sd_deg: 0.2 }, azimuth_deg);
+            }
+            (model, p.bend())
+        };
+        // Rows along the plane: the whole bend in view, better than at 0° (half of it).
+        let (model, along) = seen(60.0);
+        let (_, at_zero) = seen(0.0);
+        assert!((along.deg - 40.0).abs() < 1.0, "{along:?}");
+        assert!(along.sd_deg < at_zero.sd_deg, "{along:?} {at_zero:?}");
+        // Rows across the plane (the plane along the line of sight): the model's bend and
+        // about its uncertainty.
+        let (_, blind) = seen(150.0);
+        assert!((blind.deg - model.deg).abs() < 0.5, "{blind:?} {model:?}");
+        assert!(blind.sd_deg > 0.8 * model.sd_deg, "{blind:?} {model:?}");
+        // A mount the settings call −300° is the same as 60°.
+        let (_, wrapped) = seen(-300.0);
+        assert!(
+            (wrapped.deg - along.deg).abs() < 1e-3,
+            "{wrapped:?} {along:?}"
+        );
+    }
+
+    #[test]
+    fn a_formed_pose_aims_past_its_target_by_the_spring_back() {
+        let ab = SpringMask::parse("AB").unwrap();
+        let a = SpringMask::parse("A").unwrap();
+        // The rest bend, solved to convergence, against the aim's few rounds.
+        let converged = |springs: SpringMask, stored_deg: f32| {
+            let u = Posture::plane_unit(springs);
+            let (mut rest, mut from) = (0.0, None);
+            for _ in 0..20 {
+                let (r, b) = rest_along(u, stored_deg, from);
+                (rest, from) = (r, Some(b));
+            }
+            rest
+        };
+        for (springs, target) in [(ab, 30.0), (ab, 10.0), (ab, 55.0), (a, 20.0)] {
+            let aim = Posture::form_aim_deg(springs, target);
+            let rest = converged(springs, aim);
+            assert!(
+                (rest - target).abs() < 0.1,
+                "{springs}: aim {aim} rests at {rest}"
+            );
+            // Martensite springs on the outside pull the frozen wall back: a few degrees.
+            assert!(
+                aim > target + 0.5 && aim < target + 15.0,
+                "{springs} {target}: {aim}"
+            );
+        }
+        // Two springs bend in the plane the third opposes head on: more spring-back than one.
+        let back = |s: SpringMask| Posture::form_aim_deg(s, 30.0) - 30.0;
+        assert!(back(ab) > back(a), "{} {}", back(ab), back(a));
+        assert!((Posture::rest_deg(ab, 30.0) - converged(ab, 30.0)).abs() < 0.1);
+        assert!(Posture::form_aim_deg(ab, f32::NAN).is_nan());
     }
 
     #[test]
@@ -482,10 +631,13 @@ mod tests {
             &estimate([f32::NAN; SPRINGS], f32::NAN),
             Seconds::from_ms(50),
         );
-        p.correct(Tilt {
-            deg: f32::INFINITY,
-            sd_deg: 0.1,
-        });
+        p.correct(
+            Tilt {
+                deg: f32::INFINITY,
+                sd_deg: 0.1,
+            },
+            0.0,
+        );
         p.predict(&estimate([2.0, -1.0, 0.5], 3.0), Seconds::from_ms(50));
         let b = p.bend();
         assert!(b.deg.is_finite() && b.sd_deg.is_finite(), "{b:?}");

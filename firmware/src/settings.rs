@@ -194,6 +194,11 @@ pub struct Settings {
     /// A pose (`mode pose ANGLE`) has reached its target once the bend estimate is within
     /// this of it after a settle, degrees.
     pub pose_tol_deg: f32,
+    /// Where the camera looks from: the direction of its image's rows (left to right) in the
+    /// block's cross-section, measured from spring A towards spring B, degrees. 0 (the
+    /// product's mount) sees spring A's plane across the view; 90 sees it along the line of
+    /// sight (docs/posture.md).
+    pub cam_azimuth_deg: f32,
 }
 
 impl Settings {
@@ -270,6 +275,7 @@ impl Settings {
         smp_frozen_centre_k: ObserverParams::DEFAULT.frozen_centre_k,
         smp_frozen_width_k: ObserverParams::DEFAULT.frozen_width_k,
         pose_tol_deg: 2.0,
+        cam_azimuth_deg: 0.0,
     };
 
     /// The springs' pre-warm target at an estimated ambient, K: `spring_prewarm_k`, raised by
@@ -992,6 +998,14 @@ pub const PARAMS: &[Param] = &[
         10.0,
         "a pose is reached within this of its angle",
         |s| s.pose_tol_deg
+    ),
+    param!(
+        "cam_azimuth_deg",
+        "deg",
+        -180.0,
+        180.0,
+        "camera's image rows from spring A, towards B",
+        |s| s.cam_azimuth_deg
     ),
 ];
 

@@ -70,13 +70,17 @@ fn poses_form_near_their_targets_without_a_fault() {
             "{what}: {}",
             o.hottest_spring_k
         );
-        // One spring reaches ≈ 42°: 45° and 60° with A or B are refused at once.
+        // Formed, a pose rests short of where it froze (the spring-back), so it reaches less
+        // than the soft column: one spring ≈ 38°, two ≈ 54° (a target within the tolerance
+        // beyond is taken). Beyond, refused at once.
         let single = c.springs.len() == 1;
-        assert_eq!(o.out_of_reach, single && c.target_deg >= 45.0, "{what}");
-        // Up to 30° every set forms at every ambient, within 3°.
-        if c.target_deg <= 30.0 {
+        let beyond = c.target_deg >= if single { 45.0 } else { 60.0 };
+        assert_eq!(o.out_of_reach, beyond, "{what}");
+        assert!(!o.short, "{what}: found short in the run");
+        // Every other target forms, and rests within the 4°.
+        if !beyond {
             let e = o.error_deg().unwrap_or(f64::INFINITY);
-            assert!(e <= 3.0, "{what}: error {e}");
+            assert!(e <= 4.0, "{what}: error {e}");
             // From straight within 3 min; from a formed 40° down to 20° the springs still
             // austenite from the first pose hold the bend until they rest (≈ 7 min at 318 K).
             let limit_s = if c.from_deg.is_some() { 480.0 } else { 180.0 };
@@ -87,11 +91,16 @@ fn poses_form_near_their_targets_without_a_fault() {
             );
         }
     }
-    assert!(n >= 50, "{n} formed");
+    assert_eq!(
+        n + unreachable,
+        outcomes.len(),
+        "every case formed or refused"
+    );
+    // The figures, at rest after forming: mean ≤ 2°, max ≤ 4° (the pose aims past the
+    // target by the spring-back, `Posture::form_aim_deg`; the hot springs beside a steep
+    // column no longer pull its fitted tilt short, `mtts::regions`).
     assert!(mean <= 2.0, "mean error {mean}");
-    // The steep tilts of BC at 45–60° (the camera reads the cooling column short) are the
-    // worst; docs/posture.md says so.
-    assert!(max <= 8.0, "max error {max}");
+    assert!(max <= 4.0, "max error {max}");
     // The estimate in the pose runs, against the truth, by plane.
     for sets in [["A", "BC"], ["B", "AB"]] {
         let (fused, _, model, _, rows) = pose::estimate_errors(
@@ -103,6 +112,37 @@ fn poses_form_near_their_targets_without_a_fault() {
         assert!(
             rows > 1000 && fused < 1.5 && fused < 0.5 * model,
             "{sets:?}: {fused} {model}"
+        );
+    }
+
+    // The camera turned 90°: A's and BC's bends lie along its line of sight. The estimate is
+    // the model's (the camera adds nothing), its uncertainty grows to the model's, and the
+    // pose still forms, without a fault.
+    let turned = pose::run_all(&pose::turned_cases()).unwrap();
+    let (fused, _, model, _, rows) =
+        pose::estimate_errors(turned.iter().flat_map(|o| o.rows.iter()));
+    println!("turned camera: fused mean {fused:.2}°, model alone {model:.2}° over {rows} rows");
+    assert!(
+        rows > 1000 && (fused - model).abs() < 0.1 * model,
+        "{fused} {model}"
+    );
+    for t in &turned {
+        let c = &t.case;
+        let what = format!("turned {c:?}: {} {:?}", t.reply, t.formed_deg);
+        assert!(t.faults.is_empty() && t.formed_deg.is_some(), "{what}");
+        let seen = outcomes
+            .iter()
+            .find(|o| {
+                o.case.springs == c.springs
+                    && o.case.target_deg == c.target_deg
+                    && o.case.ambient_k == c.ambient_k
+                    && o.case.from_deg.is_none()
+            })
+            .unwrap();
+        let (blind_sd, seen_sd) = (t.estimate_sd_deg.unwrap(), seen.estimate_sd_deg.unwrap());
+        assert!(
+            blind_sd > 1.4 * seen_sd,
+            "{what}: sd {blind_sd} against {seen_sd}"
         );
     }
 }

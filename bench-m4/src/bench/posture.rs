@@ -4,7 +4,8 @@
 //!
 //! - `posture_predict insns=N mean=M`: one control step's prediction (the stored bend, three
 //!   Gauss–Newton iterations of the springs against the SMP, the covariance's relaxation);
-//! - `posture_correct insns=N mean=M`: one frame's tilt fused (a scalar Kalman update);
+//! - `posture_correct insns=N mean=M`: one frame's tilt fused (a scalar Kalman update along the
+//!   camera's rows, `cam_azimuth_deg`);
 //! - `posture_reach insns=N`: the reach of two springs (`mode pose`'s check, once a command).
 //!
 //! `N` is the worst of the measured calls, `M` their mean. `scripts/bench-m4` holds
@@ -40,10 +41,13 @@ pub fn bench(overhead: u64) {
     for k in 0..40u32 {
         p.predict(&estimate(&base, k), dt);
         if k % 5 == 0 {
-            p.correct(Tilt {
-                deg: 0.3 * k as f32,
-                sd_deg: 0.3,
-            });
+            p.correct(
+                Tilt {
+                    deg: 0.3 * k as f32,
+                    sd_deg: 0.3,
+                },
+                0.0,
+            );
         }
     }
     let (mut worst_p, mut sum_p, mut worst_c, mut sum_c) = (0u64, 0u64, 0u64, 0u64);
@@ -57,7 +61,8 @@ pub fn bench(overhead: u64) {
             deg: 12.0 + 0.1 * i as f32,
             sd_deg: 0.3,
         };
-        let ((), t) = super::measure(|| p.correct(black_box(tilt)));
+        // The camera's mount as a setting (a black box: the general update, sine and cosine).
+        let ((), t) = super::measure(|| p.correct(black_box(tilt), black_box(0.0)));
         let t = t.saturating_sub(overhead);
         worst_c = worst_c.max(t);
         sum_c += t;

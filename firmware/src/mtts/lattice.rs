@@ -57,6 +57,7 @@
 use super::Quality;
 use super::regions::{CORE_U, Coords, Geometry};
 use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
+use crate::fmath::sin_cos_turns;
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
 pub const EXPOSED_MIN: f32 = 0.15;
@@ -133,23 +134,6 @@ pub struct Separation {
     pub bound_k: f32,
     /// Resolved, merged or fallback.
     pub quality: Quality,
-}
-
-/// Sine and cosine of 2π·x (x in turns), without a library call: reduction to an eighth of a
-/// turn and Taylor polynomials (error < 1e-6).
-pub fn sin_cos_turns(x: f32) -> (f32, f32) {
-    let r = x - floor(x + 0.5);
-    let q = floor(r * 4.0 + 0.5);
-    let p = core::f32::consts::TAU * (r - 0.25 * q);
-    let p2 = p * p;
-    let s = p * (1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0)));
-    let c = 1.0 - p2 / 2.0 * (1.0 - p2 / 12.0 * (1.0 - p2 / 30.0 * (1.0 - p2 / 56.0)));
-    match q as i32 {
-        0 => (s, c),
-        1 => (c, -s),
-        -1 => (-c, s),
-        _ => (-s, -c),
-    }
 }
 
 /// Floor without a library call (|x| < 2^31).
@@ -1005,17 +989,6 @@ pub fn separate(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sin_cos_matches_libm() {
-        for i in -400..400 {
-            let x = i as f32 * 0.01237;
-            let (s, c) = sin_cos_turns(x);
-            let a = core::f32::consts::TAU * x;
-            assert!((s - libm::sinf(a)).abs() < 2e-6, "{x}");
-            assert!((c - libm::cosf(a)).abs() < 2e-6, "{x}");
-        }
-    }
 
     #[test]
     fn cholesky_solves() {

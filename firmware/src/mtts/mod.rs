@@ -350,6 +350,8 @@ pub struct Scratch {
     /// The last frame's highest value, K (broken pixels filled): the range
     /// [`Mtts::stage_upsample`] finds for the histogram.
     pub hottest_k: f32,
+    /// The last frame's lowest value, K (the other end of that range).
+    pub coldest_k: f32,
 }
 
 impl Default for Scratch {
@@ -369,6 +371,7 @@ impl Scratch {
             hist: Histogram::EMPTY,
             // Zero, as every field: an all-zero static lies in .bss, not in flash.
             hottest_k: 0.0,
+            coldest_k: 0.0,
         }
     }
 }
@@ -449,6 +452,7 @@ impl Mtts {
         }
         scratch.hist.reset(lo, hi, self.config.bins as usize)?;
         scratch.hottest_k = hi;
+        scratch.coldest_k = lo;
         let Scratch { up, hist, work, .. } = scratch;
         self.upsampler.histogram(work, hist, up);
         Ok(filled)
@@ -479,9 +483,11 @@ impl Mtts {
             work,
             xy,
             hottest_k,
+            coldest_k,
             ..
         } = scratch;
-        let (mut g, fresh) = regions::update_geometry(work, &self.geometry, xy);
+        let (mut g, fresh) =
+            regions::update_geometry(work, (*coldest_k, *hottest_k), &self.geometry, xy);
         let sep = lattice::separate(
             work,
             xy,

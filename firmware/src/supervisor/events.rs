@@ -80,6 +80,9 @@ pub enum Notice {
         deg: f32,
         /// Its standard deviation, degrees.
         sd_deg: f32,
+        /// With `form`: the bend it is formed to rest at, degrees (it was bent past it by the
+        /// spring-back).
+        rest_deg: Option<f32>,
     },
     /// A pose's springs pull all they can and the bend is short of the target, degrees.
     PoseOutOfReach {
@@ -106,9 +109,19 @@ impl fmt::Display for Notice {
             Notice::TuneAborted(why) => {
                 write!(f, "autotune aborted: {why}; the gains are unchanged")
             }
-            Notice::PoseReached { deg, sd_deg } => {
-                write!(f, "ok pose reached {deg:.1}+-{sd_deg:.1}")
-            }
+            Notice::PoseReached {
+                deg,
+                sd_deg,
+                rest_deg: None,
+            } => write!(f, "ok pose reached {deg:.1}+-{sd_deg:.1}"),
+            Notice::PoseReached {
+                deg,
+                sd_deg,
+                rest_deg: Some(rest),
+            } => write!(
+                f,
+                "ok pose reached {deg:.1}+-{sd_deg:.1}; forming to rest at {rest:.1}"
+            ),
             Notice::PoseOutOfReach { deg } => write!(f, "pose out of reach at {deg:.1}"),
         }
     }

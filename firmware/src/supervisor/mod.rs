@@ -477,7 +477,7 @@ impl Supervisor {
         self.posture
             .predict(&self.observer.estimate(), Seconds::from_ms(elapsed_ms));
         if let Some(t) = fresh.and_then(|m| m.tilt) {
-            self.posture.correct(t);
+            self.posture.correct(t, self.settings.cam_azimuth_deg);
         }
 
         // 2. The command.
@@ -859,12 +859,27 @@ impl Supervisor {
                 let springs = springs.unwrap_or(self.springs);
                 // What the springs reach against the soft wall, less the tolerance: a target
                 // beyond is refused now, not found out after a soak.
-                let reach_deg = Posture::reach_deg(springs, self.settings.soft_frozen_max)
+                let soft_reach_deg = Posture::reach_deg(springs, self.settings.soft_frozen_max)
                     - self.settings.pose_tol_deg;
-                let reply = Reply::pose(target_deg, springs, reach_deg, form);
-                if target_deg <= reach_deg {
+                // Formed, the column rests short of the bend it froze at once the springs have
+                // cooled (the outer springs' pull on the glassy wall): it is bent past the
+                // target by that spring-back, at most to the soft reach, and a target is taken
+                // while that rest is within the tolerance of it.
+                let (aim_deg, reach_deg, limit_deg) = if form {
+                    let rest = Posture::rest_deg(springs, soft_reach_deg);
+                    (
+                        Posture::form_aim_deg(springs, target_deg).min(soft_reach_deg),
+                        rest,
+                        rest + self.settings.pose_tol_deg,
+                    )
+                } else {
+                    (target_deg, soft_reach_deg, soft_reach_deg)
+                };
+                let reply = Reply::pose(target_deg, springs, reach_deg, limit_deg, form);
+                if target_deg <= limit_deg && aim_deg.is_finite() {
                     self.springs = springs;
-                    self.enter(now, Mode::Posing(Posing::new(target_deg, springs, form)));
+                    let posing = Posing::new(target_deg, aim_deg, springs, form);
+                    self.enter(now, Mode::Posing(posing));
                 }
                 reply
             }

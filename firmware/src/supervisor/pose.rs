@@ -85,6 +85,10 @@ pub enum PosePhase {
 pub struct Posing {
     /// The target bend, degrees.
     pub target_deg: f32,
+    /// The bend the pose bends to, degrees: the target, or with `form` the target plus the
+    /// spring-back the formed wall will show once the springs rest
+    /// ([`crate::posture::Posture::form_aim_deg`]).
+    pub aim_deg: f32,
     /// The springs it drives.
     pub springs: SpringMask,
     /// Form once reached.
@@ -99,10 +103,12 @@ pub struct Posing {
 }
 
 impl Posing {
-    /// A pose to `target_deg` with `springs` (forming once reached with `form`), from a soak.
-    pub fn new(target_deg: f32, springs: SpringMask, form: bool) -> Posing {
+    /// A pose to `target_deg` with `springs`, from a soak: bent to `aim_deg` (the target, or
+    /// with `form` past it by the spring-back) and formed there with `form`.
+    pub fn new(target_deg: f32, aim_deg: f32, springs: SpringMask, form: bool) -> Posing {
         Posing {
             target_deg,
+            aim_deg,
             springs,
             form,
             phase: PosePhase::Soak { warned: false },
@@ -116,7 +122,7 @@ impl Posing {
         let s = c.s;
         let now = c.now;
         let bend = c.bend;
-        let error_deg = self.target_deg - bend.deg;
+        let error_deg = self.aim_deg - bend.deg;
         let mut next = None;
         let mut idle = false;
         match &mut self.phase {
@@ -143,6 +149,7 @@ impl Posing {
                             c.announce(Notice::PoseReached {
                                 deg: bend.deg,
                                 sd_deg: bend.sd_deg,
+                                rest_deg: self.form.then_some(self.target_deg),
                             });
                             if self.form {
                                 self.phase = PosePhase::Form {

@@ -85,10 +85,18 @@ impl Reply {
         Reply::with(|r| write!(r, "err {code}: {message}"))
     }
 
-    /// `mode pose`'s reply: the target, the springs and what they can reach (or why not).
-    pub(super) fn pose(target_deg: f32, springs: SpringMask, reach_deg: f32, form: bool) -> Reply {
+    /// `mode pose`'s reply: the target, the springs and what they can reach (or why not): a
+    /// target beyond `limit_deg` (the reach, or with `form` the reach the formed column rests
+    /// at plus the tolerance) is refused.
+    pub(super) fn pose(
+        target_deg: f32,
+        springs: SpringMask,
+        reach_deg: f32,
+        limit_deg: f32,
+        form: bool,
+    ) -> Reply {
         Reply::with(|r| {
-            if target_deg > reach_deg {
+            if target_deg > limit_deg {
                 write!(
                     r,
                     "err out-of-reach: springs {springs} reach {reach_deg:.1}"

@@ -1171,4 +1171,27 @@ fn a_pose_beyond_its_springs_reach_is_refused_and_one_within_reach_steps_by_the_
     r.run(1.0);
     assert_eq!(r.sup.outputs().springs, SpringMask::NONE);
     assert!(r.line("status").contains(" bend_deg="));
+    // Formed, the column rests short of where it froze: the pose aims past its target by the
+    // spring-back, and the reach it gives is the formed column's, less than the soft one's.
+    let Mode::Posing(p) = r.sup.mode() else {
+        panic!("{:?}", r.sup.mode())
+    };
+    assert!(p.aim_deg > 21.0 && p.aim_deg < 30.0, "{p:?}");
+    let reach = |reply: &str| -> f32 {
+        let at = reply.find("reach_deg=").unwrap() + "reach_deg=".len();
+        reply[at..].split(' ').next().unwrap().parse().unwrap()
+    };
+    let formed = reach(&r.line("mode pose 20 BC form"));
+    let soft = reach(&r.line("mode pose 20 BC"));
+    assert!(formed < soft - 3.0, "{formed} {soft}");
+    let Mode::Posing(p) = r.sup.mode() else {
+        panic!("{:?}", r.sup.mode())
+    };
+    assert_eq!(
+        p.aim_deg, 20.0,
+        "held soft, no spring-back to make up: {p:?}"
+    );
+    // A formed target beyond the formed reach (plus the tolerance) is refused.
+    let reply = r.line(&format!("mode pose {} BC form", formed + 2.5));
+    assert!(reply.starts_with("err out-of-reach"), "{reply}");
 }

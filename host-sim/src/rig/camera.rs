@@ -50,11 +50,13 @@ pub struct Camera {
     layout: Option<Layout>,
     /// The rendered view, K.
     view_k: Box<[f64; IMG_PIXELS]>,
+    /// The mount ([`crate::rig::CameraSettings::azimuth_deg`]), degrees.
+    azimuth_deg: f64,
 }
 
 impl Camera {
     /// A camera whose sensor's calibration and noise come from `seed`, with `noise_k` rms.
-    pub fn new(seed: u64, noise_k: f64) -> Result<Self, RigError> {
+    pub fn new(seed: u64, noise_k: f64, azimuth_deg: f64) -> Result<Self, RigError> {
         let clock = SimClock::new();
         let words = eeprom::realistic(seed)
             .encode()
@@ -91,6 +93,7 @@ impl Camera {
             last: None,
             layout: None,
             view_k: Box::new([0.0; IMG_PIXELS]),
+            azimuth_deg,
         })
     }
 
@@ -134,7 +137,7 @@ impl Camera {
                 temps.heater_k = BURNING_FILM_K;
             }
             let geometry = Geometry {
-                tilt_deg: true_tilt_deg(obs),
+                tilt_deg: true_tilt_deg(obs, self.azimuth_deg),
                 springs: true,
                 ..Geometry::default()
             };
@@ -184,11 +187,12 @@ pub fn open_loop_hint() -> SensingHint {
     }
 }
 
-/// The camera's tilt for the column of `obs`, degrees: half the bend's component in the image
-/// plane (the chord of a constant-curvature arc), the plane measured from spring A and the
-/// image plane through it.
-pub fn true_tilt_deg(obs: &Observation) -> f64 {
-    0.5 * obs.bend_deg * obs.bend_plane_deg.to_radians().cos()
+/// The camera's tilt for the column of `obs`, degrees: half the bend's component along the
+/// image's rows (the chord of a constant-curvature arc), the rows at `azimuth_deg` from spring
+/// A ([`CameraSettings::azimuth_deg`](crate::rig::CameraSettings)) and the bend's plane
+/// measured from spring A.
+pub fn true_tilt_deg(obs: &Observation, azimuth_deg: f64) -> f64 {
+    0.5 * obs.bend_deg * (obs.bend_plane_deg - azimuth_deg).to_radians().cos()
 }
 
 /// The standard error a camera-off measurement gives its (true) tilt, degrees.
@@ -196,8 +200,8 @@ pub const TRUTH_TILT_SD_DEG: f32 = 0.1;
 
 /// The camera-off measurement: the true region temperatures of `obs` at `at` (frame number
 /// `seq`), resolved (the supervisor computes Tc from them, as from a camera frame), and the
-/// true tilt ([`true_tilt_deg`]).
-pub fn truth_measurement(obs: &Observation, at: Millis, seq: u32) -> Measurement {
+/// true tilt ([`true_tilt_deg`]) as a camera mounted at `azimuth_deg` sees it.
+pub fn truth_measurement(obs: &Observation, azimuth_deg: f64, at: Millis, seq: u32) -> Measurement {
     Measurement {
         at,
         seq,
@@ -207,7 +211,7 @@ pub fn truth_measurement(obs: &Observation, at: Millis, seq: u32) -> Measurement
         quality: Quality::Resolved,
         bound: Kelvin::lit(0.0),
         tilt: Some(Tilt {
-            deg: true_tilt_deg(obs) as f32,
+            deg: true_tilt_deg(obs, azimuth_deg) as f32,
             sd_deg: TRUTH_TILT_SD_DEG,
         }),
     }

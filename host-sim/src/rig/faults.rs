@@ -13,6 +13,10 @@ pub struct CameraSettings {
     pub noise_k: f64,
     /// Seed of the sensor's noise and calibration.
     pub seed: u64,
+    /// Where the camera looks from: its image's rows at this angle from spring A (towards B),
+    /// degrees; 0 is the product's mount, 90 sees spring A's plane along the line of sight.
+    /// The firmware is told by its `cam_azimuth_deg` setting (a scene sends `set`).
+    pub azimuth_deg: f64,
 }
 
 /// What an injected fault does.

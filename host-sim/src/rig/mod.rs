@@ -157,6 +157,9 @@ pub struct SimBoard {
     shown: Option<CameraFaults>,
     /// Camera off: the period of the true measurements, µs, and the next one's time.
     truth_period_us: u64,
+    /// The camera's mount ([`CameraSettings::azimuth_deg`]), degrees: also the camera-off
+    /// measurement's view.
+    azimuth_deg: f64,
     next_truth_us: u64,
     truth_frames: u32,
     /// The actuators as the last decision (or the open-loop scene) set them, before faults.
@@ -180,7 +183,11 @@ impl SimBoard {
     ) -> Result<Self, RigError> {
         let plant = Plant::with_options(&block.plant, block.options)?;
         let camera = if block.camera.enabled {
-            Some(Camera::new(block.camera.seed, block.camera.noise_k)?)
+            Some(Camera::new(
+                block.camera.seed,
+                block.camera.noise_k,
+                block.camera.azimuth_deg,
+            )?)
         } else {
             None
         };
@@ -204,6 +211,7 @@ impl SimBoard {
             pending: None,
             shown: None,
             truth_period_us,
+            azimuth_deg: block.camera.azimuth_deg,
             next_truth_us: truth_period_us,
             truth_frames: 0,
             commanded: Inputs::default(),
@@ -428,7 +436,7 @@ impl SimBoard {
                 if faults.sensor.is_none() {
                     self.truth_frames += 1;
                     let (now, seq) = (self.now(), self.truth_frames);
-                    let m = truth_measurement(&self.observe(), now, seq);
+                    let m = truth_measurement(&self.observe(), self.azimuth_deg, now, seq);
                     frame = Some(m);
                 }
             }

@@ -5,8 +5,9 @@
 //! Every case powers up in standby at its ambient and at [`POSE_AT_S`] sends `mode pose
 //! TARGET SPRINGS form`; a case "from a formed 40°" first poses and forms at 40° with AB, then
 //! (once back in standby) poses to its target. The posture after forming is the plant's bend
-//! when the pose hands back to standby (the shape the cooled wall locked), against the
-//! target. The tables are `docs/posture.md`'s.
+//! at the case's end, the springs cooled to the room (the shape the frozen wall keeps),
+//! against the target; the bend when the pose handed back to standby is shown beside it. The
+//! tables are `docs/posture.md`'s.
 
 use std::fmt::Write as _;
 
@@ -18,8 +19,9 @@ use crate::runs::series::Row;
 
 /// When the (first) pose command is sent, s.
 pub const POSE_AT_S: f64 = 60.0;
-/// Each case's length, s.
-pub const CASE_S: f64 = 900.0;
+/// Each case's length, s: long enough for the springs to cool to the room after the last
+/// forming (at 283 and 298 K they are martensite again ≈ 5 min after it).
+pub const CASE_S: f64 = 1200.0;
 /// The targets from straight, degrees.
 pub const TARGETS_DEG: [f64; 5] = [10.0, 20.0, 30.0, 45.0, 60.0];
 /// The spring sets.
@@ -30,6 +32,14 @@ pub const AMBIENTS_K: [f64; 3] = [283.15, 298.15, 318.15];
 pub const FORMED_DEG: f64 = 40.0;
 /// The re-pose cases' targets from the formed posture, degrees.
 pub const REPOSE_DEG: [f64; 2] = [20.0, 55.0];
+/// The turned camera's mount ([`crate::rig::CameraSettings::azimuth_deg`]): spring A's plane,
+/// and so A's and BC's bends, along its line of sight.
+pub const TURNED_AZIMUTH_DEG: f64 = 90.0;
+/// The turned camera's cases: spring sets and targets, at 298 K.
+pub const TURNED: [(&str, &[f64]); 2] = [
+    ("A", &[10.0, 20.0, 30.0]),
+    ("BC", &[10.0, 20.0, 30.0, 45.0]),
+];
 
 /// One pose case.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,6 +52,9 @@ pub struct Case {
     pub from_deg: Option<f64>,
     /// The target, degrees.
     pub target_deg: f64,
+    /// The camera's mount, degrees (0: the product's; the firmware is told with `set
+    /// cam_azimuth_deg`).
+    pub azimuth_deg: f64,
 }
 
 /// What one case did.
@@ -58,9 +71,12 @@ pub struct Outcome {
     pub short: bool,
     /// From the (last) pose command to the target reached (the forming's start), s.
     pub reach_s: Option<f64>,
-    /// The plant's bend when the pose ended in standby (the formed posture), degrees.
+    /// The plant's bend when the pose ended in standby (forming's end), degrees.
     pub formed_deg: Option<f64>,
-    /// The estimate then, degrees.
+    /// The plant's bend at the case's end ([`CASE_S`]), degrees: the formed posture once the
+    /// springs have cooled towards martensite (`None` when it did not form).
+    pub rest_deg: Option<f64>,
+    /// The estimate at the case's end, degrees.
     pub estimate_deg: Option<f64>,
     /// Its standard deviation then, degrees.
     pub estimate_sd_deg: Option<f64>,
@@ -73,9 +89,9 @@ pub struct Outcome {
 }
 
 impl Outcome {
-    /// |formed − target|, degrees.
+    /// |at rest − target|, degrees: the posture error after forming.
     pub fn error_deg(&self) -> Option<f64> {
-        self.formed_deg.map(|f| (f - self.case.target_deg).abs())
+        self.rest_deg.map(|f| (f - self.case.target_deg).abs())
     }
 }
 
@@ -91,6 +107,7 @@ pub fn cases() -> Vec<Case> {
                     springs,
                     from_deg: None,
                     target_deg,
+                    azimuth_deg: 0.0,
                 });
             }
         }
@@ -100,10 +117,28 @@ pub fn cases() -> Vec<Case> {
                 springs: "AB",
                 from_deg: Some(FORMED_DEG),
                 target_deg,
+                azimuth_deg: 0.0,
             });
         }
     }
     out
+}
+
+/// The turned camera's cases ([`TURNED`]): the bend along the line of sight, which the
+/// camera cannot see, so the pose steps by the model.
+pub fn turned_cases() -> Vec<Case> {
+    TURNED
+        .iter()
+        .flat_map(|&(springs, targets)| {
+            targets.iter().map(move |&target_deg| Case {
+                ambient_k: 298.15,
+                springs,
+                from_deg: None,
+                target_deg,
+                azimuth_deg: TURNED_AZIMUTH_DEG,
+            })
+        })
+        .collect()
 }
 
 fn scene(c: &Case) -> Result<scenario::Scenario, scenario::ScenarioError> {
@@ -111,12 +146,23 @@ fn scene(c: &Case) -> Result<scenario::Scenario, scenario::ScenarioError> {
         Some(from) => format!("mode pose {from} AB form"),
         None => format!("mode pose {} {} form", c.target_deg, c.springs),
     };
+    // A turned camera's mount is the firmware's setting too, told before anything else.
+    let mount = if c.azimuth_deg == 0.0 {
+        String::new()
+    } else {
+        format!(
+            "[[command]]\nat = \"0 s\"\nline = \"set cam_azimuth_deg {}\"\n",
+            c.azimuth_deg
+        )
+    };
     let text = format!(
         "name = \"pose\"\nduration = \"{CASE_S} s\"\nambient = \"{a} K\"\ninitial = \"{a} K\"\n\
          period = \"0.25 s\"\n[fidelity]\ncamera = true\n[camera]\nnoise = \"0.1 K\"\nseed = 1\n\
+         azimuth = \"{z} deg\"\n{mount}\
          [[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
          [[command]]\nat = \"{POSE_AT_S} s\"\nline = \"{first}\"\n",
-        a = c.ambient_k
+        a = c.ambient_k,
+        z = c.azimuth_deg
     );
     scenario::parse(&text, "<pose>", "pose")
 }
@@ -167,8 +213,15 @@ pub fn run_case(c: &Case) -> Result<Outcome, RunError> {
         reply,
         reach_s,
         formed_deg: end.map(|x| x.obs.bend_deg),
-        estimate_deg: end.and_then(|x| x.control).map(|c| c.bend.deg as f64),
-        estimate_sd_deg: end.and_then(|x| x.control).map(|c| c.bend.sd_deg as f64),
+        rest_deg: end.and(r.rows.last()).map(|x| x.obs.bend_deg),
+        estimate_deg: end
+            .and(r.rows.last())
+            .and_then(|x| x.control)
+            .map(|c| c.bend.deg as f64),
+        estimate_sd_deg: end
+            .and(r.rows.last())
+            .and_then(|x| x.control)
+            .map(|c| c.bend.sd_deg as f64),
         hottest_spring_k,
         faults: r
             .summary
@@ -206,8 +259,8 @@ pub fn estimate_errors<'a>(rows: impl Iterator<Item = &'a Row>) -> (f64, f64, f6
 /// The posture table (one row per case) as Markdown.
 pub fn posture_table(outcomes: &[Outcome]) -> String {
     let mut t = String::from(
-        "| ambient | springs | from | target | outcome | reached after | formed (truth) | error | estimate ± sd | hottest spring | faults |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| ambient | springs | from | target | outcome | reached after | forming's end | at rest (truth) | error | estimate ± sd | hottest spring | faults |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for o in outcomes {
         let c = &o.case;
@@ -217,13 +270,15 @@ pub fn posture_table(outcomes: &[Outcome]) -> String {
         let opt =
             |v: Option<f64>, unit: &str| v.map_or("—".to_string(), |v| format!("{v:.1}{unit}"));
         let outcome = if o.out_of_reach {
-            "out of reach (refused)"
+            // `err out-of-reach: springs AB reach 52.3`: what the springs reach.
+            let reach = o.reply.rsplit(' ').next().unwrap_or("?");
+            format!("out of reach (refused: reach {reach}°)")
         } else if o.short {
-            "out of reach (springs full, unformed)"
+            "out of reach (springs full, unformed)".to_string()
         } else if o.formed_deg.is_some() {
-            "formed"
+            "formed".to_string()
         } else {
-            "not formed"
+            "not formed".to_string()
         };
         let est = match (o.estimate_deg, o.estimate_sd_deg) {
             (Some(e), Some(s)) => format!("{e:.1} ± {s:.1}°"),
@@ -231,12 +286,13 @@ pub fn posture_table(outcomes: &[Outcome]) -> String {
         };
         let _ = writeln!(
             t,
-            "| {:.0} K | {} | {from} | {:.0}° | {outcome} | {} | {} | {} | {est} | {:.1} K | {} |",
+            "| {:.0} K | {} | {from} | {:.0}° | {outcome} | {} | {} | {} | {} | {est} | {:.1} K | {} |",
             c.ambient_k,
             c.springs,
             c.target_deg,
             opt(o.reach_s, " s"),
             opt(o.formed_deg, "°"),
+            opt(o.rest_deg, "°"),
             opt(o.error_deg(), "°"),
             o.hottest_spring_k,
             if o.faults.is_empty() {
@@ -268,8 +324,8 @@ pub fn posture_summary(outcomes: &[Outcome]) -> (usize, f64, f64, usize) {
 }
 
 /// The estimate-error table as Markdown: the default cycle and the pose runs, by the bending
-/// plane's angle to the camera's view.
-pub fn estimate_table(cycle: &[Row], outcomes: &[Outcome]) -> String {
+/// plane's angle to the camera's view (`turned`: the runs of [`turned_cases`]).
+pub fn estimate_table(cycle: &[Row], outcomes: &[Outcome], turned: &[Outcome]) -> String {
     let mut t = String::from(
         "| runs | bending plane | rows | camera + model: mean | max | model alone: mean | max |\n\
          |---|---|---|---|---|---|---|\n",
@@ -300,16 +356,26 @@ pub fn estimate_table(cycle: &[Row], outcomes: &[Outcome]) -> String {
         by(&["A", "BC"]),
     );
     line("pose runs, B and AB", "120° / 60°", by(&["B", "AB"]));
+    line(
+        "pose runs, A and BC, camera turned 90°",
+        "90° (along the view)",
+        estimate_errors(turned.iter().flat_map(|o| o.rows.iter())),
+    );
     t
 }
 
 /// `host-sim pose-table`: run every case and print both tables (Markdown).
 pub fn cli() -> anyhow::Result<()> {
     let outcomes = run_all(&cases())?;
+    let turned = run_all(&turned_cases())?;
     let cycle = crate::runs::run::run(&scenario::load("cycle")?, &mut |_| {})?;
     let (n, mean, max, refused) = posture_summary(&outcomes);
     println!("{}", posture_table(&outcomes));
     println!("formed: {n} cases, error mean {mean:.2}° max {max:.2}°; out of reach: {refused}\n");
-    println!("{}", estimate_table(&cycle.rows, &outcomes));
+    println!("{}", estimate_table(&cycle.rows, &outcomes, &turned));
+    let (n, mean, max, _) = posture_summary(&turned);
+    println!("The camera turned {TURNED_AZIMUTH_DEG:.0}° (298 K):\n");
+    println!("{}", posture_table(&turned));
+    println!("formed: {n} cases, error mean {mean:.2}° max {max:.2}°");
     Ok(())
 }

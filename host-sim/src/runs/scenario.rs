@@ -24,6 +24,8 @@
 //! [camera]                       # optional
 //! noise = "0.1 K"                # sensor noise rms (NETD)
 //! seed = 1                       # noise and sensor-calibration seed
+//! azimuth = "0 deg"              # the camera's mount: its rows from spring A (-180…180);
+//!                                # tell the firmware with `set cam_azimuth_deg`
 //!
 //! [plant]                        # optional; every key optional (default "100 %": the fitted
 //!                                # block); each 50–200 % of the fitted value (`PlantScale`)
@@ -371,6 +373,7 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
         enabled: false,
         noise_k: crate::sensor::virtual_mlx::DEFAULT_NOISE_K,
         seed: 1,
+        azimuth_deg: 0.0,
     };
     if let Some((k, item)) = root.get_key_value("fidelity") {
         let t = table(&cx, k, item, "fidelity")?;
@@ -450,9 +453,12 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
     }
     if let Some((k, item)) = root.get_key_value("camera") {
         let t = table(&cx, k, item, "camera")?;
-        check_keys(&cx, t, "camera.", &["noise", "seed"])?;
+        check_keys(&cx, t, "camera.", &["noise", "seed", "azimuth"])?;
         if let Some((k, v)) = t.get_key_value("noise") {
             camera.noise_k = temperature_step(&cx, k, v, "camera.noise", (0.0, 5.0))?;
+        }
+        if let Some((k, v)) = t.get_key_value("azimuth") {
+            camera.azimuth_deg = angle(&cx, k, v, "camera.azimuth", (-180.0, 180.0))?;
         }
         if let Some((k, v)) = t.get_key_value("seed") {
             let n = integer(&cx, k, v, "camera.seed")?;
@@ -983,6 +989,28 @@ fn temperature_step(
     in_range(cx, span_of(k, v), key, t, range_k, "K")
 }
 
+/// An angle in degrees (`"90 deg"`, `"-30°"`) within `range_deg`.
+fn angle(
+    cx: &Ctx,
+    k: &toml_edit::Key,
+    v: &toml_edit::Item,
+    key: &str,
+    range_deg: (f64, f64),
+) -> Result<f64, ScenarioError> {
+    let s = quantity_str(cx, k, v, key, "90 deg")?;
+    let a = split_quantity(s)
+        .filter(|(_, u)| matches!(*u, "deg" | "°"))
+        .map(|(x, _)| x)
+        .ok_or_else(|| {
+            cx.err(
+                span_of(k, v),
+                key,
+                format!("`{s}` is not an angle with a unit (e.g. \"90 deg\")"),
+            )
+        })?;
+    in_range(cx, span_of(k, v), key, a, range_deg, "deg")
+}
+
 /// A value in percent (`"50 %"`, `"80%"`) within `range` (in %), as a fraction: `example`
 /// and `what` word the error for a value without the unit.
 fn percent_in(
@@ -1113,6 +1141,25 @@ mod tests {
         assert_eq!(s.period_s, 0.5);
         assert_eq!(s.fidelity, Fidelity::default());
         assert!(!s.camera.enabled);
+    }
+
+    #[test]
+    fn the_camera_mount_is_an_angle_with_its_unit() {
+        let s = parse(
+            &format!("{MINIMAL}[camera]\nazimuth = \"90 deg\"\n"),
+            "t.toml",
+            "t",
+        )
+        .unwrap();
+        assert_eq!(s.camera.azimuth_deg, 90.0);
+        assert_eq!(
+            parse(MINIMAL, "t.toml", "t").unwrap().camera.azimuth_deg,
+            0.0
+        );
+        let e = err(&format!("{MINIMAL}[camera]\nazimuth = \"90\"\n"));
+        assert!(e.contains("not an angle with a unit"), "{e}");
+        let e = err(&format!("{MINIMAL}[camera]\nazimuth = \"200 deg\"\n"));
+        assert!(e.contains("out of range"), "{e}");
     }
 
     #[test]
