@@ -145,4 +145,26 @@ fn poses_form_near_their_targets_without_a_fault() {
             "{what}: sd {blind_sd} against {seen_sd}"
         );
     }
+
+    // docs/posture.md shows today's tables (`host-sim pose-table` writes them).
+    let doc = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/posture.md"),
+    )
+    .unwrap();
+    for (name, table) in [
+        ("posture", pose::posture_table(&outcomes)),
+        ("turned camera", pose::posture_table(&turned)),
+    ] {
+        assert!(
+            doc.contains(table.trim()),
+            "docs/posture.md's {name} table is stale: run `host-sim pose-table`"
+        );
+    }
+    let summary = format!(
+        "formed: {n} cases, error mean {mean:.2}° max {max:.2}°; out of reach: {unreachable}"
+    );
+    assert!(
+        doc.contains(&summary),
+        "docs/posture.md's summary is stale: {summary}"
+    );
 }
