@@ -50,7 +50,7 @@ pub struct Camera {
     layout: Option<Layout>,
     /// The rendered view, K.
     view_k: Box<[f64; IMG_PIXELS]>,
-    /// The mount ([`crate::rig::CameraSettings::azimuth_deg`]), degrees.
+    /// The mount ([`crate::rig::faults::CameraSettings::azimuth_deg`]), degrees.
     azimuth_deg: f64,
 }
 
@@ -189,7 +189,7 @@ pub fn open_loop_hint() -> SensingHint {
 
 /// The camera's tilt for the column of `obs`, degrees: half the bend's component along the
 /// image's rows (the chord of a constant-curvature arc), the rows at `azimuth_deg` from spring
-/// A ([`CameraSettings::azimuth_deg`](crate::rig::CameraSettings)) and the bend's plane
+/// A ([`CameraSettings::azimuth_deg`](crate::rig::faults::CameraSettings)) and the bend's plane
 /// measured from spring A.
 pub fn true_tilt_deg(obs: &Observation, azimuth_deg: f64) -> f64 {
     0.5 * obs.bend_deg * (obs.bend_plane_deg - azimuth_deg).to_radians().cos()

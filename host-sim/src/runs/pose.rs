@@ -32,7 +32,7 @@ pub const AMBIENTS_K: [f64; 3] = [283.15, 298.15, 318.15];
 pub const FORMED_DEG: f64 = 40.0;
 /// The re-pose cases' targets from the formed posture, degrees.
 pub const REPOSE_DEG: [f64; 2] = [20.0, 55.0];
-/// The turned camera's mount ([`crate::rig::CameraSettings::azimuth_deg`]): spring A's plane,
+/// The turned camera's mount ([`crate::rig::faults::CameraSettings::azimuth_deg`]): spring A's plane,
 /// and so A's and BC's bends, along its line of sight.
 pub const TURNED_AZIMUTH_DEG: f64 = 90.0;
 /// The turned camera's cases: spring sets and targets, at 298 K.
