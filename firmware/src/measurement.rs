@@ -31,8 +31,8 @@ pub struct Measurement {
     pub filled_pixels: u16,
     /// How well T1 and T2 were separated.
     pub quality: Quality,
-    /// How far T1 and T2 may each lie from their values (for a merged or fallback frame: from
-    /// the area-weighted mean both carry), K.
+    /// How far T1 and T2 may each lie from their values, K: for a merged or fallback frame from
+    /// the area-weighted mean both carry, for an ambiguous one whichever assignment is right.
     pub bound: Kelvin,
     /// The cylinder's axis tilt in the image, if this frame re-estimated it.
     pub tilt: Option<Tilt>,

@@ -139,7 +139,7 @@ pub struct Settings {
     /// rising `runaway_gain_k` is a fault, whatever the mode, s.
     pub no_response_s: f32,
     /// While heating on the colder region, this long a run of frames that could not separate
-    /// T1 and T2 (merged or fallback) makes the loop fall back to the film region, with a
+    /// T1 and T2 for sure (ambiguous, merged or fallback) makes the loop fall back to the film region, with a
     /// `# warning`, s.
     pub unresolved_s: f32,
     /// Idle timeout of the holding phases (stepping's hold and pause): after this the block

@@ -1,6 +1,6 @@
 //! Lattice separation (SPEC section 3, "beyond clustering"): T1 (heater area) and T2 (SMP
 //! surface) by least squares on the region-mix forward model of the cylinder's core, with a
-//! bound and a per-frame quality (resolved, merged, fallback).
+//! bound and a per-frame quality (resolved, ambiguous, merged, fallback).
 //!
 //! Constants (weights, thresholds, spreads, grid) were tuned on the scene family's seen seeds
 //! only (`host_sim::imaging::view_family::SEEN`): periods 4–16 px, exposed fractions
@@ -38,13 +38,16 @@
 //! [`AMBIGUOUS_CHI2`] is a clear spatial verdict and stands whatever the prior says. Only
 //! between hypotheses the image both allows — a block built near 50 % exposed, whose heater
 //! and surface stripes are equally wide, or a lattice too faint to tell — does the supervisor's
-//! [`Prior`] (or, without one, the previous frame's decision, [`CONTINUITY_CHI2`]) pick; a
-//! wrong prior there is the one way to a swapped frame, and the supervisor hands one only where
-//! the mode's physics is sure of it. With nothing to pick between two allowed hypotheses the
-//! frame is [`Quality::Merged`].
+//! [`Prior`] (or, without one, the previous frame's decision, [`CONTINUITY_CHI2`]) pick, and
+//! then the bound spans both hypotheses: a pick the image did not make is resolved only when
+//! either answer lies within a small bound (a small gap), else it is [`Quality::Ambiguous`] —
+//! T1 and T2 as picked, the bound honest whichever is right — so a wrong prior is never a
+//! confident error. With nothing to pick between two allowed hypotheses the frame is
+//! [`Quality::Merged`].
 //!
 //! The bound: the spread of T1 and T2 over the (h, σ) whose χ² is within [`CONFIDENCE_CHI2`]
-//! of the best (χ² with the fit's residual variance, which includes the model's own mismatch)
+//! of the best (in both hypotheses when the image allows both; χ² with the fit's residual
+//! variance, which includes the model's own mismatch)
 //! and over the best candidates of the neighbouring spreads (σ is a grid; the truth lies
 //! between two of its values), plus two standard errors of (a, b) from the pixel noise (the
 //! scatter within ¼ px bins); scaled by [`BOUND_SCALE`] and floored by [`BOUND_FLOOR_K`], so
@@ -132,7 +135,7 @@ pub struct Separation {
     pub mean_k: f32,
     /// Bound on |T1 − truth| and |T2 − truth|, K.
     pub bound_k: f32,
-    /// Resolved, merged or fallback.
+    /// Resolved, ambiguous, merged or fallback.
     pub quality: Quality,
 }
 
@@ -906,6 +909,8 @@ pub fn separate(
     let mean = core.reference + fit.theta[0];
     // Envelopes over the confidence sets: around the estimate, and around the mean.
     let mut spread = 0f32;
+    // The same over the other hypothesis's set, when the image allows it too.
+    let mut spread_alt = 0f32;
     let mut merged_spread = 0f32;
     for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
         let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
@@ -920,11 +925,14 @@ pub fn separate(
             if m > merged_spread {
                 merged_spread = m;
             }
+            // The chosen hypothesis's set, and, when the image allows the other one too (no
+            // clear verdict: the prior or the previous frame picked), the other's: a wrong
+            // pick lies within that.
+            let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2)) + 2.0 * sd;
             if hy == hyp {
-                let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2)) + 2.0 * sd;
-                if e > spread {
-                    spread = e;
-                }
+                spread = spread.max(e);
+            } else if !clear {
+                spread_alt = spread_alt.max(e);
             }
         }
     }
@@ -947,6 +955,7 @@ pub fn separate(
     // Calibrated on the seen seeds: what the grids and the model's approximations (the core's
     // straight edges, the footprint's two boxes) add.
     let spread = BOUND_SCALE * spread + BOUND_FLOOR_K;
+    let both_spread = spread.max(BOUND_SCALE * spread_alt + BOUND_FLOOR_K);
     let merged_spread = BOUND_SCALE * merged_spread + BOUND_FLOOR_K;
     // The lattice as zones see it: the heater stripes start at `phase`.
     let period = 1.0 / nu;
@@ -966,14 +975,22 @@ pub fn separate(
     if found.is_none() {
         *g = kept;
     }
-    if decided && (spread <= RESOLVED_BOUND_K || spread <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
-    {
+    let small = |b: f32| b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2);
+    if decided && small(spread) {
+        // Which is which: the image's verdict, or a pick whose bound spans both hypotheses —
+        // resolved if even that bound is small, else ambiguous (T1 and T2 as picked, the
+        // bound honest whichever is right).
+        let (bound_k, quality) = if clear || small(both_spread) {
+            (both_spread, Quality::Resolved)
+        } else {
+            (both_spread, Quality::Ambiguous)
+        };
         Separation {
             t1_k: t1,
             t2_k: t2,
             mean_k: mean,
-            bound_k: spread,
-            quality: Quality::Resolved,
+            bound_k,
+            quality,
         }
     } else {
         Separation {

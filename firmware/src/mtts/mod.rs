@@ -10,7 +10,7 @@
 //!    phase, continuity with the previous frame);
 //! 5. [`lattice`]: T1 and T2 by least squares on the per-pixel region-mix forward model of the
 //!    cylinder's core (the refinement of SPEC section 3), with the supervisor's [`Prior`], a
-//!    bound and a per-frame [`Quality`] (resolved, merged, fallback) — never NaN, never a
+//!    bound and a per-frame [`Quality`] (resolved, ambiguous, merged, fallback) — never NaN, never a
 //!    guess presented as a measurement.
 //!
 //! [`Mtts`] owns the settings and the state that persists between frames (the last geometry);
@@ -36,6 +36,11 @@ use crate::units::Kelvin;
 pub enum Quality {
     /// T1 and T2 were measured as two separate targets.
     Resolved,
+    /// T1 and T2 were separated, but which is which the image cannot tell (heater and surface
+    /// stripes of one width, or a faint lattice): the supervisor's prior (or the previous
+    /// frame) assigned them, and the bound spans both assignments, so it holds whichever is
+    /// right. Not a resolved frame: judged, as a merged one, by the mean and the bound.
+    Ambiguous,
     /// The image cannot separate them at this lattice period and optics; both carry the best
     /// estimate of their area-weighted mean.
     Merged,
@@ -49,6 +54,7 @@ impl Quality {
     pub fn name(self) -> &'static str {
         match self {
             Self::Resolved => "resolved",
+            Self::Ambiguous => "ambiguous",
             Self::Merged => "merged",
             Self::Fallback => "fallback",
         }

@@ -214,7 +214,7 @@ pub struct Supervisor {
     /// The sensor-loss window counts from here if it is later than the last measurement: the
     /// end of a flash operation, which stalls the sensor with the core.
     sensor_grace: Millis,
-    /// Since when the frames have not separated T1 and T2 (merged or fallback), if they have not.
+    /// Since when the frames have not separated T1 and T2 (ambiguous, merged or fallback), if they have not.
     unresolved_since: Option<Millis>,
     /// The loop holds the film region (too long unresolved while heating on the colder one).
     film_fallback: bool,
@@ -947,8 +947,9 @@ impl Supervisor {
     }
 
     /// Fuse a new valid measurement into the observer: T1 the film, T2 the outer surface, T5
-    /// the background (≈ the ambient). A frame that did not separate T1 and T2 (merged or
-    /// fallback) gives both the same mean: its bound is added to their noise.
+    /// the background (≈ the ambient). A frame that did not separate T1 and T2 for sure
+    /// (ambiguous: assigned by the prior; merged or fallback: both the same mean) counts with
+    /// its bound added to their noise.
     fn correct_observer(&mut self, m: &Measurement) {
         let region = |i: usize| m.regions.get(i).copied().flatten();
         let extra = if m.quality == Quality::Resolved {

@@ -275,12 +275,12 @@ impl Safety {
     /// frame's edge cluster can read the film's ≈ 385 K, which is not the SMP's (judged against
     /// `t_max_k` it tripped full cycles whose SMP never passed 371 K: the ±20 % sweep's block
     /// with 80 % heater power and 120 % wall capacity, at 193 s). A frame that could not
-    /// separate T1 and T2 (merged or fallback) is judged by the worst it may hide: the SMP may
+    /// separate T1 and T2 for sure (ambiguous, merged or fallback) is judged by the worst it may hide: the SMP may
     /// be as hot as the mean plus the bound ([`Measurement::hotter`]), never the mean less it.
     pub fn over_temperature(m: &Measurement, s: &Settings) -> Option<Fault> {
         let smp_k = match m.quality {
             Quality::Resolved => m.colder(),
-            Quality::Merged | Quality::Fallback => m.hotter(),
+            Quality::Ambiguous | Quality::Merged | Quality::Fallback => m.hotter(),
         }
         .map_or(f32::NAN, Kelvin::k);
         let smp = m.regions[3..]

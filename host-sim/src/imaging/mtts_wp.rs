@@ -890,7 +890,7 @@ impl FamilyOutcome {
     /// T1 and T2 each; for a merged one, the merged value of the true area-weighted mean.
     pub fn covered(&self) -> bool {
         match self.quality {
-            Quality::Resolved => self.err_k.iter().all(|&e| e <= self.bound_k),
+            Quality::Resolved | Quality::Ambiguous => self.err_k.iter().all(|&e| e <= self.bound_k),
             Quality::Merged => self.merged_err_k.is_some_and(|e| e <= self.bound_k),
             Quality::Fallback => true,
         }
@@ -1201,7 +1201,9 @@ pub fn family_section(count: u64) -> String {
         s,
         "\n### Unseen members under the wrong prior, |gap| ≥ 3 K, by exposed fraction\n\n\
          Where heater and surface stripes differ in width the image decides against the prior; \
-         a block exposed near one half (0.45–0.55) shows equal stripes, and the prior picks.\n"
+         a block exposed near one half (0.45–0.55) shows equal stripes: the prior assigns T1 and T2, \
+         and the frame is ambiguous, its bound spanning both assignments (not resolved, so not \
+         counted as swapped; its errors are in the means).\n"
     );
     s += &family_exposed_markdown(&wrong);
     let _ = writeln!(
