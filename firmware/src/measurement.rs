@@ -76,14 +76,17 @@ impl Measurement {
     }
 
     /// Return the hotter of the two targets as far as this frame can tell: the higher of T1 and
-    /// T2 when they were resolved; the mean plus the bound when they were not (the hotter
-    /// target may be that far above the mean both carry). `None` without T1 and T2 (or if
-    /// infinite values make the sum undefined).
+    /// T2 when they were resolved; when ambiguous, the higher plus the bound (either may be
+    /// that far off); when merged or fallback, the mean plus the bound (the hotter target may
+    /// be that far above the mean both carry). `None` without T1 and T2 (or if infinite values
+    /// make the sum undefined).
     pub fn hotter(&self) -> Option<Kelvin> {
         let (a, b) = (self.t1()?.k(), self.t2()?.k());
+        let bound = self.bound.k().max(0.0);
         match self.quality {
             Quality::Resolved => Kelvin::new(if a >= b { a } else { b }),
-            _ => Kelvin::new(0.5 * (a + b) + self.bound.k().max(0.0)),
+            Quality::Ambiguous => Kelvin::new(if a >= b { a } else { b } + bound),
+            Quality::Merged | Quality::Fallback => Kelvin::new(0.5 * (a + b) + bound),
         }
     }
 
@@ -91,9 +94,11 @@ impl Measurement {
     /// [`Measurement::hotter`]).
     pub fn colder(&self) -> Option<Kelvin> {
         let (a, b) = (self.t1()?.k(), self.t2()?.k());
+        let bound = self.bound.k().max(0.0);
         match self.quality {
             Quality::Resolved => Kelvin::new(if a >= b { b } else { a }),
-            _ => Kelvin::new(0.5 * (a + b) - self.bound.k().max(0.0)),
+            Quality::Ambiguous => Kelvin::new(if a >= b { b } else { a } - bound),
+            Quality::Merged | Quality::Fallback => Kelvin::new(0.5 * (a + b) - bound),
         }
     }
 }

@@ -40,10 +40,11 @@
 //! and surface stripes are equally wide, or a lattice too faint to tell — does the supervisor's
 //! [`Prior`] (or, without one, the previous frame's decision, [`CONTINUITY_CHI2`]) pick, and
 //! then the bound spans both hypotheses: a pick the image did not make is resolved only when
-//! either answer lies within a small bound (a small gap), else it is [`Quality::Ambiguous`] —
-//! T1 and T2 as picked, the bound honest whichever is right — so a wrong prior is never a
-//! confident error. With nothing to pick between two allowed hypotheses the frame is
-//! [`Quality::Merged`].
+//! either answer lies within a small bound (a small gap), so a wrong prior is never a
+//! confident error. A decided frame whose bound is not small (a pick only the prior made, or
+//! thin stripes whose level trades against their width) is [`Quality::Ambiguous`]: T1 and T2
+//! the fit's, the bound honest. With nothing to pick between two allowed hypotheses the frame
+//! is [`Quality::Merged`].
 //!
 //! The bound: the spread of T1 and T2 over the (h, σ) whose χ² is within [`CONFIDENCE_CHI2`]
 //! of the best (in both hypotheses when the image allows both; χ² with the fit's residual
@@ -976,20 +977,20 @@ pub fn separate(
         *g = kept;
     }
     let small = |b: f32| b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2);
-    if decided && small(spread) {
-        // Which is which: the image's verdict, or a pick whose bound spans both hypotheses —
-        // resolved if even that bound is small, else ambiguous (T1 and T2 as picked, the
-        // bound honest whichever is right).
-        let (bound_k, quality) = if clear || small(both_spread) {
-            (both_spread, Quality::Resolved)
+    if decided {
+        // T1 and T2 are the fit's: resolved when the bound (spanning both assignments where
+        // the image allowed both) is small, else ambiguous — the fit's values with that
+        // bound, still far closer than the mean the merged frame gives both.
+        let quality = if small(both_spread) {
+            Quality::Resolved
         } else {
-            (both_spread, Quality::Ambiguous)
+            Quality::Ambiguous
         };
         Separation {
             t1_k: t1,
             t2_k: t2,
             mean_k: mean,
-            bound_k,
+            bound_k: both_spread,
             quality,
         }
     } else {

@@ -36,10 +36,12 @@ use crate::units::Kelvin;
 pub enum Quality {
     /// T1 and T2 were measured as two separate targets.
     Resolved,
-    /// T1 and T2 were separated, but which is which the image cannot tell (heater and surface
-    /// stripes of one width, or a faint lattice): the supervisor's prior (or the previous
-    /// frame) assigned them, and the bound spans both assignments, so it holds whichever is
-    /// right. Not a resolved frame: judged, as a merged one, by the mean and the bound.
+    /// T1 and T2 were separated, not for sure: which is which only the supervisor's prior (or
+    /// the previous frame) says (heater and surface stripes of one width, a faint lattice), or
+    /// their levels are uncertain (stripes thinner than about 1.5 px, whose level trades
+    /// against their width). T1 and T2 are the fit's best values and the bound holds them
+    /// whichever assignment is right. Not a resolved frame: the supervisor judges it by the
+    /// worst its bound allows.
     Ambiguous,
     /// The image cannot separate them at this lattice period and optics; both carry the best
     /// estimate of their area-weighted mean.
