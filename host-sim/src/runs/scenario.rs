@@ -455,10 +455,11 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
         let t = table(&cx, k, item, "camera")?;
         check_keys(&cx, t, "camera.", &["noise", "seed", "azimuth"])?;
         if let Some((k, v)) = t.get_key_value("noise") {
-            camera.noise_k = temperature_step(&cx, k, v, "camera.noise", (0.0, 5.0))?;
+            camera.noise_k = quantity_in(&cx, k, v, "camera.noise", KELVIN_STEP, (0.0, 5.0))?;
         }
         if let Some((k, v)) = t.get_key_value("azimuth") {
-            camera.azimuth_deg = angle(&cx, k, v, "camera.azimuth", (-180.0, 180.0))?;
+            camera.azimuth_deg =
+                quantity_in(&cx, k, v, "camera.azimuth", DEGREES, (-180.0, 180.0))?;
         }
         if let Some((k, v)) = t.get_key_value("seed") {
             let n = integer(&cx, k, v, "camera.seed")?;
@@ -967,48 +968,43 @@ fn temperature(
     in_range(cx, span_of(k, v), key, t, range_k, "K")
 }
 
-/// A temperature difference: kelvin only (a Celsius step is the same size; `°C` is accepted).
-fn temperature_step(
-    cx: &Ctx,
-    k: &toml_edit::Key,
-    v: &toml_edit::Item,
-    key: &str,
-    range_k: (f64, f64),
-) -> Result<f64, ScenarioError> {
-    let s = quantity_str(cx, k, v, key, "0.1 K")?;
-    let t = split_quantity(s)
-        .filter(|(_, u)| matches!(*u, "K" | "°C" | "C"))
-        .map(|(x, _)| x)
-        .ok_or_else(|| {
-            cx.err(
-                span_of(k, v),
-                key,
-                format!("`{s}` is not a temperature difference with a unit (e.g. \"0.1 K\")"),
-            )
-        })?;
-    in_range(cx, span_of(k, v), key, t, range_k, "K")
-}
+/// A quantity's unit for [`quantity_in`]: the unit errors name, the spellings accepted, what
+/// the value is, an example.
+type Unit = (
+    &'static str,
+    &'static [&'static str],
+    &'static str,
+    &'static str,
+);
 
-/// An angle in degrees (`"90 deg"`, `"-30°"`) within `range_deg`.
-fn angle(
+/// A temperature difference: kelvin only (a Celsius step is the same size; `°C` is accepted).
+const KELVIN_STEP: Unit = ("K", &["K", "°C", "C"], "a temperature difference", "0.1 K");
+
+/// An angle in degrees (`"90 deg"`, `"-30°"`).
+const DEGREES: Unit = ("deg", &["deg", "°"], "an angle", "90 deg");
+
+/// A number with one of `unit`'s spellings ([`KELVIN_STEP`], [`DEGREES`]) within `range` (in
+/// its unit).
+fn quantity_in(
     cx: &Ctx,
     k: &toml_edit::Key,
     v: &toml_edit::Item,
     key: &str,
-    range_deg: (f64, f64),
+    (name, spellings, what, example): Unit,
+    range: (f64, f64),
 ) -> Result<f64, ScenarioError> {
-    let s = quantity_str(cx, k, v, key, "90 deg")?;
-    let a = split_quantity(s)
-        .filter(|(_, u)| matches!(*u, "deg" | "°"))
+    let s = quantity_str(cx, k, v, key, example)?;
+    let x = split_quantity(s)
+        .filter(|(_, u)| spellings.contains(u))
         .map(|(x, _)| x)
         .ok_or_else(|| {
             cx.err(
                 span_of(k, v),
                 key,
-                format!("`{s}` is not an angle with a unit (e.g. \"90 deg\")"),
+                format!("`{s}` is not {what} with a unit (e.g. \"{example}\")"),
             )
         })?;
-    in_range(cx, span_of(k, v), key, a, range_deg, "deg")
+    in_range(cx, span_of(k, v), key, x, range, name)
 }
 
 /// A value in percent (`"50 %"`, `"80%"`) within `range` (in %), as a fraction: `example`
