@@ -202,6 +202,17 @@ mod tests {
     }
 
     #[test]
+    fn an_ambiguous_frame_is_judged_by_its_targets_widened_by_its_bound() {
+        // T1 and T2 the fit's, 20 K apart, a bound of 8 K: the hotter may be 368 K (the
+        // midpoint plus the bound, 358 K, would hide the estimate itself).
+        let m = frame(360.0, 340.0, Quality::Ambiguous, 8.0);
+        assert_eq!(
+            (m.hotter(), m.colder()),
+            (Some(Kelvin::lit(368.0)), Some(Kelvin::lit(332.0)))
+        );
+    }
+
+    #[test]
     fn a_merged_frame_counts_its_bound_against_the_loop() {
         let m = frame(350.0, 350.0, Quality::Merged, 6.0);
         assert_eq!(
