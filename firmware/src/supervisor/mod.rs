@@ -214,7 +214,8 @@ pub struct Supervisor {
     /// The sensor-loss window counts from here if it is later than the last measurement: the
     /// end of a flash operation, which stalls the sensor with the core.
     sensor_grace: Millis,
-    /// Since when the frames have not separated T1 and T2 (ambiguous, merged or fallback), if they have not.
+    /// Since when the frames have not separated T1 and T2 for sure (ambiguous, merged or
+    /// fallback), if they have not.
     unresolved_since: Option<Millis>,
     /// The loop holds the film region (too long unresolved while heating on the colder one).
     film_fallback: bool,

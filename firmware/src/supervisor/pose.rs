@@ -8,8 +8,10 @@
 //! target. Within `pose_tol_deg` after a settle the target is reached (`# pose reached
 //! ANGLE+-U`, a notice, unlogged: the console is ASCII); the mode then holds `hot_k` with the springs off, stepping again if the bend
 //! sags out of the tolerance, until `hold_timeout_s` — or, with `form`, it forms at once
-//! (phase `cool`), still stepping the springs while the bend sags below the target and the
-//! wall is soft enough to take it, and ends in standby.
+//! (phase `cool`), still stepping the springs while the bend sags below its aim and the wall
+//! is soft enough to take it, and ends in standby. A formed pose aims past the target by the
+//! spring-back the frozen wall shows once the springs rest
+//! ([`crate::posture::Posture::form_aim_deg`]), so that it rests at the target.
 //!
 //! A target below the present bend is reached by partial recovery, not by the opposite
 //! springs: with the wall soft the SMP's memory pulls the column back towards straight by
