@@ -427,16 +427,8 @@ impl Posture {
 
     /// The plane `springs` pull in, degrees from spring A (0 for none, or all three).
     pub fn plane_deg(springs: SpringMask) -> f32 {
-        let mut v = [0.0f32; 2];
-        for i in (0..SPRINGS).filter(|&i| springs.contains(i)) {
-            let c = direction(i);
-            v = [v[0] + c[0], v[1] + c[1]];
-        }
-        if norm(v) < 1e-3 {
-            0.0
-        } else {
-            libm::atan2f(v[1], v[0]).to_degrees()
-        }
+        let u = Self::plane_unit(springs);
+        libm::atan2f(u[1], u[0]).to_degrees()
     }
 }
 

@@ -910,8 +910,6 @@ pub fn separate(
     let mean = core.reference + fit.theta[0];
     // Envelopes over the confidence sets: around the estimate, and around the mean.
     let mut spread = 0f32;
-    // The same over the other hypothesis's set, when the image allows it too.
-    let mut spread_alt = 0f32;
     let mut merged_spread = 0f32;
     for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
         let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
@@ -929,11 +927,9 @@ pub fn separate(
             // The chosen hypothesis's set, and, when the image allows the other one too (no
             // clear verdict: the prior or the previous frame picked), the other's: a wrong
             // pick lies within that.
-            let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2)) + 2.0 * sd;
-            if hy == hyp {
+            if hy == hyp || !clear {
+                let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2)) + 2.0 * sd;
                 spread = spread.max(e);
-            } else if !clear {
-                spread_alt = spread_alt.max(e);
             }
         }
     }
@@ -956,7 +952,6 @@ pub fn separate(
     // Calibrated on the seen seeds: what the grids and the model's approximations (the core's
     // straight edges, the footprint's two boxes) add.
     let spread = BOUND_SCALE * spread + BOUND_FLOOR_K;
-    let both_spread = spread.max(BOUND_SCALE * spread_alt + BOUND_FLOOR_K);
     let merged_spread = BOUND_SCALE * merged_spread + BOUND_FLOOR_K;
     // The lattice as zones see it: the heater stripes start at `phase`.
     let period = 1.0 / nu;
@@ -981,7 +976,7 @@ pub fn separate(
         // T1 and T2 are the fit's: resolved when the bound (spanning both assignments where
         // the image allowed both) is small, else ambiguous — the fit's values with that
         // bound, still far closer than the mean the merged frame gives both.
-        let quality = if small(both_spread) {
+        let quality = if small(spread) {
             Quality::Resolved
         } else {
             Quality::Ambiguous
@@ -990,7 +985,7 @@ pub fn separate(
             t1_k: t1,
             t2_k: t2,
             mean_k: mean,
-            bound_k: both_spread,
+            bound_k: spread,
             quality,
         }
     } else {

@@ -201,6 +201,9 @@ pub fn run_case(c: &Case) -> Result<Outcome, RunError> {
         .find(|x| mode(x) != "pose");
     let short = end.is_some() && reach_s.is_none();
     let end = end.filter(|_| !short);
+    // The case's last row, when the pose formed: the posture at rest and its estimate.
+    let rest = end.and(r.rows.last());
+    let rest_bend = rest.and_then(|x| x.control).map(|c| c.bend);
     let hottest_spring_k = r
         .rows
         .iter()
@@ -213,15 +216,9 @@ pub fn run_case(c: &Case) -> Result<Outcome, RunError> {
         reply,
         reach_s,
         formed_deg: end.map(|x| x.obs.bend_deg),
-        rest_deg: end.and(r.rows.last()).map(|x| x.obs.bend_deg),
-        estimate_deg: end
-            .and(r.rows.last())
-            .and_then(|x| x.control)
-            .map(|c| c.bend.deg as f64),
-        estimate_sd_deg: end
-            .and(r.rows.last())
-            .and_then(|x| x.control)
-            .map(|c| c.bend.sd_deg as f64),
+        rest_deg: rest.map(|x| x.obs.bend_deg),
+        estimate_deg: rest_bend.map(|b| b.deg as f64),
+        estimate_sd_deg: rest_bend.map(|b| b.sd_deg as f64),
         hottest_spring_k,
         faults: r
             .summary
