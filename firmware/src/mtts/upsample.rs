@@ -27,6 +27,14 @@
 //! which is exactly the clamp to the image's range. About 14 instructions per output pixel on
 //! the Cortex-M4 (4 multiplies, 3 adds, a conversion and the count), against ≈ 28 for
 //! [`Upsampler::run`] followed by a clamped count.
+//!
+//! On a desktop core (the simulator, where MTTS is most of a camera-on run) the same values are
+//! counted another way, [`Counting::Rows`]: a group's output row at a time, its values computed
+//! across the columns first (a loop the compiler turns into SIMD, each lane the same four
+//! multiplies and three adds in the same order, so the same values bit for bit) and counted
+//! after, into four arrays in turn — an increment of the bin the previous one touched would wait
+//! for its store. The counts are the same (a test runs both); on the Cortex-M4, without SIMD or
+//! store forwarding, the register path is the faster and keeps its RAM.
 
 use super::cluster::{Histogram, MAX_BINS};
 use super::{IMG_COLS, IMG_ROWS, MttsError};
@@ -50,13 +58,41 @@ const CHUNK: usize = 4;
 /// Most groups of outputs sharing their taps along one axis (one per input pixel, plus one).
 const MAX_GROUPS: usize = IMG_COLS + 1;
 
+/// How the vertical pass computes and counts a group's outputs (the module docs): the same
+/// counts either way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Counting {
+    /// Column by column, every output of the group from the four taps in registers: the
+    /// Cortex-M4's way. Built on the host too (a test counts both ways), never taken there.
+    #[cfg_attr(not(any(test, target_os = "none")), allow(dead_code))]
+    Registers,
+    /// Output row by output row, values first (SIMD), counts after into [`LANES`] arrays in
+    /// turn. Built for the Cortex-M4 too, never taken there.
+    #[cfg_attr(target_os = "none", allow(dead_code))]
+    Rows,
+}
+
+/// The build's way of counting.
+#[cfg(target_os = "none")]
+const COUNTING: Counting = Counting::Registers;
+/// The build's way of counting.
+#[cfg(not(target_os = "none"))]
+const COUNTING: Counting = Counting::Rows;
+
+/// Count arrays: [`Counting::Rows`] counts into them in turn; the Cortex-M4 keeps its RAM.
+#[cfg(target_os = "none")]
+const LANES: usize = 1;
+/// Count arrays: [`Counting::Rows`] counts into them in turn; the Cortex-M4 keeps its RAM.
+#[cfg(not(target_os = "none"))]
+const LANES: usize = 4;
+
 /// Scratch memory of the upsampler.
 pub struct UpsampleScratch {
     ring: [[f32; MAX_OUT_COLS]; RING],
     ring_tag: [i32; RING],
     row: [f32; MAX_OUT_COLS],
-    /// Counts of [`Upsampler::histogram`] (all zero between calls).
-    padded: [u32; PADDED_BINS],
+    /// Counts of [`Upsampler::histogram`], one array per lane (all zero between calls).
+    padded: [[u32; PADDED_BINS]; LANES],
 }
 
 impl Default for UpsampleScratch {
@@ -72,7 +108,7 @@ impl UpsampleScratch {
             ring: [[0.0; MAX_OUT_COLS]; RING],
             ring_tag: [0; RING],
             row: [0.0; MAX_OUT_COLS],
-            padded: [0; PADDED_BINS],
+            padded: [[0; PADDED_BINS]; LANES],
         }
     }
 }
@@ -257,6 +293,17 @@ impl Upsampler {
         hist: &mut Histogram,
         scratch: &mut UpsampleScratch,
     ) {
+        self.histogram_by(image, hist, scratch, COUNTING);
+    }
+
+    /// [`Upsampler::histogram`], counting by `counting`.
+    fn histogram_by(
+        &self,
+        image: &[f32; IMG_ROWS * IMG_COLS],
+        hist: &mut Histogram,
+        scratch: &mut UpsampleScratch,
+        counting: Counting,
+    ) {
         let (lo, scale) = hist.units();
         let offset = GUARD_BINS as f32;
         let oc = IMG_COLS * self.scale;
@@ -270,6 +317,11 @@ impl Upsampler {
             let UpsampleScratch { ring, padded, .. } = &mut *scratch;
             let taps = rows.map(|r| &ring[r % RING][..oc]);
             let w = &self.wrapped[g.phase as usize..][..g.len as usize];
+            if counting == Counting::Rows {
+                count_rows(w, g.mirrored, taps, padded);
+                continue;
+            }
+            let padded = &mut padded[0];
             if g.mirrored {
                 // Pairs (j, len − 1 − j) share their weights, reversed: half the registers.
                 match g.len {
@@ -295,11 +347,13 @@ impl Upsampler {
         let from = GUARD_BINS - bins / 2;
         let to = (GUARD_BINS + bins + bins / 2).min(PADDED_BINS);
         let top = bins as i32 - 1;
-        for (i, c) in scratch.padded[from..to].iter_mut().enumerate() {
-            if *c != 0 {
-                let b = ((from + i) as i32 - GUARD_BINS as i32).clamp(0, top) as usize;
-                hist.count[b & (MAX_BINS - 1)] += *c;
-                *c = 0;
+        for lane in scratch.padded.iter_mut() {
+            for (i, c) in lane[from..to].iter_mut().enumerate() {
+                if *c != 0 {
+                    let b = ((from + i) as i32 - GUARD_BINS as i32).clamp(0, top) as usize;
+                    hist.count[b & (MAX_BINS - 1)] += *c;
+                    *c = 0;
+                }
             }
         }
     }
@@ -341,6 +395,60 @@ impl Upsampler {
             }
         }
         sc.ring_tag[slot] = r as i32 + 1;
+    }
+}
+
+/// The padded bin of an offset value, `(v as i32 as usize) & (PADDED_BINS − 1)`, for every `v`
+/// below 2²³ (the values counted lie within 0 … [`PADDED_BINS`], the module docs) and NaN,
+/// in arithmetic a compiler vectorizes with baseline SSE2 (`v as i32` saturates, which it
+/// does one lane at a time): adding 2²³ rounds `v` to the nearest integer r, exactly, in the
+/// float's low bits; r − 1 where r > v is the truncation.
+#[inline(always)]
+#[cfg_attr(target_os = "none", allow(dead_code))]
+fn bin_of(v: f32) -> u16 {
+    const TWO_23: f32 = 8_388_608.0;
+    let r = v + TWO_23;
+    let k = r.to_bits().wrapping_sub(TWO_23.to_bits());
+    let k = k.wrapping_sub((r - TWO_23 > v) as u32);
+    (k as usize & (PADDED_BINS - 1)) as u16
+}
+
+/// Count every output row of a group ([`Counting::Rows`]): output j has weights `w[j]`, and in
+/// a mirrored group output len − 1 − j has them reversed, computed as `vertical_count_mirrored`
+/// computes it (the same products summed in the same order).
+#[cfg_attr(target_os = "none", allow(dead_code))]
+fn count_rows(
+    w: &[[f32; 4]],
+    mirrored: bool,
+    taps: [&[f32]; 4],
+    padded: &mut [[u32; PADDED_BINS]; LANES],
+) {
+    let [h0, h1, h2, h3] = taps;
+    let n = h0.len();
+    let mut at = [0u16; MAX_OUT_COLS];
+    let mut count = |w: [f32; 4], padded: &mut [[u32; PADDED_BINS]; LANES]| {
+        for ((((o, &a), &b), &c), &d) in at[..n].iter_mut().zip(h0).zip(h1).zip(h2).zip(h3) {
+            *o = bin_of(w[0] * a + w[1] * b + w[2] * c + w[3] * d);
+        }
+        let mut chunks = at[..n].chunks_exact(LANES);
+        for chunk in &mut chunks {
+            for (lane, &i) in padded.iter_mut().zip(chunk) {
+                lane[i as usize] += 1;
+            }
+        }
+        for (lane, &i) in padded.iter_mut().zip(chunks.remainder()) {
+            lane[i as usize] += 1;
+        }
+    };
+    if mirrored {
+        for &[a, b, c, d] in &w[..w.len() / 2] {
+            count([a, b, c, d], padded);
+            count([d, c, b, a], padded);
+        }
+    } else {
+        for &wj in w {
+            count(wj, padded);
+        }
     }
 }
 
@@ -490,6 +598,12 @@ mod tests {
                 let mut sc = std::boxed::Box::new(UpsampleScratch::new());
                 let mut fused = Histogram::new(lo, hi, bins).unwrap();
                 up.histogram(&img, &mut fused, &mut sc);
+                // Both ways of counting count the same.
+                for counting in [Counting::Registers, Counting::Rows] {
+                    let mut other = Histogram::new(lo, hi, bins).unwrap();
+                    up.histogram_by(&img, &mut other, &mut sc, counting);
+                    assert_eq!(other.count[..], fused.count[..], "s={s} {counting:?}");
+                }
                 // The same arithmetic through `run`: values in offset bin units, clamped.
                 let (l, k) = fused.units();
                 let units: [f32; 768] =
@@ -505,7 +619,7 @@ mod tests {
                 let (rows, cols) = up.out_size();
                 assert_eq!(fused.total() as usize, rows * cols);
                 // The padded counts are left empty for the next call.
-                assert!(sc.padded.iter().all(|&c| c == 0));
+                assert!(sc.padded.iter().flatten().all(|&c| c == 0));
                 // And against plain bin units (no offset), only values at bin edges may move.
                 let mut plain = Histogram::new(lo, hi, bins).unwrap();
                 up.run(&img, &mut sc, |_, row| plain.add_slice(row));
@@ -517,6 +631,40 @@ mod tests {
                     "s={s} bins={bins}: {moved}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn bin_of_is_the_saturating_conversion_masked() {
+        let want = |v: f32| ((v as i32 as usize) & (PADDED_BINS - 1)) as u16;
+        let mut values = std::vec![
+            0.0f32,
+            f32::NAN,
+            1_023.999_9,
+            8_388_607.5,
+            f32::MIN_POSITIVE
+        ];
+        for k in 0..=PADDED_BINS as u32 + 3 {
+            let k = k as f32;
+            values.extend([
+                k,
+                k + 0.5,
+                k - 0.5,
+                k.next_up(),
+                k.next_down(),
+                k + 0.25,
+                k + 0.75,
+            ]);
+        }
+        let mut x = 0x1234_5678u32;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            values.push((x >> 8) as f32 / (1u32 << 24) as f32 * 2048.0);
+        }
+        for v in values.into_iter().filter(|v| v.is_nan() || *v >= 0.0) {
+            assert_eq!(bin_of(v), want(v), "{v}");
         }
     }
 
