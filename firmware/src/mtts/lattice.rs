@@ -17,8 +17,10 @@
 //! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
 //! are known:
 //! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
-//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's), refined to the minimum
-//!    of the residual of a least-squares fit of mean and fundamental;
+//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's), looked at half a grid
+//!    step either side before the parabola (a core showing under two periods peaks between
+//!    the grid's first points), refined to the minimum of the residual of a least-squares fit
+//!    of mean and fundamental;
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
 //!    that lie below 0.75 cycles per pixel (at most five, fewer if ill-conditioned: a thin
 //!    stripe — the thesis's 1.4 px SMP strips — lives in the higher ones); c is the
@@ -26,7 +28,9 @@
 //! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
 //!    (weighted by their normal matrix, i.e. the per-pixel least squares) give a misfit χ²,
 //!    with the noise estimated from the fit's residual. The exposed fraction is thus fitted
-//!    per frame (the best h), and so is the spread.
+//!    per frame (the best h, between grid points by the χ² parabola through its neighbours:
+//!    a thin stripe's level trades against its width, so the grid's step alone would leave
+//!    up to gap·(step/2)/width), and so is the spread.
 //!
 //! Which target is hotter: hot stripes of fraction h are the heater if the exposed fraction
 //! d = h, or the surface if d = 1 − h. The block's design fixes d within
@@ -341,14 +345,37 @@ fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)>
         }
         prev = a;
     }
-    let (l, c, r) = (at_best_prev, best_a, at_best_next);
-    let den = l - 2.0 * c + r;
-    let off = if den < -1e-9 && best_i > 0 && best_i < n {
-        (0.5 * (l - r) / den).clamp(-0.5, 0.5)
+    // Half a step either side of the best grid point: the grid is coarse against the peak of
+    // a lattice whose core shows under two periods (a peak between the first two points, at the
+    // longest periods, would otherwise stay at the first). The parabola is then drawn through
+    // the best of the three and its neighbours half a step away.
+    let (left, right) = (best_i > 0, best_i < n);
+    let nu_b = lo + best_i as f32 * step;
+    let half = 0.5 * step;
+    let ml = if left {
+        amplitude(p, nu_b - half)
+    } else {
+        -1.0
+    };
+    let mr = if right {
+        amplitude(p, nu_b + half)
+    } else {
+        -1.0
+    };
+    let (centre, y_l, y_c, y_r, ok) = if ml > best_a && ml >= mr {
+        (nu_b - half, at_best_prev, ml, best_a, true)
+    } else if mr > best_a {
+        (nu_b + half, best_a, mr, at_best_next, right)
+    } else {
+        (nu_b, ml, best_a, mr, left && right)
+    };
+    let den = y_l - 2.0 * y_c + y_r;
+    let off = if ok && den < -1e-9 {
+        (0.5 * (y_l - y_r) / den).clamp(-0.5, 0.5)
     } else {
         0.0
     };
-    let nu = lo + (best_i as f32 + off) * step;
+    let nu = centre + off * half;
     Some((nu, amplitude(p, nu)))
 }
 
@@ -905,7 +932,43 @@ pub fn separate(
     // At least one hypothesis has a window (the design is within EXPOSED_MIN…EXPOSED_MAX).
     let chosen = if hyp == Hyp::HeaterHot { ia } else { ib };
     let ibest = chosen.or(ia).or(ib).unwrap_or(0);
-    let best = cand[ibest];
+    // Between the h grid's points: the χ² parabola through the best h and its neighbours (the
+    // same spread and hypothesis) puts the minimum `step` grid steps off it (|step| ≤ ½), and
+    // a and b follow the parabolas through the three candidates' values. The grid alone
+    // leaves thin stripes' level off by up to gap·(H_STEP/2)/width — their level trades
+    // against their width (0.6 K for a 10 K gap and stripes a fifth of the period wide).
+    let (best, step) = {
+        let hyp_best = if ibest % (2 * SLOTS) < SLOTS {
+            Hyp::HeaterHot
+        } else {
+            Hyp::SurfaceHot
+        };
+        let place = ibest % (2 * SLOTS) - base_of(hyp_best);
+        let len = range_of(hyp_best).len();
+        let c = cand[ibest];
+        if place >= 1 && place + 1 < len {
+            let (lo, hi) = (cand[ibest - 1], cand[ibest + 1]);
+            let den = lo.chi2 - 2.0 * c.chi2 + hi.chi2;
+            if den > 0.0 && lo.b > 0.0 && c.b > 0.0 && hi.b > 0.0 {
+                let x = (0.5 * (lo.chi2 - hi.chi2) / den).clamp(-0.5, 0.5);
+                let at = |y0: f32, y1: f32, y2: f32| {
+                    y1 + 0.5 * x * (y2 - y0) + 0.5 * x * x * (y0 - 2.0 * y1 + y2)
+                };
+                (
+                    Candidate {
+                        a: at(lo.a, c.a, hi.a),
+                        b: at(lo.b, c.b, hi.b),
+                        ..c
+                    },
+                    x,
+                )
+            } else {
+                (c, 0.0)
+            }
+        } else {
+            (c, 0.0)
+        }
+    };
     let (t1, t2) = temps(&best, hyp);
     let mean = core.reference + fit.theta[0];
     // Envelopes over the confidence sets: around the estimate, and around the mean.
@@ -955,7 +1018,7 @@ pub fn separate(
     let merged_spread = BOUND_SCALE * merged_spread + BOUND_FLOOR_K;
     // The lattice as zones see it: the heater stripes start at `phase`.
     let period = 1.0 / nu;
-    let h = h_at(h_index(ibest));
+    let h = h_at(h_index(ibest)) + step * H_STEP;
     let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period;
     let (exposed, start) = match hyp {
         Hyp::HeaterHot => (h, centre - 0.5 * h * period),

@@ -29,7 +29,7 @@
 //! [`Upsampler::run`] followed by a clamped count.
 //!
 //! On a desktop core (the simulator, where MTTS is most of a camera-on run) the same values are
-//! counted another way, [`Counting::Rows`]: a group's output row at a time, its values computed
+//! counted another way (`Counting::Rows`): a group's output row at a time, its values computed
 //! across the columns first (a loop the compiler turns into SIMD, each lane the same four
 //! multiplies and three adds in the same order, so the same values bit for bit) and counted
 //! after, into four arrays in turn — an increment of the bin the previous one touched would wait

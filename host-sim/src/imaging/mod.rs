@@ -6,6 +6,7 @@
 //!   scenes: a *scene* here is one rendered image; a scene file, a whole run, is
 //!   [`crate::runs::scenario`]).
 //! - [`view_family`]: randomized views through the MLX90640 optics (MTTS robustness).
+//! - [`view_limit`]: what a family member's view holds about T1 and T2 (the Cramér–Rao bound).
 //! - [`mtts_cli`]: MTTS on image files, scenes as image files (`host-sim mtts`, `scene`).
 //! - [`mtts_wp`]: the MTTS work-precision table (`host-sim mtts-wp`).
 //! - [`to_roots`]: root variants of the To calculation and its f64 reference.
@@ -24,6 +25,7 @@ pub mod mtts_wp;
 pub mod to_roots;
 pub mod view;
 pub mod view_family;
+pub mod view_limit;
 
 use std::path::PathBuf;
 

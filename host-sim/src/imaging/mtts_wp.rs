@@ -34,6 +34,7 @@ use crate::imaging::mtts_cli::method_name;
 use crate::imaging::to_roots;
 use crate::imaging::view::{Scene, standard_scenes};
 use crate::imaging::view_family::Member;
+use crate::imaging::view_limit;
 
 /// Options of `host-sim mtts-wp`.
 #[derive(Args, Clone, Debug)]
@@ -1066,12 +1067,29 @@ fn in_band(x: f64, (lo, hi): (f64, f64)) -> bool {
 /// A table of [`CellStats`] rows: `labels` names the label columns (`"a | b"`), each row's
 /// label fills them.
 fn stats_table(labels: &str, rows: impl IntoIterator<Item = (String, CellStats)>) -> String {
-    let columns = labels.split(" | ").count() + STATS_HEADER.matches(" | ").count() + 1;
+    stats_table_with(
+        labels,
+        "",
+        rows.into_iter().map(|(l, st)| (l, st, String::new())),
+    )
+}
+
+/// [`stats_table`] with extra columns after the statistics: `extra` names them (`"x | y |"`),
+/// each row's third field fills them (`"1 | 2 |"`).
+fn stats_table_with(
+    labels: &str,
+    extra: &str,
+    rows: impl IntoIterator<Item = (String, CellStats, String)>,
+) -> String {
+    let columns = labels.split(" | ").count()
+        + STATS_HEADER.matches(" | ").count()
+        + 1
+        + extra.matches('|').count();
     let mut s = String::new();
-    let _ = writeln!(s, "| {labels} | {STATS_HEADER}");
+    let _ = writeln!(s, "| {labels} | {STATS_HEADER}{extra}");
     let _ = writeln!(s, "|{}", "---|".repeat(columns));
-    for (label, st) in rows {
-        let _ = writeln!(s, "| {label} | {}", st.cells());
+    for (label, st, more) in rows {
+        let _ = writeln!(s, "| {label} | {}{more}", st.cells());
     }
     s
 }
@@ -1081,18 +1099,38 @@ fn clear_gap(o: &FamilyOutcome) -> bool {
     o.gap_k.abs() >= 3.0
 }
 
-/// Table by exposed-fraction band × period band over members whose gap is at least 3 K.
+/// Table by exposed-fraction band × period band over members whose gap is at least 3 K, with
+/// what the views hold: the mean over the cell of each member's least mean |error| of T1 and
+/// T2 ([`crate::imaging::view_limit`]).
 pub fn family_markdown(outs: &[FamilyOutcome]) -> String {
+    use rayon::prelude::*;
+    let limits: Vec<Option<[f64; 2]>> = outs
+        .par_iter()
+        .map(|o| view_limit::limit(&Member::draw(o.seed)).map(|l| l.mean_abs_k()))
+        .collect();
     let rows = FAMILY_EXPOSED.iter().flat_map(|&e| {
+        let limits = &limits;
         FAMILY_PERIODS.iter().filter_map(move |&p| {
-            let st = CellStats::of(
-                outs.iter()
-                    .filter(|o| in_band(o.exposed, e) && in_band(o.period_px, p) && clear_gap(o)),
-            );
-            (st.n > 0).then(|| (format!("{}–{} | {}–{}", e.0, e.1, p.0, p.1), st))
+            let inside = |o: &FamilyOutcome| {
+                in_band(o.exposed, e) && in_band(o.period_px, p) && clear_gap(o)
+            };
+            let st = CellStats::of(outs.iter().filter(|o| inside(o)));
+            let cell: Vec<[f64; 2]> = outs
+                .iter()
+                .zip(limits)
+                .filter(|(o, _)| inside(o))
+                .filter_map(|(_, l)| *l)
+                .collect();
+            let mean = |i: usize| cell.iter().map(|l| l[i]).sum::<f64>() / cell.len().max(1) as f64;
+            let more = format!(" {:.2} | {:.2} |", mean(0), mean(1));
+            (st.n > 0).then(|| (format!("{}–{} | {}–{}", e.0, e.1, p.0, p.1), st, more))
         })
     });
-    stats_table("exposed | period px", rows)
+    stats_table_with(
+        "exposed | period px",
+        " image's limit T1 K | limit T2 K |",
+        rows,
+    )
 }
 
 /// Table by exposed-fraction band (every period) over members whose gap is at least 3 K.
@@ -1182,7 +1220,14 @@ pub fn family_section(count: u64) -> String {
     );
     let _ = writeln!(
         s,
-        "### Unseen members, the mode's prior, |gap| ≥ 3 K, by exposed fraction and period\n"
+        "### Unseen members, the mode's prior, |gap| ≥ 3 K, by exposed fraction and period\n\n\
+         *Image's limit*: the least mean |error| any unbiased estimate from the member's core \
+         pixels can have — the Cramér–Rao bound of `host_sim::imaging::view_limit` (the \
+         lattice seen through the footprint and spread, every harmonic; exposed fraction, \
+         phase, period and spread unknown, the design's ±0.04 as a prior; tilt and axis \
+         known, so if anything too low), √(2/π)·sd, averaged over the cell. Where it exceeds \
+         0.3 K the image does not hold the goal; where MTTS's error is far above it, the fit \
+         leaves information unused.\n"
     );
     s += &family_markdown(&unseen);
     let _ = writeln!(s, "\n### Unseen members by gap, under each prior\n");
