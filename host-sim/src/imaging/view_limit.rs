@@ -120,16 +120,11 @@ fn core_coordinates(m: &Member) -> Vec<f64> {
         .collect()
 }
 
-/// The bound of member `m` (module docs); `None` when it has no core pixels or the
-/// information is singular.
-pub fn limit(m: &Member) -> Option<Limit> {
-    let t = core_coordinates(m);
-    if t.is_empty() {
-        return None;
-    }
+/// The unknowns of `m` at their true values, (T1, T2, e, c, P, σ²), and the tilt's |cos| and
+/// |sin|.
+fn truth(m: &Member) -> ([f64; N], f64, f64) {
     let g = &m.geometry;
     let alpha = g.tilt_deg.to_radians();
-    let (cos_a, sin_a) = (alpha.cos().abs(), alpha.sin().abs());
     let p = [
         m.temps.heater_k,
         m.temps.surface_k,
@@ -138,6 +133,18 @@ pub fn limit(m: &Member) -> Option<Limit> {
         g.period_px,
         m.psf_sigma_px * m.psf_sigma_px,
     ];
+    (p, alpha.cos().abs(), alpha.sin().abs())
+}
+
+/// The bound of member `m` (module docs); `None` when it has no core pixels or the
+/// information is singular.
+pub fn limit(m: &Member) -> Option<Limit> {
+    let t = core_coordinates(m);
+    if t.is_empty() {
+        return None;
+    }
+    let g = &m.geometry;
+    let (p, cos_a, sin_a) = truth(m);
     // Central differences (the values are linear in T1 and T2, smooth in the rest); σ² is
     // stepped forward from zero, where the model ends.
     let steps = [1.0, 1.0, 1e-4, 1e-4 * g.period_px, 1e-4 * g.period_px, 1e-4];
@@ -196,19 +203,10 @@ mod tests {
         for seed in [3, 8, 21, 40] {
             let m = clean(seed);
             let r = render_psf(&m.geometry, &m.temps, m.psf_sigma_px, 0.0, 1);
-            let g = &m.geometry;
-            let alpha = g.tilt_deg.to_radians();
             let t = core_coordinates(&m);
-            let p = [
-                m.temps.heater_k,
-                m.temps.surface_k,
-                g.exposed,
-                g.phase_px + 0.5 * g.exposed * g.period_px,
-                g.period_px,
-                m.psf_sigma_px * m.psf_sigma_px,
-            ];
+            let (p, cos_a, sin_a) = truth(&m);
             let mut v = vec![0.0; t.len()];
-            values(&p, &t, alpha.cos().abs(), alpha.sin().abs(), &mut v);
+            values(&p, &t, cos_a, sin_a, &mut v);
             let core: Vec<usize> = (0..r.image_k.len())
                 .filter(|&q| r.fraction[0][q] + r.fraction[1][q] >= CORE_SHARE)
                 .collect();
