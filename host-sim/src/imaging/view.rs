@@ -143,7 +143,14 @@ pub struct Rendered {
 
 /// What a sample point at (row, col) shows: region index (0…4) or `None` for a spring.
 pub fn sample(g: &Geometry, row: f64, col: f64) -> Option<usize> {
-    match Sampler::new(g).region_at(row, col) {
+    sampler(g)(row, col)
+}
+
+/// [`sample`] for many points of one geometry: the geometry's constants (the tilt's tangent,
+/// the borders) worked out once.
+pub fn sampler(g: &Geometry) -> impl Fn(f64, f64) -> Option<usize> + use<> {
+    let s = Sampler::new(g);
+    move |row, col| match s.region_at(row, col) {
         SPRING => None,
         z => Some(z as usize),
     }

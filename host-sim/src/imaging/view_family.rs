@@ -32,7 +32,7 @@ use std::ops::Range;
 
 use thermorph::mtts::{IMG_COLS, IMG_PIXELS, IMG_ROWS, REGIONS};
 
-use crate::imaging::view::{Geometry, Rendered, Temps, sample};
+use crate::imaging::view::{Geometry, Rendered, Temps, sampler};
 use crate::sensor::virtual_mlx::Rng;
 
 /// Seeds the MTTS constants were tuned on.
@@ -221,9 +221,10 @@ pub fn render_psf(g: &Geometry, temps: &Temps, sigma_px: f64, noise_k: f64, seed
     // Fine grid: region index per sample (a spring counts as background).
     let pos = |i: usize, m: i64| (i as f64 + 0.5) / N as f64 - 0.5 - m as f64;
     let mut label = vec![0u8; fr * fc];
+    let sample = sampler(g);
     for i in 0..fr {
         for j in 0..fc {
-            label[i * fc + j] = sample(g, pos(i, margin), pos(j, margin)).unwrap_or(4) as u8;
+            label[i * fc + j] = sample(pos(i, margin), pos(j, margin)).unwrap_or(4) as u8;
         }
     }
     // Weight of a sample at offset x from a pixel centre: the footprint box ⊗ the Gaussian.
