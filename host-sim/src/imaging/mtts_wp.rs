@@ -1101,12 +1101,18 @@ fn clear_gap(o: &FamilyOutcome) -> bool {
 
 /// Table by exposed-fraction band × period band over members whose gap is at least 3 K, with
 /// what the views hold: the mean over the cell of each member's least mean |error| of T1 and
-/// T2 ([`crate::imaging::view_limit`]).
+/// T2 ([`crate::imaging::view_limit`]). `outs` are outcomes of [`Member::draw`] members: their
+/// views are drawn again from their seeds.
 pub fn family_markdown(outs: &[FamilyOutcome]) -> String {
     use rayon::prelude::*;
     let limits: Vec<Option<[f64; 2]>> = outs
         .par_iter()
-        .map(|o| view_limit::limit(&Member::draw(o.seed)).map(|l| l.mean_abs_k()))
+        .map(|o| {
+            clear_gap(o)
+                .then(|| view_limit::limit(&Member::draw(o.seed)))
+                .flatten()
+                .map(|l| l.mean_abs_k())
+        })
         .collect();
     let rows = FAMILY_EXPOSED.iter().flat_map(|&e| {
         let limits = &limits;

@@ -16,10 +16,11 @@
 //! cylinder's edges fix them far better than the stripes do), which can only make the bound
 //! lower. What the firmware is told enters as priors: the block's design fixes e within ±0.04
 //! (the family's spread, a uniform: sd 0.04/√3) and σ lies within 0…0.6 px (σ² uniform on
-//! 0…0.36 px²). The bound is the inverse of the Fisher information `JᵀJ/s² + prior` (s the
-//! member's noise, J the values' derivatives by central differences) — a Bayesian (van
-//! Trees) bound with Gaussian priors of the same spread. An estimate that reaches it has
-//! errors of sd √C, a mean absolute error of √(2/π)·√C.
+//! 0…0.36 px²). The bound C is the inverse of the information `JᵀJ/s² + prior` (s the member's
+//! noise, J the values' derivatives by central differences at the member's true values, the
+//! priors as Gaussians of the same spread): van Trees's Bayesian bound in form, with the
+//! Fisher information taken at the truth rather than averaged over the prior. An estimate
+//! that reaches it has errors of sd √C, a mean absolute error of √(2/π)·√C.
 //!
 //! Core pixels: those whose rendered area lies wholly in the heater and surface regions (the
 //! renderer's fractions), with no broken or hot pixel among them.
@@ -29,15 +30,14 @@ use thermorph::mtts::IMG_COLS;
 
 use crate::imaging::view_family::Member;
 
-/// Highest frequency summed, cycles per pixel: beyond it a harmonic's weight (its square
-/// wave's 2/(πk) times the footprint's sinc, at most 1/(π·f·cos α) ≤ 1/(π·12·cos 35°)) is below
-/// 1/300 of the first's.
+/// Highest frequency summed, cycles per pixel: beyond it, at harmonic k ≥ 12·P ≥ 48, a
+/// harmonic's weight 2/(πk)·|sinc(f·cos α)| ≤ 2/(π·48)·1/(π·12·cos 35°) is below 1/1000.
 const MAX_FREQ: f64 = 12.0;
 /// Unknowns: T1, T2, e, c, P, σ².
 const N: usize = 6;
-/// Prior sd of the exposed fraction: the design's ±0.04 as a uniform.
+/// Prior sd of the exposed fraction: the design's ±0.04 as a uniform (0.04/√3).
 pub const EXPOSED_PRIOR_SD: f64 = 0.04 / 1.732_050_807_568_877_2;
-/// Prior sd of σ², px²: uniform on 0…0.36.
+/// Prior sd of σ², px²: uniform on 0…0.36 (0.36/√12).
 pub const SPREAD2_PRIOR_SD: f64 = 0.36 / 3.464_101_615_137_754_6;
 /// Least share of a pixel's rendered area in the heater and surface regions for it to count
 /// as a core pixel.
