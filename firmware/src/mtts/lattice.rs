@@ -801,14 +801,19 @@ pub fn separate(
         Hyp::HeaterHot => range_a.clone(),
         Hyp::SurfaceHot => range_b.clone(),
     };
-    // The h grid index of a key.
-    let h_index = |key: usize| {
+    // A key's hypothesis and its h's place in that hypothesis's window.
+    let slot_of = |key: usize| {
         let w = key % (2 * SLOTS);
         if w < SLOTS {
-            range_a.start + w
+            (Hyp::HeaterHot, w)
         } else {
-            range_b.start + w - SLOTS
+            (Hyp::SurfaceHot, w - SLOTS)
         }
+    };
+    // The h grid index of a key.
+    let h_index = |key: usize| {
+        let (hyp, place) = slot_of(key);
+        range_of(hyp).start + place
     };
     let mut cand = [Candidate::default(); CANDIDATES];
     let wanted = |i: usize| range_a.contains(&i) || range_b.contains(&i);
@@ -938,12 +943,7 @@ pub fn separate(
     // leaves thin stripes' level off by up to gap·(H_STEP/2)/width — their level trades
     // against their width (0.6 K for a 10 K gap and stripes a fifth of the period wide).
     let (best, step) = {
-        let hyp_best = if ibest % (2 * SLOTS) < SLOTS {
-            Hyp::HeaterHot
-        } else {
-            Hyp::SurfaceHot
-        };
-        let place = ibest % (2 * SLOTS) - base_of(hyp_best);
+        let (hyp_best, place) = slot_of(ibest);
         let len = range_of(hyp_best).len();
         let c = cand[ibest];
         if place >= 1 && place + 1 < len {
