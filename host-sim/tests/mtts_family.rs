@@ -67,6 +67,16 @@ fn unseen_members_never_swap_and_resolved_ones_are_accurate_and_bounded() {
         .collect();
     let mean = mean_err(&thick);
     assert!(mean <= 0.3, "mean error over every frame {mean:.2} K");
+    // Every frame with |gap| ≥ 3 K, thin stripes too: the posterior mean over the exposed
+    // fraction and the spread, not the grid's best point, where a thin stripe's level trades
+    // against its width (measured, mean of |T1| and |T2|: 0.171 K with the best point, 0.133 K
+    // with the posterior on these 300; 0.124 K on 1000).
+    let every: Vec<_> = outs.iter().filter(|o| o.gap_k.abs() >= 3.0).collect();
+    let mean = mean_err(&every);
+    assert!(
+        mean <= 0.15,
+        "mean error over every frame, thin stripes too: {mean:.3} K"
+    );
     // A merged frame's value lies within its bound of the true area-weighted mean (with a prior
     // every frame is decided: merged frames are the blind ones, no prior and no earlier frame).
     let blind = family_outcomes(UNSEEN, members(), PriorCase::None);
@@ -217,8 +227,9 @@ fn a_lattice_showing_under_two_periods_is_found() {
 #[test]
 fn the_exposed_fraction_is_fitted_between_its_grid_points() {
     // Over unseen members with stripes at least 1.5 px wide and a gap of 3 K or more, the
-    // fitted exposed fraction — the χ² parabola between the h grid's points (step 0.025) —
-    // lies nearer the truth than the grid alone puts it (measured on these 233: mean |error|
+    // fitted exposed fraction — the posterior mean over h's half steps and the spreads —
+    // lies nearer the truth than the grid alone puts it or the χ² parabola between its
+    // points (step 0.025) did (measured on these 233: mean |error| 0.0060 with the posterior,
     // 0.0087 with the parabola, 0.0106 on the grid).
     let mut errs = Vec::new();
     for seed in UNSEEN.start..UNSEEN.start + 300 {
@@ -232,7 +243,7 @@ fn the_exposed_fraction_is_fitted_between_its_grid_points() {
     }
     let mean = errs.iter().sum::<f64>() / errs.len() as f64;
     assert!(
-        errs.len() >= 100 && mean < 0.0095,
+        errs.len() >= 100 && mean < 0.0075,
         "{} members: mean |error| {mean}",
         errs.len()
     );

@@ -28,9 +28,13 @@
 //! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
 //!    (weighted by their normal matrix, i.e. the per-pixel least squares) give a misfit χ²,
 //!    with the noise estimated from the fit's residual. The exposed fraction is thus fitted
-//!    per frame (the best h, between grid points by the χ² parabola through its neighbours:
-//!    a thin stripe's level trades against its width, so the grid's step alone would leave
-//!    up to gap·(step/2)/width), and so is the spread.
+//!    per frame, and so is the spread: T1, T2 and h are their posterior means over the
+//!    chosen hypothesis's window and the spreads (flat priors, likelihood e^(−χ²/2), on half
+//!    steps of h, a sharp row by its χ² parabola's vertex). A thin stripe's level trades
+//!    against its width and the spread along a valley of nearly equal χ², whose minimum the
+//!    noise moves from end to end: the mean over it errs far less than the grid's best point
+//!    (unseen family members, |gap| ≥ 3 K, every frame: mean |T1|, |T2| 0.13, 0.19 →
+//!    0.10, 0.15 K; `bash scripts/work-precision`).
 //!
 //! Which target is hotter: hot stripes of fraction h are the heater if the exposed fraction
 //! d = h, or the surface if d = 1 − h. The block's design fixes d within
@@ -636,6 +640,178 @@ fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize> {
     first..end.min(first + SLOTS)
 }
 
+/// χ² above the best point beyond which [`posterior`] leaves a point out (its weight
+/// e^(−Δ/2) < 3.4·10⁻⁴).
+const POSTERIOR_CHI2: f32 = 16.0;
+/// The posterior means of a, b and h.
+struct Posterior {
+    a: f32,
+    b: f32,
+    /// h less the window's first, in grid steps.
+    h_steps: f32,
+}
+
+/// The value midway between points `i` and `i + 1` of `n` (≥ 2) equally spaced values `f`:
+/// the cubic through the four around it, the quadratic through three at an end, the line
+/// between two.
+fn midpoint(f: impl Fn(usize) -> f32, i: usize, n: usize) -> f32 {
+    if i >= 1 && i + 2 < n {
+        0.5625 * (f(i) + f(i + 1)) - 0.0625 * (f(i - 1) + f(i + 2))
+    } else if n >= 3 && i == 0 {
+        0.375 * f(0) + 0.75 * f(1) - 0.125 * f(2)
+    } else if n >= 3 {
+        0.375 * f(i + 1) + 0.75 * f(i) - 0.125 * f(i - 1)
+    } else {
+        0.5 * (f(i) + f(i + 1))
+    }
+}
+
+/// e^(−x/2) for x > −250 (0 past 250), within 10⁻⁴ relative: 2^(−y) as 2^(−n) (the exponent's
+/// bits) times a cubic of the fraction — no library call.
+fn half_exp_neg(x: f32) -> f32 {
+    let y = x * (0.5 * core::f32::consts::LOG2_E);
+    if y.is_nan() || y >= 125.0 {
+        return 0.0;
+    }
+    let n = floor(y);
+    let f = y - n;
+    let n = n as i32;
+    // 2^(−f) on [0, 1): the cubic of least relative error (7.5·10⁻⁵).
+    let p = 0.999_925_3 + f * (-0.691_021 + f * (0.230_070_4 + f * -0.039_012_09));
+    p * crate::fmath::pow2(-n)
+}
+
+/// Most the posterior sharpens χ² by, when the fit's residual variance exceeds the pixel noise
+/// (the model's mismatch: a period a little off, the footprint's approximation): the
+/// likelihood then takes the noise as at least a quarter of the residual variance. Seen
+/// family members: mean |T2| 0.151 → 0.147 K (1, 2, 8, 16 and no limit: 0.148–0.150).
+const POSTERIOR_SHARPEN: f32 = 4.0;
+
+/// Second difference of χ² over one h step above which a spread's row is sharp: its
+/// posterior's width in h, √(2/Δ²χ²) steps, is under half a step, finer than the half steps
+/// (see [`posterior`]).
+const POSTERIOR_SHARP: f32 = 8.0;
+
+/// A sharp row's χ² parabola through its best h and their neighbours, at its vertex: χ², a, b,
+/// the place in half h steps, and the row's weight against one point of the half-step grid
+/// (the Gaussian's integral, √(4π/Δ²χ²) steps, over half a step).
+struct Vertex {
+    chi2: f32,
+    a: f32,
+    b: f32,
+    half_steps: f32,
+    mass: f32,
+}
+
+/// [`Vertex`] of the row `r`, if it is sharp and its best h is not at the window's ends.
+fn sharp_vertex(r: &[Candidate]) -> Option<Vertex> {
+    let mut k = 0;
+    for (j, c) in r.iter().enumerate() {
+        if c.chi2 < r[k].chi2 {
+            k = j;
+        }
+    }
+    if k == 0 || k + 1 >= r.len() {
+        return None;
+    }
+    let (lo, c, hi) = (&r[k - 1], &r[k], &r[k + 1]);
+    let den = lo.chi2 - 2.0 * c.chi2 + hi.chi2;
+    if den.is_nan() || den <= POSTERIOR_SHARP {
+        return None;
+    }
+    let x = (0.5 * (lo.chi2 - hi.chi2) / den).clamp(-0.5, 0.5);
+    let at =
+        |y0: f32, y1: f32, y2: f32| y1 + 0.5 * x * (y2 - y0) + 0.5 * x * x * (y0 - 2.0 * y1 + y2);
+    Some(Vertex {
+        chi2: at(lo.chi2, c.chi2, hi.chi2),
+        a: at(lo.a, c.a, hi.a),
+        b: at(lo.b, c.b, hi.b),
+        half_steps: 2.0 * (k as f32 + x),
+        mass: 2.0 * crate::fmath::sqrt(4.0 * core::f32::consts::PI / den),
+    })
+}
+
+/// The posterior means of a, b and h over one hypothesis's window (`row(psf)`: its `nh`
+/// candidates at spread `psf`, in h order) and the spreads, with a flat prior on both (the
+/// design's window, the spreads' range) and the likelihood e^(−χ²/2): on the candidates and,
+/// between neighbouring h, at the [`midpoint`] of their χ², a and b; a sharp row (χ² rises
+/// by more than [`POSTERIOR_SHARP`] over a step either side of its best h, so its posterior
+/// is narrower than half a step) by its parabola's vertex, weighted by the parabola's
+/// integral. Points past [`POSTERIOR_CHI2`] above the best are left out (a midpoint when both
+/// its neighbours are: one can dip at most a little below them).
+///
+/// A thin stripe's level trades against its width and the optics' spread along a valley of
+/// nearly equal χ², whose minimum the noise moves from end to end; the mean over it errs far
+/// less than that minimum. Where χ² is sharp, the vertex places it between the candidates' h.
+fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32) -> Posterior {
+    let mut vertex: [Option<Vertex>; PSFS] = core::array::from_fn(|_| None);
+    let mut lo = f32::INFINITY;
+    for (psf, v) in vertex.iter_mut().enumerate() {
+        let r = &row(psf)[..nh];
+        *v = sharp_vertex(r);
+        for c in r {
+            if c.chi2 < lo {
+                lo = c.chi2;
+            }
+        }
+        if let Some(v) = v
+            && v.chi2 < lo
+        {
+            lo = v.chi2;
+        }
+    }
+    let (mut sw, mut sa, mut sb, mut sh) = (0f32, 0f32, 0f32, 0f32);
+    let mut add = |chi2: f32, a: f32, b: f32, half_steps: f32, mass: f32| {
+        // A midpoint may dip below the best point; far below is the interpolation's.
+        let d = ((chi2 - lo) * sharpen).max(-POSTERIOR_CHI2);
+        if d < POSTERIOR_CHI2 {
+            let w = mass * half_exp_neg(d);
+            sw += w;
+            sa += w * a;
+            sb += w * b;
+            sh += w * half_steps;
+        }
+    };
+    for (psf, v) in vertex.iter().enumerate() {
+        if let Some(v) = v {
+            add(v.chi2, v.a, v.b, v.half_steps, v.mass);
+            continue;
+        }
+        let r = &row(psf)[..nh];
+        for (k, c) in r.iter().enumerate() {
+            add(c.chi2, c.a, c.b, (2 * k) as f32, 1.0);
+            if k + 1 < nh {
+                let next = r[k + 1].chi2;
+                let near = if c.chi2 < next { c.chi2 } else { next };
+                if near - lo < POSTERIOR_CHI2 {
+                    add(
+                        midpoint(|x| r[x].chi2, k, nh),
+                        midpoint(|x| r[x].a, k, nh),
+                        midpoint(|x| r[x].b, k, nh),
+                        (2 * k + 1) as f32,
+                        1.0,
+                    );
+                }
+            }
+        }
+    }
+    // The best point has weight at least its mass: sw > 0 whenever nh > 0.
+    if sw > 0.0 {
+        Posterior {
+            a: sa / sw,
+            b: sb / sw,
+            h_steps: 0.5 * sh / sw,
+        }
+    } else {
+        let c = row(0).first().copied().unwrap_or_default();
+        Posterior {
+            a: c.a,
+            b: c.b,
+            h_steps: 0.0,
+        }
+    }
+}
+
 /// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
 /// cylinder geometry `g` (its lattice fields are updated), with the coordinates `xy` of `g`.
 pub fn separate(
@@ -810,11 +986,6 @@ pub fn separate(
             (Hyp::SurfaceHot, w - SLOTS)
         }
     };
-    // The h grid index of a key.
-    let h_index = |key: usize| {
-        let (hyp, place) = slot_of(key);
-        range_of(hyp).start + place
-    };
     let mut cand = [Candidate::default(); CANDIDATES];
     let wanted = |i: usize| range_a.contains(&i) || range_b.contains(&i);
     let mut shape = [[0f32; HARMONICS]; H_COUNT];
@@ -937,37 +1108,34 @@ pub fn separate(
     // At least one hypothesis has a window (the design is within EXPOSED_MIN…EXPOSED_MAX).
     let chosen = if hyp == Hyp::HeaterHot { ia } else { ib };
     let ibest = chosen.or(ia).or(ib).unwrap_or(0);
-    // Between the h grid's points: the χ² parabola through the best h and its neighbours (the
-    // same spread and hypothesis) puts the minimum `step` grid steps off it (|step| ≤ ½), and
-    // a and b follow the parabolas through the three candidates' values. The grid alone
-    // leaves thin stripes' level off by up to gap·(H_STEP/2)/width — their level trades
-    // against their width (0.6 K for a 10 K gap and stripes a fifth of the period wide).
-    let (best, step) = {
-        let (hyp_best, place) = slot_of(ibest);
-        let len = range_of(hyp_best).len();
-        let c = cand[ibest];
-        if place >= 1 && place + 1 < len {
-            let (lo, hi) = (cand[ibest - 1], cand[ibest + 1]);
-            let den = lo.chi2 - 2.0 * c.chi2 + hi.chi2;
-            if den > 0.0 && lo.b > 0.0 && c.b > 0.0 && hi.b > 0.0 {
-                let x = (0.5 * (lo.chi2 - hi.chi2) / den).clamp(-0.5, 0.5);
-                let at = |y0: f32, y1: f32, y2: f32| {
-                    y1 + 0.5 * x * (y2 - y0) + 0.5 * x * x * (y0 - 2.0 * y1 + y2)
-                };
-                (
-                    Candidate {
-                        a: at(lo.a, c.a, hi.a),
-                        b: at(lo.b, c.b, hi.b),
-                        ..c
-                    },
-                    x,
-                )
+    // The estimate: the posterior mean over the hypothesis's window (h) and the spreads (σ),
+    // not the grid's best point. Along the valley where a thin stripe's level trades against
+    // its width and the optics' spread, χ² is nearly flat, and its minimum wanders with the
+    // noise to the window's or the spreads' ends; where it is sharp, the grid's steps are
+    // coarse against it. See [`posterior`].
+    let (hyp_best, _) = slot_of(ibest);
+    let post = {
+        let (base, nh) = (base_of(hyp_best), range_of(hyp_best).len());
+        // A hypothesis's candidates at one spread lie side by side, in h order.
+        let row = |psf: usize| &cand[psf * 2 * SLOTS + base..][..nh];
+        // χ² is against the fit's residual variance, which holds the model's mismatch as well
+        // as the pixels' noise (their scatter within a fine bin); the posterior takes the
+        // noise, but no less than 1/POSTERIOR_SHARPEN of the residual variance.
+        let ratio = fit.sigma2 / fit.noise2;
+        posterior(
+            row,
+            nh,
+            if ratio < POSTERIOR_SHARPEN {
+                ratio
             } else {
-                (c, 0.0)
-            }
-        } else {
-            (c, 0.0)
-        }
+                POSTERIOR_SHARPEN
+            },
+        )
+    };
+    let best = Candidate {
+        a: post.a,
+        b: post.b,
+        ..cand[ibest]
     };
     let (t1, t2) = temps(&best, hyp);
     let mean = core.reference + fit.theta[0];
@@ -1018,7 +1186,7 @@ pub fn separate(
     let merged_spread = BOUND_SCALE * merged_spread + BOUND_FLOOR_K;
     // The lattice as zones see it: the heater stripes start at `phase`.
     let period = 1.0 / nu;
-    let h = h_at(h_index(ibest)) + step * H_STEP;
+    let h = h_at(range_of(hyp_best).start) + post.h_steps * H_STEP;
     let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period;
     let (exposed, start) = match hyp {
         Hyp::HeaterHot => (h, centre - 0.5 * h * period),
@@ -1034,7 +1202,12 @@ pub fn separate(
     if found.is_none() {
         *g = kept;
     }
-    let small = |b: f32| b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2);
+    // A period the refinement took past the longest searched (the periodogram peaked at the
+    // search's end: no lattice the core shows, a trend or a hot pixel) never resolves.
+    let in_range = period <= p_max;
+    let small = |b: f32| {
+        in_range && (b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
+    };
     if decided {
         // T1 and T2 are the fit's: resolved when the bound (spanning both assignments where
         // the image allowed both) is small, else ambiguous — the fit's values with that
@@ -1085,6 +1258,114 @@ mod tests {
             r[2] = r[1];
         }
         assert!(solve(&singular, &b, 3).is_none());
+    }
+
+    #[test]
+    fn midpoint_is_exact_for_cubics_inside_and_quadratics_at_the_ends() {
+        let cubic = |x: f32| 2.0 - 0.5 * x + 0.25 * x * x - 0.03 * x * x * x;
+        let quad = |x: f32| 1.0 + 0.7 * x - 0.2 * x * x;
+        for n in [3, 4, 5, 6] {
+            for i in 0..n - 1 {
+                let want = if i >= 1 && i + 2 < n {
+                    cubic(i as f32 + 0.5)
+                } else {
+                    quad(i as f32 + 0.5)
+                };
+                let got = if i >= 1 && i + 2 < n {
+                    midpoint(|k| cubic(k as f32), i, n)
+                } else {
+                    midpoint(|k| quad(k as f32), i, n)
+                };
+                assert!(
+                    (got - want).abs() < 1e-5,
+                    "n {n} i {i}: {got} against {want}"
+                );
+            }
+        }
+        assert_eq!(midpoint(|k| [1.0, 3.0][k], 0, 2), 2.0);
+    }
+
+    #[test]
+    fn half_exp_neg_is_the_exponential() {
+        for i in -300..=600 {
+            let x = i as f32 * 0.05;
+            let want = libm::expf(-0.5 * x);
+            let got = half_exp_neg(x);
+            assert!(
+                (got / want - 1.0).abs() < 1e-4,
+                "x {x}: {got} against {want}"
+            );
+        }
+        assert_eq!(half_exp_neg(300.0), 0.0);
+        assert_eq!(half_exp_neg(f32::INFINITY), 0.0);
+        assert_eq!(half_exp_neg(f32::NAN), 0.0);
+    }
+
+    /// Candidates on the (spread, h) grid from `chi2(psf, k)`, with a = psf and b = k (so the
+    /// posterior means of a and b are those of the spread's and h's places).
+    fn grid(nh: usize, chi2: impl Fn(usize, usize) -> f32) -> [[Candidate; SLOTS]; PSFS] {
+        core::array::from_fn(|psf| {
+            core::array::from_fn(|k| Candidate {
+                a: psf as f32,
+                b: k as f32,
+                var: 0.0,
+                chi2: if k < nh { chi2(psf, k) } else { f32::NAN },
+            })
+        })
+    }
+
+    #[test]
+    fn a_flat_valley_s_posterior_is_its_middle_not_its_noisy_minimum() {
+        // χ² equal along the diagonal valley psf = k (a thin stripe's width against the
+        // spread), one point a little lower at its end (the noise): the best point is that
+        // end, the posterior mean the valley's middle.
+        let nh = 5;
+        let g = grid(nh, |psf, k| {
+            let off = psf as f32 - k as f32;
+            let end = if psf == 4 && k == 4 { -1.0 } else { 0.0 };
+            3.0 + 4.0 * off * off + end
+        });
+        let p = posterior(|psf| &g[psf][..], nh, 1.0);
+        // The valley runs over spreads 0–4 (5 and 6 lie off it): its middle is 2, and the
+        // lower end pulls a little.
+        assert!((p.a - 2.0).abs() < 0.6 && p.a > 2.0, "spread place {}", p.a);
+        assert!((p.b - p.a).abs() < 0.3, "h place {} against {}", p.b, p.a);
+        assert!(
+            (p.h_steps - p.b).abs() < 1e-3 * nh as f32,
+            "{} {}",
+            p.h_steps,
+            p.b
+        );
+    }
+
+    #[test]
+    fn a_sharp_row_s_posterior_is_its_parabola_s_vertex() {
+        // Every spread but one far off; that one's χ² a steep parabola in h with its vertex
+        // 0.3 steps past place 2: the mean is the vertex, between the candidates.
+        let nh = 5;
+        let g = grid(nh, |psf, k| {
+            if psf == 3 {
+                let x = k as f32 - 2.3;
+                1.0 + 40.0 * x * x
+            } else {
+                500.0
+            }
+        });
+        let p = posterior(|psf| &g[psf][..], nh, 1.0);
+        assert!((p.h_steps - 2.3).abs() < 1e-3, "h {}", p.h_steps);
+        assert!((p.b - 2.3).abs() < 1e-3, "b {}", p.b);
+        assert!((p.a - 3.0).abs() < 1e-3, "a {}", p.a);
+        // The same row, gentle (no vertex): the half steps' weighted mean lies near it too.
+        let g = grid(nh, |psf, k| {
+            if psf == 3 {
+                let x = k as f32 - 2.3;
+                1.0 + 2.0 * x * x
+            } else {
+                500.0
+            }
+        });
+        let p = posterior(|psf| &g[psf][..], nh, 1.0);
+        assert!((p.h_steps - 2.3).abs() < 0.1, "h {}", p.h_steps);
     }
 
     #[test]
