@@ -248,3 +248,20 @@ fn the_exposed_fraction_is_fitted_between_its_grid_points() {
         errs.len()
     );
 }
+
+#[test]
+fn a_period_past_the_longest_searched_never_resolves() {
+    // An unseen member whose 1.4 px-wide stripes (period 4.0 px, σ 0.38 px, a 2.9 K gap) the
+    // core does not show: the periodogram peaked at its longest period and the refinement
+    // took it past (25.5 px, beyond the 24 searched). Its T2 is 5 K off; with a bound under
+    // 1 K it came out resolved and swapped — now it is at most ambiguous.
+    let m = host_sim::imaging::view_family::Member::draw(1_000_877);
+    let out = host_sim::imaging::mtts_wp::member_outcome(
+        &m,
+        PriorCase::Right,
+        &mut Box::new(thermorph::mtts::Scratch::new()),
+    );
+    assert!(out.err_k[1] > out.bound_k, "{out:?}");
+    assert_ne!(out.quality, Quality::Resolved, "{out:?}");
+    assert!(!out.swapped && !out.confidently_wrong(), "{out:?}");
+}
