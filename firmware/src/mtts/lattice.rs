@@ -33,8 +33,12 @@
 //!    steps of h, a sharp row by its χ² parabola's vertex). A thin stripe's level trades
 //!    against its width and the spread along a valley of nearly equal χ², whose minimum the
 //!    noise moves from end to end: the mean over it errs far less than the grid's best point
-//!    (unseen family members, |gap| ≥ 3 K, every frame: mean |T1|, |T2| 0.13, 0.19 →
-//!    0.10, 0.15 K; `bash scripts/work-precision`).
+//!    (unseen family members, |gap| ≥ 3 K, every frame, with the lone-pixel rule below:
+//!    mean |T1|, |T2| 0.13, 0.19 → 0.08, 0.14 K; `bash scripts/work-precision`).
+//!
+//! The core's profile leaves out a lone pixel more than [`LONE_PIXEL_K`] beyond every other
+//! (a hot or dead pixel the EEPROM does not flag): one such pixel moves its bin by its whole
+//! excess, and the fit's harmonics with it.
 //!
 //! Which target is hotter: hot stripes of fraction h are the heater if the exposed fraction
 //! d = h, or the surface if d = 1 − h. The block's design fixes d within
@@ -188,6 +192,14 @@ struct Core {
     hi: f32,
 }
 
+/// How far a core pixel must lie beyond every other (above the second highest, or below the
+/// second lowest) to be left out as a lone bad pixel, K: pixel noise (≤ 0.5 K rms) leaves the
+/// extremes of a lattice's stripes within a kelvin or so of each other. Seen family members,
+/// |gap| ≥ 3 K: mean |T1|, |T2| 0.106, 0.147 → 0.093, 0.133 K (1.5, 2 and 3 K alike).
+pub const LONE_PIXEL_K: f32 = 2.0;
+/// Fewest core pixels for [`LONE_PIXEL_K`]'s test (a core of a few pixels has no "every other").
+const LONE_MIN_PIXELS: f32 = 8.0;
+
 /// Fine bins per pixel of axial length.
 const FINE: usize = 4;
 /// Fine bins of the core's axial profile.
@@ -238,6 +250,9 @@ impl Profile {
             hi: f32::NEG_INFINITY,
         };
         let mut s = 0f32;
+        // The second highest and lowest values, and the (bin, axial position) of the extremes.
+        let (mut hi2, mut lo2) = (f32::NEG_INFINITY, f32::INFINITY);
+        let (mut hi_at, mut lo_at) = ((0usize, 0f32), (0usize, 0f32));
         for ((&u, &t), &v) in xy.u.iter().zip(xy.t.iter()).zip(img.iter()) {
             if u < u_core {
                 if p.total == 0.0 {
@@ -255,18 +270,53 @@ impl Profile {
                 if b >= p.used {
                     p.used = b + 1;
                 }
-                if v < p.lo {
-                    p.lo = v;
+                // Most pixels pass neither second extreme: one comparison each.
+                if v < lo2 {
+                    if v < p.lo {
+                        lo2 = p.lo;
+                        p.lo = v;
+                        lo_at = (b, t);
+                    } else {
+                        lo2 = v;
+                    }
                 }
-                if v > p.hi {
-                    p.hi = v;
+                if v > hi2 {
+                    if v > p.hi {
+                        hi2 = p.hi;
+                        p.hi = v;
+                        hi_at = (b, t);
+                    } else {
+                        hi2 = v;
+                    }
                 }
             }
+        }
+        // A lone pixel far beyond every other in the core (a hot or dead pixel the EEPROM does
+        // not flag) is left out: one such pixel shifts its bin by its whole excess.
+        if p.total > LONE_MIN_PIXELS && p.hi - hi2 > LONE_PIXEL_K {
+            p.drop(p.hi, hi_at, &mut s);
+            p.hi = hi2;
+        }
+        if p.total > LONE_MIN_PIXELS && lo2 - p.lo > LONE_PIXEL_K {
+            p.drop(p.lo, lo_at, &mut s);
+            p.lo = lo2;
         }
         (p.total > 0.0).then(|| {
             p.mean_dev = s / p.total;
             p
         })
+    }
+
+    /// Take the pixel of value `v` at (bin, axial position) `at` back out of the profile, and
+    /// out of the running sum `s` of values less the reference.
+    fn drop(&mut self, v: f32, (b, t): (usize, f32), s: &mut f32) {
+        let y = v - self.reference;
+        self.sum[b] -= y;
+        self.cnt[b] -= 1.0;
+        self.tsum[b] -= t;
+        self.total -= 1.0;
+        self.sq -= y * y;
+        *s -= y;
     }
 
     /// Pixels of axial length covered (1 px bins).
@@ -703,23 +753,19 @@ struct Vertex {
     mass: f32,
 }
 
-/// [`Vertex`] of the row `r`, if it is sharp and its best h is not at the window's ends.
-fn sharp_vertex(r: &[Candidate]) -> Option<Vertex> {
-    let mut k = 0;
-    for (j, c) in r.iter().enumerate() {
-        if c.chi2 < r[k].chi2 {
-            k = j;
-        }
-    }
+/// [`Vertex`] of the row `r` whose best candidate is `k`, if the row is sharp (its second
+/// difference of χ² times `sharpen` exceeds [`POSTERIOR_SHARP`]) and `k` is not at the
+/// window's ends.
+fn sharp_vertex(r: &[Candidate], k: usize, sharpen: f32) -> Option<Vertex> {
     if k == 0 || k + 1 >= r.len() {
         return None;
     }
     let (lo, c, hi) = (&r[k - 1], &r[k], &r[k + 1]);
-    let den = lo.chi2 - 2.0 * c.chi2 + hi.chi2;
+    let den = (lo.chi2 - 2.0 * c.chi2 + hi.chi2) * sharpen;
     if den.is_nan() || den <= POSTERIOR_SHARP {
         return None;
     }
-    let x = (0.5 * (lo.chi2 - hi.chi2) / den).clamp(-0.5, 0.5);
+    let x = (0.5 * (lo.chi2 - hi.chi2) * sharpen / den).clamp(-0.5, 0.5);
     let at =
         |y0: f32, y1: f32, y2: f32| y1 + 0.5 * x * (y2 - y0) + 0.5 * x * x * (y0 - 2.0 * y1 + y2);
     Some(Vertex {
@@ -744,22 +790,31 @@ fn sharp_vertex(r: &[Candidate]) -> Option<Vertex> {
 /// nearly equal χ², whose minimum the noise moves from end to end; the mean over it errs far
 /// less than that minimum. Where χ² is sharp, the vertex places it between the candidates' h.
 fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32) -> Posterior {
+    // Each row's vertex, if sharp; the best χ² of all (candidates and vertices).
     let mut vertex: [Option<Vertex>; PSFS] = core::array::from_fn(|_| None);
     let mut lo = f32::INFINITY;
     for (psf, v) in vertex.iter_mut().enumerate() {
         let r = &row(psf)[..nh];
-        *v = sharp_vertex(r);
-        for c in r {
-            if c.chi2 < lo {
-                lo = c.chi2;
+        let mut k = 0;
+        for (j, c) in r.iter().enumerate() {
+            if c.chi2 < r[k].chi2 {
+                k = j;
             }
         }
+        if let Some(c) = r.get(k)
+            && c.chi2 < lo
+        {
+            lo = c.chi2;
+        }
+        *v = sharp_vertex(r, k, sharpen);
         if let Some(v) = v
             && v.chi2 < lo
         {
             lo = v.chi2;
         }
     }
+    // χ² above `lo` past which a point is left out.
+    let reach = POSTERIOR_CHI2 / sharpen;
     let (mut sw, mut sa, mut sb, mut sh) = (0f32, 0f32, 0f32, 0f32);
     let mut add = |chi2: f32, a: f32, b: f32, half_steps: f32, mass: f32| {
         // A midpoint may dip below the best point; far below is the interpolation's.
@@ -783,7 +838,7 @@ fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32
             if k + 1 < nh {
                 let next = r[k + 1].chi2;
                 let near = if c.chi2 < next { c.chi2 } else { next };
-                if near - lo < POSTERIOR_CHI2 {
+                if near - lo < reach {
                     add(
                         midpoint(|x| r[x].chi2, k, nh),
                         midpoint(|x| r[x].a, k, nh),
