@@ -182,10 +182,9 @@ fn the_thesis_lattice_resolves_within_its_bound() {
     }
 }
 
-/// MTTS on `m` with the mode's prior (the hotter target's): T1 − truth, T2 − truth, K, the
-/// fitted period, pixels, and the fitted exposed fraction.
-fn fit(m: &host_sim::imaging::view_family::Member) -> (f32, f32, f32, f32) {
-    use thermorph::mtts::{Config, Mtts, Prior, Scratch};
+/// A fresh MTTS configured with `m`'s design and the mode's prior (the hotter target's).
+fn mtts_for(m: &host_sim::imaging::view_family::Member) -> thermorph::mtts::Mtts {
+    use thermorph::mtts::{Config, Mtts, Prior};
     let mut mtts = Mtts::new(Config {
         exposed_pct: m.design_exposed_pct,
         ..Config::default()
@@ -196,8 +195,17 @@ fn fit(m: &host_sim::imaging::view_family::Member) -> (f32, f32, f32, f32) {
     } else {
         Prior::SurfaceHotter
     });
-    let out = mtts
-        .process(&m.render().image_k, &mut Box::new(Scratch::new()))
+    mtts
+}
+
+/// MTTS on `m` with the mode's prior: T1 − truth, T2 − truth, K, the fitted period, pixels,
+/// and the fitted exposed fraction.
+fn fit(m: &host_sim::imaging::view_family::Member) -> (f32, f32, f32, f32) {
+    let out = mtts_for(m)
+        .process(
+            &m.render().image_k,
+            &mut Box::new(thermorph::mtts::Scratch::new()),
+        )
         .unwrap();
     (
         out.t1().unwrap().k() - m.temps.heater_k as f32,
@@ -272,8 +280,7 @@ fn a_lone_hot_pixel_in_the_core_is_left_out() {
     // 12 reading 20 K too hot (a hot pixel the EEPROM does not flag): the lattice fit leaves
     // it out. Measured on these 33: mean of |T1| and |T2| 0.091 K with it left out, 0.203 K
     // with it kept.
-    use thermorph::mtts::{Config, Mtts, Prior, Scratch};
-    let mut scratch = Box::new(Scratch::new());
+    let mut scratch = Box::new(thermorph::mtts::Scratch::new());
     let mut errs = Vec::new();
     for seed in UNSEEN.start..UNSEEN.start + 300 {
         let m = host_sim::imaging::view_family::Member::draw(seed);
@@ -288,17 +295,7 @@ fn a_lone_hot_pixel_in_the_core_is_left_out() {
         }
         let mut img = m.render().image_k;
         img[row * 32 + col as usize] += 20.0;
-        let mut mtts = Mtts::new(Config {
-            exposed_pct: m.design_exposed_pct,
-            ..Config::default()
-        })
-        .unwrap();
-        mtts.set_prior(if m.gap_k() >= 0.0 {
-            Prior::HeaterHotter
-        } else {
-            Prior::SurfaceHotter
-        });
-        let out = mtts.process(&img, &mut scratch).unwrap();
+        let out = mtts_for(&m).process(&img, &mut scratch).unwrap();
         errs.push((out.t1().unwrap().k() as f64 - m.temps.heater_k).abs());
         errs.push((out.t2().unwrap().k() as f64 - m.temps.surface_k).abs());
     }

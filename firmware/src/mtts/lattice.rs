@@ -737,9 +737,9 @@ fn half_exp_neg(x: f32) -> f32 {
 /// family members: mean |T2| 0.151 → 0.147 K (1, 2, 8, 16 and no limit: 0.148–0.150).
 const POSTERIOR_SHARPEN: f32 = 4.0;
 
-/// Second difference of χ² over one h step above which a spread's row is sharp: its
-/// posterior's width in h, √(2/Δ²χ²) steps, is under half a step, finer than the half steps
-/// (see [`posterior`]).
+/// Second difference over one h step of the posterior's χ² (sharpened, see
+/// [`POSTERIOR_SHARPEN`]) above which a spread's row is sharp: its posterior's width in h,
+/// √(2/Δ²χ²) steps, is under half a step, finer than the half steps (see [`posterior`]).
 const POSTERIOR_SHARP: f32 = 8.0;
 
 /// A sharp row's χ² parabola through its best h and their neighbours, at its vertex: χ², a, b,
@@ -779,12 +779,13 @@ fn sharp_vertex(r: &[Candidate], k: usize, sharpen: f32) -> Option<Vertex> {
 
 /// The posterior means of a, b and h over one hypothesis's window (`row(psf)`: its `nh`
 /// candidates at spread `psf`, in h order) and the spreads, with a flat prior on both (the
-/// design's window, the spreads' range) and the likelihood e^(−χ²/2): on the candidates and,
-/// between neighbouring h, at the [`midpoint`] of their χ², a and b; a sharp row (χ² rises
-/// by more than [`POSTERIOR_SHARP`] over a step either side of its best h, so its posterior
-/// is narrower than half a step) by its parabola's vertex, weighted by the parabola's
-/// integral. Points past [`POSTERIOR_CHI2`] above the best are left out (a midpoint when both
-/// its neighbours are: one can dip at most a little below them).
+/// design's window, the spreads' range) and the likelihood e^(−s·χ²/2), s = `sharpen` (see
+/// [`POSTERIOR_SHARPEN`]): on the candidates and, between neighbouring h, at the
+/// [`midpoint`] of their χ², a and b; a sharp row (s·χ²'s second difference over an h step
+/// above [`POSTERIOR_SHARP`], so its posterior is narrower than half a step) by its
+/// parabola's vertex, weighted by the parabola's integral. Points whose s·χ² lies past
+/// [`POSTERIOR_CHI2`] above the best are left out (a midpoint when both its neighbours are:
+/// one can dip at most a little below them).
 ///
 /// A thin stripe's level trades against its width and the optics' spread along a valley of
 /// nearly equal χ², whose minimum the noise moves from end to end; the mean over it errs far
@@ -1398,28 +1399,20 @@ mod tests {
         // Every spread but one far off; that one's χ² a steep parabola in h with its vertex
         // 0.3 steps past place 2: the mean is the vertex, between the candidates.
         let nh = 5;
-        let g = grid(nh, |psf, k| {
-            if psf == 3 {
+        // Spread 3's row a parabola of curvature `c` in h, every other row far off.
+        let of_row = |c: f32| {
+            let g = grid(nh, |psf, k| {
                 let x = k as f32 - 2.3;
-                1.0 + 40.0 * x * x
-            } else {
-                500.0
-            }
-        });
-        let p = posterior(|psf| &g[psf][..], nh, 1.0);
+                if psf == 3 { 1.0 + c * x * x } else { 500.0 }
+            });
+            posterior(|psf| &g[psf][..], nh, 1.0)
+        };
+        let p = of_row(40.0);
         assert!((p.h_steps - 2.3).abs() < 1e-3, "h {}", p.h_steps);
         assert!((p.b - 2.3).abs() < 1e-3, "b {}", p.b);
         assert!((p.a - 3.0).abs() < 1e-3, "a {}", p.a);
         // The same row, gentle (no vertex): the half steps' weighted mean lies near it too.
-        let g = grid(nh, |psf, k| {
-            if psf == 3 {
-                let x = k as f32 - 2.3;
-                1.0 + 2.0 * x * x
-            } else {
-                500.0
-            }
-        });
-        let p = posterior(|psf| &g[psf][..], nh, 1.0);
+        let p = of_row(2.0);
         assert!((p.h_steps - 2.3).abs() < 0.1, "h {}", p.h_steps);
     }
 
