@@ -1,5 +1,5 @@
-//! Float functions `core` does not provide: square root, fourth root, exact powers of two, sine
-//! and cosine in `f32` (libm's `sinf`/`cosf` work in `f64`, which the Cortex-M4's FPU lacks:
+//! Float functions `core` does not provide: square root, fourth root, floor, exact powers of
+//! two and 2^x, sine and cosine in `f32` (libm's `sinf`/`cosf` work in `f64`, which the Cortex-M4's FPU lacks:
 //! linking them costs ≈ 10 KiB of soft-float code and far more time).
 //!
 //! On the Cortex-M4F the square root is the FPU's `VSQRT.F32` (exact, correctly rounded, a
@@ -54,6 +54,32 @@ pub fn pow2(n: i32) -> f32 {
     f32::from_bits(((n + 127) as u32) << 23)
 }
 
+/// Return ⌊`x`⌋ without a library call (`f32::floor` is one on the Cortex-M4), for |x| < 2^31.
+#[inline]
+pub fn floor(x: f32) -> f32 {
+    let i = x as i32 as f32;
+    if i > x { i - 1.0 } else { i }
+}
+
+/// Return 2^`y` without a library call: 2^⌊y⌋ from the exponent's bits times a cubic of the
+/// fraction (the cubic of least relative error on [0, 1), 7.5·10⁻⁵), so within 10⁻⁴ relative
+/// for −126 < y < 128; 0 at or below −126, +∞ at or above 128, NaN for NaN.
+pub fn exp2(y: f32) -> f32 {
+    if y.is_nan() {
+        return y;
+    }
+    if y <= -126.0 {
+        return 0.0;
+    }
+    if y >= 128.0 {
+        return f32::INFINITY;
+    }
+    let n = floor(y);
+    let f = y - n;
+    let p = 0.999_925_3 + f * (0.695_832_8 + f * (0.226_068 + f * 0.078_024_45));
+    p * pow2(n as i32)
+}
+
 /// Return 2^`n` exactly as `f64`, for `n` in −1022..=1023 (clamped outside that range).
 #[inline]
 pub fn pow2_f64(n: i32) -> f64 {
@@ -64,10 +90,6 @@ pub fn pow2_f64(n: i32) -> f64 {
 /// Sine and cosine of 2π·x (x in turns, |x| < 2^31), without a library call: reduction to an
 /// eighth of a turn and Taylor polynomials (error < 1e-6); exactly (0, 1) at x = 0.
 pub fn sin_cos_turns(x: f32) -> (f32, f32) {
-    let floor = |x: f32| {
-        let i = x as i32 as f32;
-        if i > x { i - 1.0 } else { i }
-    };
     let r = x - floor(x + 0.5);
     let q = floor(r * 4.0 + 0.5);
     let p = core::f32::consts::TAU * (r - 0.25 * q);
@@ -92,6 +114,41 @@ mod tests {
         assert_eq!(pow2(10), 1024.0);
         assert_eq!(pow2(-3), 0.125);
         assert_eq!(pow2_f64(45), 35_184_372_088_832.0);
+    }
+
+    #[test]
+    fn floor_matches_std() {
+        for &x in &[
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999,
+            -2.999,
+            1e6 + 0.5,
+            -7.25,
+        ] {
+            assert_eq!(floor(x), x.floor(), "{x}");
+        }
+    }
+
+    #[test]
+    fn exp2_is_within_1e_4_relative() {
+        for i in -1250..=1270 {
+            let y = i as f32 * 0.1;
+            let want = libm::exp2(y as f64);
+            let got = exp2(y) as f64;
+            assert!(
+                (got / want - 1.0).abs() < 1e-4,
+                "2^{y}: {got} against {want}"
+            );
+        }
+        assert_eq!(exp2(-126.0), 0.0);
+        assert_eq!(exp2(-1000.0), 0.0);
+        assert_eq!(exp2(128.0), f32::INFINITY);
+        assert!(exp2(f32::NAN).is_nan());
     }
 
     #[test]

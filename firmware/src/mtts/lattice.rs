@@ -73,7 +73,7 @@
 use super::Quality;
 use super::regions::{CORE_U, Coords, Geometry};
 use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
-use crate::fmath::sin_cos_turns;
+use crate::fmath::{floor, sin_cos_turns};
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
 pub const EXPOSED_MIN: f32 = 0.15;
@@ -150,12 +150,6 @@ pub struct Separation {
     pub bound_k: f32,
     /// Resolved, ambiguous, merged or fallback.
     pub quality: Quality,
-}
-
-/// Floor without a library call (|x| < 2^31).
-fn floor(x: f32) -> f32 {
-    let i = x as i32 as f32;
-    if i > x { i - 1.0 } else { i }
 }
 
 /// sin(πx)/(πx).
@@ -716,21 +710,6 @@ fn midpoint(f: impl Fn(usize) -> f32, i: usize, n: usize) -> f32 {
     }
 }
 
-/// e^(−x/2) for x > −250 (0 past 250), within 10⁻⁴ relative: 2^(−y) as 2^(−n) (the exponent's
-/// bits) times a cubic of the fraction — no library call.
-fn half_exp_neg(x: f32) -> f32 {
-    let y = x * (0.5 * core::f32::consts::LOG2_E);
-    if y.is_nan() || y >= 125.0 {
-        return 0.0;
-    }
-    let n = floor(y);
-    let f = y - n;
-    let n = n as i32;
-    // 2^(−f) on [0, 1): the cubic of least relative error (7.5·10⁻⁵).
-    let p = 0.999_925_3 + f * (-0.691_021 + f * (0.230_070_4 + f * -0.039_012_09));
-    p * crate::fmath::pow2(-n)
-}
-
 /// Most the posterior sharpens χ² by, when the fit's residual variance exceeds the pixel noise
 /// (the model's mismatch: a period a little off, the footprint's approximation): the
 /// likelihood then takes the noise as at least a quarter of the residual variance. Seen
@@ -821,7 +800,8 @@ fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32
         // A midpoint may dip below the best point; far below is the interpolation's.
         let d = ((chi2 - lo) * sharpen).max(-POSTERIOR_CHI2);
         if d < POSTERIOR_CHI2 {
-            let w = mass * half_exp_neg(d);
+            // e^(−d/2) as 2^(−d·log₂e/2).
+            let w = mass * crate::fmath::exp2(d * (-0.5 * core::f32::consts::LOG2_E));
             sw += w;
             sa += w * a;
             sb += w * b;
@@ -1339,22 +1319,6 @@ mod tests {
             }
         }
         assert_eq!(midpoint(|k| [1.0, 3.0][k], 0, 2), 2.0);
-    }
-
-    #[test]
-    fn half_exp_neg_is_the_exponential() {
-        for i in -300..=600 {
-            let x = i as f32 * 0.05;
-            let want = libm::expf(-0.5 * x);
-            let got = half_exp_neg(x);
-            assert!(
-                (got / want - 1.0).abs() < 1e-4,
-                "x {x}: {got} against {want}"
-            );
-        }
-        assert_eq!(half_exp_neg(300.0), 0.0);
-        assert_eq!(half_exp_neg(f32::INFINITY), 0.0);
-        assert_eq!(half_exp_neg(f32::NAN), 0.0);
     }
 
     /// Candidates on the (spread, h) grid from `chi2(psf, k)`, with a = psf and b = k (so the

@@ -25,6 +25,7 @@
 use super::cluster::{Clusters, MAX_K};
 use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, REGIONS};
 use crate::block::LATTICE_GAP_FRACTION;
+use crate::fmath::floor;
 
 /// Least contrast (95th − 20th percentile) to re-estimate the cylinder, K.
 pub const MIN_CONTRAST_K: f32 = 1.0;
@@ -172,12 +173,6 @@ impl Coords {
         u: [0.0; IMG_PIXELS],
         t: [0.0; IMG_PIXELS],
     };
-}
-
-/// Floor without a library call (|x| < 2^31).
-fn floor(x: f32) -> f32 {
-    let i = x as i32 as f32;
-    if i > x { i - 1.0 } else { i }
 }
 
 /// What the region finder could estimate this frame.
