@@ -259,8 +259,8 @@ fn the_exposed_fraction_is_fitted_between_its_grid_points() {
 
 #[test]
 fn a_period_past_the_longest_searched_never_resolves() {
-    // An unseen member whose 1.4 px-wide stripes (period 4.0 px, σ 0.38 px, a 2.9 K gap) the
-    // core does not show: the periodogram peaked at its longest period and the refinement
+    // An unseen member whose 0.65 px surface stripes (period 4.0 px, exposed 0.84, σ 0.38 px,
+    // a 2.9 K gap) the core does not show: the periodogram peaked at its longest period and the refinement
     // took it past (25.5 px, beyond the 24 searched). Its T2 is 5 K off; with a bound under
     // 1 K it came out resolved and swapped — now it is at most ambiguous.
     let m = host_sim::imaging::view_family::Member::draw(1_000_877);
