@@ -61,7 +61,10 @@ impl Limit {
     }
 }
 
-/// The footprint-and-spread transfer at `f` cycles per pixel along the axis.
+/// The footprint-and-spread transfer at `f` cycles per pixel along the axis, of the spread's
+/// variance `sigma2`. The same function as `thermorph::mtts::lattice::transfer`, written again
+/// on purpose: in `f64` (the Fisher information takes differences of it) and apart from the
+/// estimator the limit is set beside.
 fn transfer(f: f64, cos_a: f64, sin_a: f64, sigma2: f64) -> f64 {
     let sinc = |x: f64| {
         if x.abs() < 1e-12 {
