@@ -15,7 +15,7 @@
 
 use super::calibration::Calibration;
 use super::register::{Control, ReadingPattern};
-use super::{COLS, FRAME_WORDS, PIXELS};
+use super::{COLS, FRAME_WORDS, PIXELS, ROWS};
 use crate::fmath::pow2;
 use crate::units::{Kelvin, ZERO_CELSIUS_K};
 
@@ -376,10 +376,7 @@ pub fn calculate_to_with<R: Roots>(
     let ks_ta_factor = 1.0 + cal.ks_ta * dta;
     let one_minus = 1.0 - ks_to[1] * ZERO_CELSIUS_K;
 
-    for (p, dst) in out.iter_mut().enumerate() {
-        if !pixel_in_subpage(p, pattern, subpage) {
-            continue;
-        }
+    let to_of = |p: usize| {
         let kta = cal.kta[p] as f32 / kta_scale;
         let kv = cal.kv[p] as f32 / kv_scale;
         let mut ir = frame.words[p] as i16 as f32 * gain;
@@ -403,9 +400,24 @@ pub fn calculate_to_with<R: Roots>(
         } else {
             3
         };
-        *dst = R::root4(
+        R::root4(
             ir / (alpha * alpha_corr_r[range] * (1.0 + ks_to[range] * (to_c - ct[range]))) + ta_tr,
-        );
+        )
+    };
+    // Only the subpage's pixels ([`pixel_in_subpage`]): the rows of its parity (interleaved),
+    // or every other column, starting by the row's parity (chess).
+    for row in 0..ROWS {
+        let parity = (row & 1) as u8;
+        let (first, step) = match pattern {
+            ReadingPattern::Interleaved if parity == subpage => (0, 1),
+            ReadingPattern::Interleaved => continue,
+            ReadingPattern::Chess => ((parity ^ subpage) as usize, 2),
+        };
+        let mut p = row * COLS + first;
+        while p < (row + 1) * COLS {
+            out[p] = to_of(p);
+            p += step;
+        }
     }
     Ok(SubpageInfo {
         subpage,

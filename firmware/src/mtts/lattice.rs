@@ -19,10 +19,12 @@
 //! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
 //!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's), looked at half a grid
 //!    step either side before the parabola (a core showing under two periods peaks between
-//!    the grid's first points), refined to the minimum of the residual of a least-squares fit
-//!    of mean and fundamental;
+//!    the grid's first points), refined by a Gauss–Newton step of the least-squares fit of the
+//!    mean and the fundamental (near the minimum from as far as the peak may lie), then one of
+//!    the mean and the first three harmonics (a thin stripe's harmonics pull the fundamental's
+//!    minimum off by several percent where the core shows under two periods);
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
-//!    that lie below 0.75 cycles per pixel (at most five, fewer if ill-conditioned: a thin
+//!    that lie below 0.75 cycles per pixel (at most six, fewer if ill-conditioned: a thin
 //!    stripe — the thesis's 1.4 px SMP strips — lives in the higher ones); c is the
 //!    fundamental's phase;
 //! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
@@ -115,15 +117,17 @@ pub const BOUND_FLOOR_K: f32 = 0.1;
 pub const RESOLVED_BOUND_K: f32 = 1.0;
 
 /// Harmonics fitted at most.
-const HARMONICS: usize = 5;
+const HARMONICS: usize = 6;
 /// Unknowns of the harmonic fit at most.
 const NP: usize = 1 + 2 * HARMONICS;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
 const FREQ_STEP: f32 = 0.03;
-/// Relative frequency step of the least-squares refinement.
-const REFINE_STEP: f32 = 0.04;
+/// Harmonics of the frequency's refinement ([`gn_step`]) at most.
+const REFINE_HARMONICS: usize = 3;
+/// Largest relative change of the frequency by its refinement.
+const REFINE_LIMIT: f32 = 0.1;
 /// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
 const H_FIRST: f32 = 0.1;
 const H_STEP: f32 = 0.025;
@@ -443,6 +447,17 @@ struct HarmonicFit {
 }
 
 fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
+    harmonic_fit_by(p, harmonics, |_, t| sin_cos_turns(nu * t))
+}
+
+/// [`harmonic_fit`] with the fundamental's (sin, cos) at bin b, axial position t from
+/// `angle(b, t)` (which may keep them for a second pass).
+fn harmonic_fit_by(
+    p: &Profile,
+    harmonics: usize,
+    mut angle: impl FnMut(usize, f32) -> (f32, f32),
+) -> Option<HarmonicFit> {
+    let harmonics = harmonics.clamp(1, HARMONICS);
     let n = 1 + 2 * harmonics;
     let mut f = HarmonicFit {
         n,
@@ -467,20 +482,30 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
             continue;
         }
         let inv = 1.0 / w;
-        let (s1, c1) = sin_cos_turns(nu * (p.tsum[b] * inv));
+        let (s1, c1) = angle(b, p.tsum[b] * inv);
         let y = p.sum[b] * inv;
         let wy = w * y;
         cs[0] += w;
         f.rhs[0] += wy;
+        // The sums to 2·harmonics, no further (one loop for any count: the flash holds one
+        // copy); the first `harmonics` feed the right-hand side too. Zipped slices: no bounds
+        // checks.
         let (mut c, mut s) = (c1, s1);
-        // Fixed sizes (sums past 2·harmonics are unused): unrolled, no bounds checks.
-        for m in 1..=2 * HARMONICS {
-            cs[m] += w * c;
-            sn[m] += w * s;
-            if m <= HARMONICS {
-                f.rhs[2 * m - 1] += wy * c;
-                f.rhs[2 * m] += wy * s;
-            }
+        let (cs_lo, cs_hi) = cs[1..=2 * harmonics].split_at_mut(harmonics);
+        let (sn_lo, sn_hi) = sn[1..=2 * harmonics].split_at_mut(harmonics);
+        let rhs = f.rhs[1..=2 * harmonics].chunks_exact_mut(2);
+        for ((cm, sm), r) in cs_lo.iter_mut().zip(sn_lo.iter_mut()).zip(rhs) {
+            *cm += w * c;
+            *sm += w * s;
+            r[0] += wy * c;
+            r[1] += wy * s;
+            let nc = c * c1 - s * s1;
+            s = s * c1 + c * s1;
+            c = nc;
+        }
+        for (cm, sm) in cs_hi.iter_mut().zip(sn_hi.iter_mut()) {
+            *cm += w * c;
+            *sm += w * s;
             let nc = c * c1 - s * s1;
             s = s * c1 + c * s1;
             c = nc;
@@ -523,57 +548,29 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
     Some(f)
 }
 
-/// Sums of one least-squares fit of the mean and the fundamental.
-#[derive(Clone, Copy, Default)]
-struct FundamentalSums {
-    nc: f32,
-    ns: f32,
-    ncc: f32,
-    ncs: f32,
-    nss: f32,
-    rc: f32,
-    rs: f32,
-}
-
-impl FundamentalSums {
-    fn add(&mut self, w: f32, wy: f32, cs: f32, sn: f32) {
-        let (wc, ws) = (w * cs, w * sn);
-        self.nc += wc;
-        self.ns += ws;
-        self.ncc += wc * cs;
-        self.ncs += wc * sn;
-        self.nss += ws * sn;
-        self.rc += wy * cs;
-        self.rs += wy * sn;
-    }
-
-    /// The residual sum of squares, given the sums shared by every frequency.
-    fn rss(&self, n0: f32, r0: f32, yy: f32) -> Option<f32> {
-        let mut a = [[0f32; NP]; NP];
-        a[0][0] = n0;
-        a[0][1] = self.nc;
-        a[1][0] = self.nc;
-        a[0][2] = self.ns;
-        a[2][0] = self.ns;
-        a[1][1] = self.ncc;
-        a[1][2] = self.ncs;
-        a[2][1] = self.ncs;
-        a[2][2] = self.nss;
-        let mut r = [0f32; NP];
-        r[0] = r0;
-        r[1] = self.rc;
-        r[2] = self.rs;
-        let x = solve(&a, &r, 3)?;
-        Some(yy - (x[0] * r0 + x[1] * self.rc + x[2] * self.rs))
-    }
-}
-
-/// Residual sums of squares (weighted, K²) of the least-squares fits of the mean and the
-/// fundamental at `nu − d`, `nu` and `nu + d` to the fine bins, in one pass (the outer two by
-/// the angle-sum formulas); `None` where a fit is ill-conditioned.
-fn fundamental_rss3(p: &Profile, nu: f32, d: f32) -> [Option<f32>; 3] {
-    let (mut n0, mut r0, mut yy) = (0f32, 0f32, 0f32);
-    let mut fits = [FundamentalSums::default(); 3];
+/// One Gauss–Newton step of the frequency ν of the least-squares fit of the mean and the first
+/// `k` harmonics (at most [`REFINE_HARMONICS`]) to the fine bins, cycles per pixel; `None` where
+/// the fit is ill-conditioned or the residual is flat in ν.
+///
+/// The model is linear in its coefficients θ (columns X) and not in ν; at the coefficients'
+/// least squares the residual r is orthogonal to X, so the step in ν with θ re-fitted is
+/// `Jᵀr / (JᵀJ − (XᵀJ)ᵀ·N⁻¹·XᵀJ)`, J = ∂model/∂ν = Σ_j 2πj·t·(b_j·cos jθ − a_j·sin jθ), N the
+/// fit's normal matrix (all sums weighted by the bins' counts). A thin stripe's harmonics pull
+/// the fundamental's own peak off (a core showing under two periods of stripes 0.15 of the
+/// period wide: the periodogram's peak and a fit of the fundamental alone err by 5–8 %); three
+/// harmonics hold them.
+///
+/// `angles` is working memory (each bin's angle, kept by the fit's pass for the second).
+fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS]) -> Option<f32> {
+    let k = k.clamp(1, REFINE_HARMONICS);
+    let f = harmonic_fit_by(p, k, |b, t| {
+        let a = sin_cos_turns(nu * t);
+        angles[b] = a;
+        a
+    })?;
+    let n = f.n;
+    let (mut jr, mut jj) = (0f32, 0f32);
+    let mut xj = [0f32; NP];
     for b in 0..p.used {
         let w = p.cnt[b];
         if w == 0.0 {
@@ -581,18 +578,33 @@ fn fundamental_rss3(p: &Profile, nu: f32, d: f32) -> [Option<f32>; 3] {
         }
         let inv = 1.0 / w;
         let t = p.tsum[b] * inv;
-        let (sn, cs) = sin_cos_turns(nu * t);
-        let (sd, cd) = sin_cos_turns(d * t);
         let y = p.sum[b] * inv;
-        let wy = w * y;
-        n0 += w;
-        r0 += wy;
-        yy += wy * y;
-        fits[0].add(w, wy, cs * cd + sn * sd, sn * cd - cs * sd);
-        fits[1].add(w, wy, cs, sn);
-        fits[2].add(w, wy, cs * cd - sn * sd, sn * cd + cs * sd);
+        let (s1, c1) = angles[b];
+        let (mut c, mut s) = (c1, s1);
+        // cos jθ, sin jθ of this bin, j = 1…k.
+        let mut rot = [(0f32, 0f32); REFINE_HARMONICS];
+        let (mut model, mut slope) = (f.theta[0], 0f32);
+        for (j, x) in rot.iter_mut().enumerate().take(k) {
+            *x = (c, s);
+            let (a, bj) = (f.theta[2 * j + 1], f.theta[2 * j + 2]);
+            model += a * c + bj * s;
+            slope += (j + 1) as f32 * (bj * c - a * s);
+            let nc = c * c1 - s * s1;
+            s = s * c1 + c * s1;
+            c = nc;
+        }
+        let wj = w * core::f32::consts::TAU * t * slope;
+        jr += wj * (y - model);
+        jj += wj * core::f32::consts::TAU * t * slope;
+        xj[0] += wj;
+        for (j, &(c, s)) in rot.iter().enumerate().take(k) {
+            xj[2 * j + 1] += wj * c;
+            xj[2 * j + 2] += wj * s;
+        }
     }
-    fits.map(|f| f.rss(n0, r0, yy))
+    let u = solve(&f.normal, &xj, n)?;
+    let curvature = jj - (0..n).map(|i| xj[i] * u[i]).sum::<f32>();
+    (curvature > 0.0).then(|| jr / curvature)
 }
 
 /// Solve the symmetric positive definite system `a·x = b` (size n) by Cholesky; `None` when a
@@ -906,15 +918,15 @@ pub fn separate(
         (None, true) => 1.0 / g.period_px,
         (None, false) => return fallback,
     };
-    // The periodogram's peak is biased when the core shows few periods: refine the frequency
-    // to the minimum of the residual of a least-squares fit of the mean and the fundamental
-    // (a parabola through ν(1 ± δ) and ν).
+    // The periodogram's peak is biased when the core shows few periods, the more so when its
+    // stripes are thin (their harmonics, which the periodogram leaves out, pull the fundamental's
+    // peak): a Gauss–Newton step of the frequency in the least-squares fit of the mean and the
+    // fundamental, which converges from farther, then one in the fit with three harmonics.
     let mut nu = nu;
-    let d = REFINE_STEP * nu;
-    if let [Some(a), Some(c), Some(b)] = fundamental_rss3(&prof, nu, d) {
-        let den = a - 2.0 * c + b;
-        if den > 0.0 {
-            nu += (0.5 * (a - b) / den).clamp(-1.5, 1.5) * d;
+    let mut angles = [(0f32, 0f32); FINE_BINS];
+    for k in [1, REFINE_HARMONICS] {
+        if let Some(d) = gn_step(&prof, nu, ((0.75 / nu) as usize).clamp(1, k), &mut angles) {
+            nu += d.clamp(-REFINE_LIMIT * nu, REFINE_LIMIT * nu);
         }
     }
     // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile
@@ -963,41 +975,39 @@ pub fn separate(
     let r0 = fit.rhs[0];
     // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
     // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k): the Gram matrix
-    // m = uᵀ·N·u and uᵀ·rhs, computed once, make each candidate a 4 × 4 product.
+    // m = uᵀ·N·u and uᵀ·rhs, computed once, make each candidate a (1 + H) × (1 + H) product.
     const U: usize = 1 + HARMONICS;
-    let mut basis = [[0f32; NP]; U];
-    basis[0][0] = 1.0;
+    // u_k's two entries (cos kψ, sin kψ), k = 1…harmonics.
+    let mut rot = [(0f32, 0f32); HARMONICS];
     let (mut kc, mut ks) = (cpsi, spsi);
-    for k in 0..harmonics {
-        basis[k + 1][1 + 2 * k] = kc;
-        basis[k + 1][2 + 2 * k] = ks;
+    for r in rot.iter_mut().take(harmonics) {
+        *r = (kc, ks);
         let nkc = kc * cpsi - ks * spsi;
         ks = ks * cpsi + kc * spsi;
         kc = nkc;
     }
+    // u_0 is e_0 and u_k has two entries (harmonic k's slots): N·u and uᵀ·N·u from those
+    // columns and entries only (the zeros of a dense product add nothing).
     let mut m = [[0f32; U]; U];
     let mut ur = [0f32; U];
-    for (i, bi) in basis.iter().enumerate() {
+    let slots = |i: usize| -> [(usize, f32); 2] {
+        if i == 0 {
+            [(0, 1.0), (0, 0.0)]
+        } else {
+            [(2 * i - 1, rot[i - 1].0), (2 * i, rot[i - 1].1)]
+        }
+    };
+    for i in 0..=harmonics {
+        let si = slots(i);
         let mut nb = [0f32; NP];
-        for (r, row) in fit.normal.iter().enumerate() {
-            let mut acc = 0f32;
-            for (&x, &y) in row.iter().zip(bi) {
-                acc += x * y;
-            }
-            nb[r] = acc;
+        for (r, row) in fit.normal.iter().enumerate().take(n) {
+            nb[r] = row[si[0].0] * si[0].1 + row[si[1].0] * si[1].1;
         }
-        for (j, bj) in basis.iter().enumerate() {
-            let mut acc = 0f32;
-            for (&x, &y) in bj.iter().zip(&nb) {
-                acc += x * y;
-            }
-            m[j][i] = acc;
+        for (j, mj) in m.iter_mut().enumerate().take(harmonics + 1) {
+            let sj = slots(j);
+            mj[i] = sj[0].1 * nb[sj[0].0] + sj[1].1 * nb[sj[1].0];
         }
-        let mut acc = 0f32;
-        for (&x, &y) in bi.iter().zip(&fit.rhs) {
-            acc += x * y;
-        }
-        ur[i] = acc;
+        ur[i] = si[0].1 * fit.rhs[si[0].0] + si[1].1 * fit.rhs[si[1].0];
     }
     // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
     let (range_a, range_b) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
@@ -1050,16 +1060,18 @@ pub fn separate(
         for k in 0..HARMONICS {
             c[k + 1] = shape[i][k] * mtf[psf][k];
         }
+        // g01 = (m·c)_0, g11 = cᵀ·m·c (m symmetric: its upper triangle, off-diagonal twice),
+        // rv = c·ur.
         let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
         for i in 0..U {
-            let mut mc = 0f32;
-            for (&x, &y) in m[i].iter().zip(&c) {
-                mc += x * y;
+            let mut off = 0f32;
+            for j in i + 1..U {
+                off += m[i][j] * c[j];
             }
-            g11 += c[i] * mc;
+            g11 += c[i] * (m[i][i] * c[i] + 2.0 * off);
             rv += c[i] * ur[i];
             if i == 0 {
-                g01 = mc;
+                g01 = m[0][0] * c[0] + off;
             }
         }
         let det = g00 * g11 - g01 * g01;
@@ -1274,6 +1286,82 @@ pub fn separate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The axial profile of a core showing `length_px` of a lattice of period `period_px` whose
+    /// hot stripes are `h` of it (10 K over 300 K) from `phase_px`, each bin's value the square
+    /// wave averaged over a pixel's length around it; bins ¼ px apart, as a tilted axis fills
+    /// them, with the counts of a tilted core: fewer pixels near its ends, where the image's
+    /// top and bottom clip it.
+    fn stripes(period_px: f32, h: f32, phase_px: f32, length_px: f32) -> Profile {
+        let mut p = Profile {
+            sum: [0.0; FINE_BINS],
+            cnt: [0.0; FINE_BINS],
+            tsum: [0.0; FINE_BINS],
+            used: 0,
+            t0: 0.0,
+            reference: 300.0,
+            total: 0.0,
+            mean_dev: 0.0,
+            sq: 0.0,
+            lo: 300.0,
+            hi: 310.0,
+        };
+        let wave = |t: f32| {
+            let x = (t - phase_px) / period_px;
+            if x - floor(x) < h { 10.0 } else { 0.0 }
+        };
+        let bins = (length_px * FINE as f32) as usize;
+        for b in 0..bins {
+            let t = (b as f32 + 0.5) / FINE as f32;
+            let y = (0..64)
+                .map(|i| wave(t - 0.5 + (i as f32 + 0.5) / 64.0))
+                .sum::<f32>()
+                / 64.0;
+            let w = (1 + b.min(bins - 1 - b) / 6).min(4) as f32;
+            p.sum[b] = w * y;
+            p.cnt[b] = w;
+            p.tsum[b] = w * t;
+            p.total += w;
+            p.sq += w * y * y;
+        }
+        p.used = bins;
+        p.mean_dev = p.sum.iter().sum::<f32>() / p.total;
+        p
+    }
+
+    #[test]
+    fn the_frequency_is_refined_on_three_harmonics_not_the_fundamental_alone() {
+        // Under two periods of stripes 0.15 of the period wide (a design exposed 85 %, 12–16 px
+        // units over a core 24 px long), at eight phases each, where the periodogram found the
+        // lattice's own peak (not its second harmonic's): a step of the fit of the fundamental
+        // alone leaves the period as far off as the peak had it (measured: 1.7 and 1.8 %
+        // mean); a step with three harmonics takes it within a few tenths of a percent (0.4 %).
+        let (mut pgram, mut one, mut three, mut n) = (0f32, 0f32, 0f32, 0f32);
+        for (period, h) in [(12.0f32, 0.15f32), (14.0, 0.85), (16.0, 0.15)] {
+            for i in 0..8 {
+                let p = stripes(period, h, i as f32 * period / 8.0, 24.0);
+                let coarse = Coarse::of(&p);
+                let (nu0, _) =
+                    find_frequency(&coarse, 1.0 / PERIOD_MAX_PX, 1.0 / PERIOD_MIN_PX, FREQ_STEP)
+                        .expect("a lattice");
+                let err = |nu: f32| (1.0 / nu / period - 1.0).abs();
+                if err(nu0) > 0.06 {
+                    continue;
+                }
+                pgram += err(nu0);
+                let mut angles = [(0f32, 0f32); FINE_BINS];
+                one += err(nu0 + gn_step(&p, nu0, 1, &mut angles).unwrap_or(0.0));
+                three += err(nu0 + gn_step(&p, nu0, 3, &mut angles).unwrap_or(0.0));
+                n += 1.0;
+            }
+        }
+        let (pgram, one, three) = (pgram / n, one / n, three / n);
+        assert!(
+            n >= 16.0 && one > 0.012 && three < 0.006,
+            "{n} profiles, mean relative error of the period: periodogram {pgram:.4}, \
+             fundamental {one:.4}, three harmonics {three:.4}"
+        );
+    }
 
     #[test]
     fn cholesky_solves() {

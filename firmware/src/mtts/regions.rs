@@ -117,10 +117,14 @@ impl Geometry {
             let d0 = -(self.axis_col0 + self.axis_slope * r as f32);
             let t0 = (r as f32 - self.axis_slope * self.axis_col0) * inv_norm;
             let dt = self.axis_slope * inv_norm;
-            for c in 0..IMG_COLS {
-                let p = r * IMG_COLS + c;
-                out.u[p] = libm::fabsf(c as f32 + d0) * inv_half;
-                out.t[p] = t0 + c as f32 * dt;
+            // The column as a float, counted (exact: small integers), not converted per pixel.
+            let mut col = 0f32;
+            let row_u = &mut out.u[r * IMG_COLS..(r + 1) * IMG_COLS];
+            let row_t = &mut out.t[r * IMG_COLS..(r + 1) * IMG_COLS];
+            for (u, t) in row_u.iter_mut().zip(row_t.iter_mut()) {
+                *u = libm::fabsf(col + d0) * inv_half;
+                *t = t0 + col * dt;
+                col += 1.0;
             }
         }
     }
