@@ -106,6 +106,15 @@ fn main() -> ! {
     let total = to_768 + upsample + cluster + regions;
     // The next frame starts from this one's geometry (the lattice search narrows to ±2 px).
     let (_, regions_next) = measure(|| black_box(mtts.stage_regions(&clusters, filled, scratch)));
+    // A block of thin stripes (designed 85 % exposed): the lattice fits six harmonics, not five
+    // (`lattice::harmonics_for`); its first frame is held to the same budget.
+    let Ok(mut thin) = Mtts::new(Config {
+        exposed_pct: 85,
+        ..Config::default()
+    }) else {
+        fail("config")
+    };
+    let (_, regions_thin) = measure(|| black_box(thin.stage_regions(&clusters, filled, scratch)));
     // Parts of the upsample stage, for profiling.
     let mut w2 = image.to_k;
     let (_, t_inpaint) = measure(|| thermorph::mtts::inpaint(&mut w2));
@@ -181,6 +190,14 @@ fn main() -> ! {
     hprintln!(
         "total_next_frame insns={}",
         (total - regions + regions_next).saturating_sub(4 * overhead)
+    );
+    hprintln!(
+        "regions_thin_design insns={}",
+        regions_thin.saturating_sub(overhead)
+    );
+    hprintln!(
+        "total_thin_design insns={}",
+        (total - regions + regions_thin).saturating_sub(4 * overhead)
     );
     // The result, to show the bench computed something real (truth: T1 372 K, T2 352 K).
     hprintln!(

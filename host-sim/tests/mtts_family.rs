@@ -310,9 +310,9 @@ fn a_lone_hot_pixel_in_the_core_is_left_out() {
 #[test]
 fn long_lattices_of_thin_stripes_are_fitted_within_0_3_k() {
     // Unseen members exposed 0.75–0.85 (surface stripes 0.15–0.25 of the period) with periods
-    // of 10–16 px and a gap of 3 K or more: the period refined on three harmonics and six
-    // harmonics fitted (measured, mean |T2| over every frame: 0.40 K with the fundamental's
-    // refinement and five harmonics, 0.23 K now, on these 128).
+    // of 10–16 px and a gap of 3 K or more: the period refined on three harmonics, and six
+    // harmonics fitted for a design of thin stripes (measured, mean |T2| over every frame:
+    // 0.40 K with the fundamental's refinement and five harmonics, 0.23 K now, on these 128).
     let members: Vec<_> = (UNSEEN.start..UNSEEN.start + 2000)
         .map(host_sim::imaging::view_family::Member::draw)
         .filter(|m| {
