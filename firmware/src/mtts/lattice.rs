@@ -24,9 +24,9 @@
 //!    the mean and the first three harmonics (a thin stripe's harmonics pull the fundamental's
 //!    minimum off by several percent where the core shows under two periods);
 //! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
-//!    that lie below 0.75 cycles per pixel (at most six, fewer if ill-conditioned: a thin
-//!    stripe — the thesis's 1.4 px SMP strips — lives in the higher ones); c is the
-//!    fundamental's phase;
+//!    that lie below 0.75 cycles per pixel (at most five, six for a design of stripes under a
+//!    quarter of the period, `harmonics_for`; fewer if ill-conditioned: a thin stripe — the
+//!    thesis's 1.4 px SMP strips — lives in the higher ones); c is the fundamental's phase;
 //! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
 //!    (weighted by their normal matrix, i.e. the per-pixel least squares) give a misfit χ²,
 //!    with the noise estimated from the fit's residual. The exposed fraction is thus fitted
@@ -573,9 +573,9 @@ fn harmonics_for(design_exposed: f32) -> usize {
 /// least squares the residual r is orthogonal to X, so the step in ν with θ re-fitted is
 /// `Jᵀr / (JᵀJ − (XᵀJ)ᵀ·N⁻¹·XᵀJ)`, J = ∂model/∂ν = Σ_j 2πj·t·(b_j·cos jθ − a_j·sin jθ), N the
 /// fit's normal matrix (all sums weighted by the bins' counts). A thin stripe's harmonics pull
-/// the fundamental's own peak off (a core showing under two periods of stripes 0.15 of the
-/// period wide: the periodogram's peak and a fit of the fundamental alone err by 5–8 %); three
-/// harmonics hold them.
+/// the fundamental's own minimum off (family members whose core shows under two periods of
+/// stripes 0.15–0.2 of the period wide: the periodogram's peak and a fit of the fundamental
+/// alone left them 6–8 % off); three harmonics hold them.
 ///
 /// `angles` is working memory (each bin's angle, kept by the fit's pass for the second).
 #[inline(never)] // called twice: one copy in the flash
