@@ -245,14 +245,26 @@ pub fn ta_c(frame: &SubpageFrame, cal: &Calibration, vdd_v: f32) -> f32 {
     ta / cal.kt_ptat + 25.0
 }
 
-/// Return whether pixel `p` belongs to `subpage` under `pattern` (library `ilPattern` /
-/// `chessPattern`).
-pub fn pixel_in_subpage(p: usize, pattern: ReadingPattern, subpage: u8) -> bool {
-    let il = il_pattern(p) as u8;
+/// The pixels of `row` that belong to `subpage` under `pattern`, as (first column, column
+/// step), or `None` when the row has none: interleaved, every pixel of the rows of the
+/// subpage's parity; chess, every other column, starting by the row's parity (library
+/// `ilPattern` / `chessPattern`). The one rule of which pixel a subpage holds: the To
+/// calculation walks it, [`pixel_in_subpage`] tests it.
+#[inline(always)]
+pub fn subpage_row(row: usize, pattern: ReadingPattern, subpage: u8) -> Option<(usize, usize)> {
+    let parity = (row & 1) as u8;
     match pattern {
-        ReadingPattern::Interleaved => il == subpage,
-        ReadingPattern::Chess => (il ^ (p % 2) as u8) == subpage,
+        ReadingPattern::Interleaved if parity == subpage => Some((0, 1)),
+        ReadingPattern::Interleaved => None,
+        ReadingPattern::Chess => Some(((parity ^ subpage) as usize, 2)),
     }
+}
+
+/// Return whether pixel `p` belongs to `subpage` under `pattern` ([`subpage_row`]).
+pub fn pixel_in_subpage(p: usize, pattern: ReadingPattern, subpage: u8) -> bool {
+    let column = p % COLS;
+    subpage_row(p / COLS, pattern, subpage)
+        .is_some_and(|(first, step)| column >= first && (column - first).is_multiple_of(step))
 }
 
 /// Return the library's `ilPattern` of pixel `p`: its row's parity (0 or 1).
@@ -404,14 +416,10 @@ pub fn calculate_to_with<R: Roots>(
             ir / (alpha * alpha_corr_r[range] * (1.0 + ks_to[range] * (to_c - ct[range]))) + ta_tr,
         )
     };
-    // Only the subpage's pixels ([`pixel_in_subpage`]): the rows of its parity (interleaved),
-    // or every other column, starting by the row's parity (chess).
+    // Only the subpage's pixels ([`subpage_row`]).
     for row in 0..ROWS {
-        let parity = (row & 1) as u8;
-        let (first, step) = match pattern {
-            ReadingPattern::Interleaved if parity == subpage => (0, 1),
-            ReadingPattern::Interleaved => continue,
-            ReadingPattern::Chess => ((parity ^ subpage) as usize, 2),
+        let Some((first, step)) = subpage_row(row, pattern, subpage) else {
+            continue;
         };
         let mut p = row * COLS + first;
         while p < (row + 1) * COLS {
@@ -627,6 +635,22 @@ mod tests {
                 .filter(|&p| pixel_in_subpage(p, pattern, 1))
                 .count();
             assert_eq!((n0, n1), (384, 384));
+        }
+        // The library's own formulas (`ilPattern`, `chessPattern`) agree pixel by pixel.
+        for p in 0..PIXELS {
+            let il = il_pattern(p) as u8;
+            for subpage in 0..2 {
+                assert_eq!(
+                    pixel_in_subpage(p, ReadingPattern::Interleaved, subpage),
+                    il == subpage,
+                    "interleaved {p}"
+                );
+                assert_eq!(
+                    pixel_in_subpage(p, ReadingPattern::Chess, subpage),
+                    (il ^ (p % 2) as u8) == subpage,
+                    "chess {p}"
+                );
+            }
         }
         assert!(pixel_in_subpage(0, ReadingPattern::Chess, 0));
         assert!(pixel_in_subpage(1, ReadingPattern::Chess, 1));
