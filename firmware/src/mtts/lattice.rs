@@ -89,8 +89,10 @@ pub const EXPOSED_TOLERANCE: f32 = 0.06;
 /// this standard deviation (half of [`EXPOSED_TOLERANCE`]: the window spans ±2 sd), added to
 /// each candidate's χ². Where a thin stripe's level trades against its width and the optics'
 /// spread, χ² alone is nearly flat to the window's ends; the prior weighs the valley toward
-/// the design (seen family members, |gap| ≥ 3 K: mean |T2| 0.122 → 0.118 K, exposed
-/// 0.75–0.85 at 6–10 px 0.52 → 0.48 K; sd 0.023 and 0.04 did no better, 0.015 worse).
+/// the design (seen family members, |gap| ≥ 3 K: mean |T2| 0.122 → 0.118 K, confidently
+/// wrong 11 → 8 frames, exposed 0.75–0.85 at 6–10 px 0.52 → 0.48 K). Other widths, on the
+/// same members: 0.04 kept less (6–10 px 0.49 K), 0.023 gave 0.117 K but the 10–16 px thin
+/// stripes 0.23 → 0.24 K, 0.015 made 15 frames confidently wrong.
 pub const EXPOSED_PRIOR_SD: f32 = 0.5 * EXPOSED_TOLERANCE;
 /// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
 /// no numeric pixel-sensitivity profile), pixels: from the footprint alone to a blur wider
