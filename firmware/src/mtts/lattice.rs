@@ -168,6 +168,13 @@ pub struct Separation {
     pub quality: Quality,
 }
 
+/// The next harmonic's (cos, sin): (`c`, `s`) of an angle kθ turned by θ, whose (cos, sin) is
+/// (`c1`, `s1`) — the angle-sum formulas, so a profile's harmonics cost one `sin_cos_turns`.
+#[inline(always)]
+fn turn((c, s): (f32, f32), (c1, s1): (f32, f32)) -> (f32, f32) {
+    (c * c1 - s * s1, s * c1 + c * s1)
+}
+
 /// sin(πx)/(πx).
 fn sinc(x: f32) -> f32 {
     if libm::fabsf(x) < 1e-4 {
@@ -511,16 +518,12 @@ fn harmonic_fit_by(
             *sm += w * s;
             r[0] += wy * c;
             r[1] += wy * s;
-            let nc = c * c1 - s * s1;
-            s = s * c1 + c * s1;
-            c = nc;
+            (c, s) = turn((c, s), (c1, s1));
         }
         for (cm, sm) in cs_hi.iter_mut().zip(sn_hi.iter_mut()) {
             *cm += w * c;
             *sm += w * s;
-            let nc = c * c1 - s * s1;
-            s = s * c1 + c * s1;
-            c = nc;
+            (c, s) = turn((c, s), (c1, s1));
         }
         yy += wy * y;
         bins += 1.0;
@@ -617,9 +620,7 @@ fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS])
             let (a, bj) = (f.theta[2 * j + 1], f.theta[2 * j + 2]);
             model += a * c + bj * s;
             slope += (j + 1) as f32 * (bj * c - a * s);
-            let nc = c * c1 - s * s1;
-            s = s * c1 + c * s1;
-            c = nc;
+            (c, s) = turn((c, s), (c1, s1));
         }
         let wj = w * core::f32::consts::TAU * t * slope;
         jr += wj * (y - model);
@@ -1007,12 +1008,10 @@ pub fn separate(
     const U: usize = 1 + HARMONICS;
     // u_k's two entries (cos kψ, sin kψ), k = 1…harmonics.
     let mut rot = [(0f32, 0f32); HARMONICS];
-    let (mut kc, mut ks) = (cpsi, spsi);
+    let mut k_psi = (cpsi, spsi);
     for r in rot.iter_mut().take(harmonics) {
-        *r = (kc, ks);
-        let nkc = kc * cpsi - ks * spsi;
-        ks = ks * cpsi + kc * spsi;
-        kc = nkc;
+        *r = k_psi;
+        k_psi = turn(k_psi, (cpsi, spsi));
     }
     // u_0 is e_0 and u_k has two entries (harmonic k's slots): N·u and uᵀ·N·u from those
     // columns and entries only (the zeros of a dense product add nothing).
@@ -1068,12 +1067,10 @@ pub fn separate(
             continue;
         }
         let (s1, c1) = sin_cos_turns(0.5 * h_at(i));
-        let (mut sk, mut ck) = (s1, c1);
+        let (mut ck, mut sk) = (c1, s1);
         for (k, x) in sh.iter_mut().enumerate().take(harmonics) {
             *x = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32);
-            let nsk = sk * c1 + ck * s1;
-            ck = ck * c1 - sk * s1;
-            sk = nsk;
+            (ck, sk) = turn((ck, sk), (c1, s1));
         }
     }
     let inv_sigma2 = 1.0 / fit.sigma2;
