@@ -27,11 +27,14 @@
 //!    that lie below 0.75 cycles per pixel (at most five, six for a design of stripes under a
 //!    quarter of the period, `harmonics_for`; fewer if ill-conditioned: a thin stripe — the
 //!    thesis's 1.4 px SMP strips — lives in the higher ones); c is the fundamental's phase;
-//! 3. for each h on a grid and each spread, the (a, b) that best match those coefficients
-//!    (weighted by their normal matrix, i.e. the per-pixel least squares) give a misfit χ²,
-//!    with the noise estimated from the fit's residual. The exposed fraction is thus fitted
-//!    per frame, and so is the spread: T1, T2 and h are their posterior means over the
-//!    chosen hypothesis's window and the spreads (likelihood e^(−χ²/2), flat over the spreads,
+//! 3. for each h on a grid and each spread, the (a, b) whose square wave best matches the
+//!    core's pixels give a misfit χ² (the per-pixel least squares, through the normal matrix
+//!    of the fit's basis extended, for a lattice of short period, to the harmonics the design
+//!    needs below [`MODEL_BAND_CPP`], 1.25 cycles per pixel: a thin stripe's higher harmonics,
+//!    which the free fit cannot hold apart, are the model's own and not noise), with the noise
+//!    estimated from the best candidate's residual. The exposed fraction is thus fitted per
+//!    frame, and so is the spread: T1, T2 and h are their posterior means over the chosen
+//!    hypothesis's window and the spreads (likelihood e^(−χ²/2), flat over the spreads,
 //!    a Gaussian prior on the exposed fraction about the design, [`EXPOSED_PRIOR_SD`]; on half
 //!    steps of h, a sharp row by its χ² parabola's vertex). A thin stripe's level trades
 //!    against its width and the spread along a valley of nearly equal χ², whose minimum the
@@ -62,8 +65,8 @@
 //! is [`Quality::Merged`].
 //!
 //! The bound: the spread of T1 and T2 over the (h, σ) whose χ² is within [`CONFIDENCE_CHI2`]
-//! of the best (in both hypotheses when the image allows both; χ² with the fit's residual
-//! variance, which includes the model's own mismatch)
+//! of the best (in both hypotheses when the image allows both; χ² with the best candidate's
+//! residual variance, which includes the model's own mismatch)
 //! and over the best candidates of the neighbouring spreads (σ is a grid; the truth lies
 //! between two of its values), plus two standard errors of (a, b) from the pixel noise (the
 //! scatter within ¼ px bins); scaled by [`BOUND_SCALE`] and floored by [`BOUND_FLOOR_K`], so
@@ -132,6 +135,25 @@ const HARMONICS: usize = 6;
 const BASE_HARMONICS: usize = 5;
 /// Unknowns of the harmonic fit at most.
 const NP: usize = 1 + 2 * HARMONICS;
+/// Least pixel noise the fits assume, K.
+const NOISE_FLOOR_K: f32 = 0.05;
+/// A candidate's model in the basis (the mean and each harmonic's unit at the phase).
+const U: usize = 1 + HARMONICS;
+/// Highest frequency the candidates' model of the profile reaches, cycles per pixel: past the
+/// free fit's 0.75 (whose coefficients a few periods of samples cannot all tell apart), up to
+/// the harmonics the design's thinner stripe needs (`harmonics_for`): a lattice of short
+/// period, whose 0.75 cycles per pixel stop the free fit before them, keeps them in the
+/// model, where a thin stripe's width and level shape them and where, left out, they weigh in
+/// the misfit as noise and hide what tells the stripe's width from the spread. Seen family
+/// members, |gap| ≥ 3 K: mean |T2| 0.118 → 0.116 K (confidently wrong 8 → 9 frames), the thesis's
+/// lattice 0.208 → 0.178 K; 1.0 and 1.5 alike (0.116 K, 10). Past the design's harmonics
+/// (up to 1.25 cycles per pixel, at most seven) the seen members gained more (0.110 K) but the
+/// thesis's block lost: the camera-on cycle's mean |T2| 0.063 → 0.095 K, the standard
+/// scenes' T1 0.010 → 0.031 K, as a sixth harmonic had (`harmonics_for`).
+pub const MODEL_BAND_CPP: f32 = 1.25;
+/// Parameters the best candidate fits (a, b, h and the spread): the degrees of freedom its
+/// misfit loses, for the noise it estimates.
+const MODEL_PARAMETERS: f32 = 4.0;
 /// Axial profile bins (one per pixel of axial length).
 const BINS: usize = 48;
 /// Frequency step of the first frame's periodogram, cycles per pixel.
@@ -181,6 +203,15 @@ fn sinc(x: f32) -> f32 {
         1.0
     } else {
         sin_cos_turns(0.5 * x).0 / (core::f32::consts::PI * x)
+    }
+}
+
+/// sin(πx)/(πx) given sin(πx) (`sin_pi_x`).
+fn sinc_of(sin_pi_x: f32, x: f32) -> f32 {
+    if libm::fabsf(x) < 1e-4 {
+        1.0
+    } else {
+        sin_pi_x / (core::f32::consts::PI * x)
     }
 }
 
@@ -455,8 +486,16 @@ fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)>
 struct HarmonicFit {
     n: usize,
     normal: [[f32; NP]; NP],
+    /// Σ w·y·(1, cos kθ, sin kθ…) up to the candidates' model's harmonics.
     rhs: [f32; NP],
     theta: [f32; NP],
+    /// Σ w·cos mθ and Σ w·sin mθ, m = 0…2·(the model's harmonics): every entry of the normal
+    /// matrix, the fit's and the model's (each half a sum or difference of two; [`gram`]).
+    cs: [f32; 2 * HARMONICS + 1],
+    sn: [f32; 2 * HARMONICS + 1],
+    /// Σ w·y², K², and the bins in use.
+    yy: f32,
+    bins: f32,
     sigma2: f32,
     /// Pixel noise variance: the scatter of the pixels within a fine bin (same lattice
     /// phase), K².
@@ -465,8 +504,10 @@ struct HarmonicFit {
     rss: f32,
 }
 
-fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
-    harmonic_fit_by(p, harmonics, |_, t| sin_cos_turns(nu * t))
+/// [`harmonic_fit_by`] at frequency `nu`, with the sums of the candidates' model up to `model`
+/// harmonics.
+fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize, model: usize) -> Option<HarmonicFit> {
+    harmonic_fit_by(p, harmonics, model, |_, t| sin_cos_turns(nu * t))
 }
 
 /// [`harmonic_fit`] with the fundamental's (sin, cos) at bin b, axial position t from
@@ -474,15 +515,21 @@ fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize) -> Option<HarmonicFit> {
 fn harmonic_fit_by(
     p: &Profile,
     harmonics: usize,
+    model: usize,
     mut angle: impl FnMut(usize, f32) -> (f32, f32),
 ) -> Option<HarmonicFit> {
     let harmonics = harmonics.clamp(1, HARMONICS);
+    let model = model.clamp(harmonics, HARMONICS);
     let n = 1 + 2 * harmonics;
     let mut f = HarmonicFit {
         n,
         normal: [[0.0; NP]; NP],
         rhs: [0.0; NP],
         theta: [0.0; NP],
+        cs: [0.0; 2 * HARMONICS + 1],
+        sn: [0.0; 2 * HARMONICS + 1],
+        yy: 0.0,
+        bins: 0.0,
         sigma2: 0.0,
         noise2: 0.0,
         rss: 0.0,
@@ -506,13 +553,13 @@ fn harmonic_fit_by(
         let wy = w * y;
         cs[0] += w;
         f.rhs[0] += wy;
-        // The sums to 2·harmonics, no further (one loop for any count: the flash holds one
-        // copy); the first `harmonics` feed the right-hand side too. Zipped slices: no bounds
+        // The sums to 2·model, no further (one loop for any count: the flash holds one
+        // copy); the first `model` feed the right-hand side too. Zipped slices: no bounds
         // checks.
         let (mut c, mut s) = (c1, s1);
-        let (cs_lo, cs_hi) = cs[1..=2 * harmonics].split_at_mut(harmonics);
-        let (sn_lo, sn_hi) = sn[1..=2 * harmonics].split_at_mut(harmonics);
-        let rhs = f.rhs[1..=2 * harmonics].chunks_exact_mut(2);
+        let (cs_lo, cs_hi) = cs[1..=2 * model].split_at_mut(model);
+        let (sn_lo, sn_hi) = sn[1..=2 * model].split_at_mut(model);
+        let rhs = f.rhs[1..=2 * model].chunks_exact_mut(2);
         for ((cm, sm), r) in cs_lo.iter_mut().zip(sn_lo.iter_mut()).zip(rhs) {
             *cm += w * c;
             *sm += w * s;
@@ -550,9 +597,10 @@ fn harmonic_fit_by(
         }
     }
     f.theta = solve(&f.normal, &f.rhs, n)?;
+    (f.cs, f.sn, f.yy, f.bins) = (cs, sn, yy, bins);
     let fit: f32 = (0..n).map(|i| f.theta[i] * f.rhs[i]).sum();
     // Σ w·r² over the bins is (bins − n)·σ² for a pixel noise σ.
-    let floor_k = 0.05f32;
+    let floor_k = NOISE_FLOOR_K;
     f.rss = yy - fit;
     f.sigma2 = (f.rss / (bins - n as f32)).max(floor_k * floor_k);
     f.noise2 = if p.total > bins {
@@ -594,7 +642,7 @@ fn harmonics_for(design_exposed: f32) -> usize {
 #[inline(never)] // called twice: one copy in the flash
 fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS]) -> Option<f32> {
     let k = k.clamp(1, REFINE_HARMONICS);
-    let f = harmonic_fit_by(p, k, |b, t| {
+    let f = harmonic_fit_by(p, k, k, |b, t| {
         let a = sin_cos_turns(nu * t);
         angles[b] = a;
         a
@@ -638,7 +686,7 @@ fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS])
 
 /// Solve the symmetric positive definite system `a·x = b` (size n) by Cholesky; `None` when a
 /// pivot is not clearly positive (an ill-conditioned fit).
-fn solve(a: &[[f32; NP]; NP], b: &[f32; NP], n: usize) -> Option<[f32; NP]> {
+fn solve(a: &[[f32; NP]; NP], b: &[f32], n: usize) -> Option<[f32; NP]> {
     let mut l = [[0f32; NP]; NP];
     for i in 0..n {
         for j in 0..=i {
@@ -691,6 +739,43 @@ struct Candidate {
 enum Hyp {
     HeaterHot,
     SurfaceHot,
+}
+
+/// Write the candidates' Gram matrix m = uᵀ·N·u and uᵀ·rhs into `m` and `ur`, for the fit's
+/// sums and `model` harmonics at the fundamental's phase ψ (cos ψ, sin ψ), where u_0 = e_0 and
+/// u_k = (cos kψ, sin kψ) in harmonic k's slots of the basis (1, cos θ, sin θ, cos 2θ, …).
+fn gram(
+    fit: &HarmonicFit,
+    model: usize,
+    (cpsi, spsi): (f32, f32),
+    m: &mut [[f32; U]; U],
+    ur: &mut [f32; U],
+) {
+    // The bins' sums turned by the phase: R_j = Σ w·cos(j(θ − ψ)) = C_j·cos jψ + S_j·sin jψ,
+    // j = 0…2·model. With u_0 = e_0 and u_k = (cos kψ, sin kψ) in harmonic k's slots, the
+    // products of the normal matrix's 2 × 2 blocks (each entry half a sum or difference of
+    // the C and S at |i − j| and i + j) reduce to m_00 = R_0, m_0j = R_j and
+    // m_ij = (R_|i−j| + R_(i+j))/2: Toeplitz plus Hankel, one product each.
+    let mut turned = [0f32; 2 * HARMONICS + 1];
+    let mut j_psi = (1f32, 0f32);
+    for (j, r) in turned.iter_mut().enumerate().take(2 * model + 1) {
+        *r = fit.cs[j] * j_psi.0 + fit.sn[j] * j_psi.1;
+        j_psi = turn(j_psi, (cpsi, spsi));
+    }
+    m[0][0] = turned[0];
+    ur[0] = fit.rhs[0];
+    let mut k_psi = (cpsi, spsi);
+    for i in 1..=model {
+        m[0][i] = turned[i];
+        m[i][0] = turned[i];
+        for j in 1..=i {
+            let x = 0.5 * (turned[i - j] + turned[i + j]);
+            m[i][j] = x;
+            m[j][i] = x;
+        }
+        ur[i] = fit.rhs[2 * i - 1] * k_psi.0 + fit.rhs[2 * i] * k_psi.1;
+        k_psi = turn(k_psi, (cpsi, spsi));
+    }
 }
 
 /// The hot-stripe fraction of candidate `j` (candidates run over h, then over the spreads).
@@ -751,8 +836,8 @@ fn midpoint(f: impl Fn(usize) -> f32, i: usize, n: usize) -> f32 {
     }
 }
 
-/// Most the posterior sharpens χ² by, when the fit's residual variance exceeds the pixel noise
-/// (the model's mismatch: a period a little off, the footprint's approximation): the
+/// Most the posterior sharpens χ² by, when the best candidate's residual variance exceeds the
+/// pixel noise (the model's mismatch: a period a little off, the footprint's approximation): the
 /// likelihood then takes the noise as at least a quarter of the residual variance. Seen
 /// family members: mean |T2| 0.151 → 0.147 K (1, 2, 8, 16 and no limit: 0.148–0.150).
 const POSTERIOR_SHARPEN: f32 = 4.0;
@@ -962,8 +1047,10 @@ pub fn separate(
     // at many sub-pixel positions); fewer when the fit is ill-conditioned (an untilted axis
     // aliases them onto each other).
     let mut harmonics = ((0.75 / nu) as usize).clamp(1, harmonics_for(design_exposed));
+    // The candidates' model reaches further (MODEL_BAND_CPP): its sums come from the same pass.
+    let model = ((MODEL_BAND_CPP / nu) as usize).clamp(harmonics, harmonics_for(design_exposed));
     let fit = loop {
-        match harmonic_fit(&prof, nu, harmonics) {
+        match harmonic_fit(&prof, nu, harmonics, model) {
             Some(f) => break Some(f),
             None if harmonics > 1 => harmonics -= 1,
             None => break None,
@@ -979,63 +1066,46 @@ pub fn separate(
             fallback
         };
     };
-    let n = fit.n;
     let (a1, b1) = (fit.theta[1], fit.theta[2]);
     let r1 = crate::fmath::sqrt(a1 * a1 + b1 * b1).max(1e-12);
     let (cpsi, spsi) = (a1 / r1, b1 / r1);
-    // The footprint's transfer per harmonic, times the Gaussian's: the spreads are multiples
-    // i·δ of one step, so exp(−2(πσν)²) = E^(i²) with E at δ (one `expf` per harmonic).
+    // The footprint's transfer per harmonic ([`transfer`]: two boxes, cos α and sin α wide,
+    // their sines at k·ν by the angle-sum step from ν's), times the Gaussian's: the spreads are
+    // multiples i·δ of one step, so exp(−2(πσkν)²) = E_k^(i²) with E_k = E_1^(k²), both
+    // stepped by products (one `expf` in all).
     let mut mtf = [[0f32; HARMONICS]; PSFS];
-    for k in 0..harmonics {
+    let inv_norm = 1.0 / crate::fmath::sqrt(1.0 + g.axis_slope * g.axis_slope);
+    let widths = (inv_norm, libm::fabsf(g.axis_slope) * inv_norm);
+    let (sa1, ca1) = sin_cos_turns(0.5 * nu * widths.0);
+    let (sb1, cb1) = sin_cos_turns(0.5 * nu * widths.1);
+    let (mut box_a, mut box_b) = ((ca1, sa1), (cb1, sb1));
+    let x1 = core::f32::consts::PI * PSF_STEP_PX * nu;
+    let e1 = libm::expf(-2.0 * x1 * x1);
+    // E_k, stepped by E_1^(2k + 1), itself stepped by E_1².
+    let (mut ek, mut ek_step, e1_2) = (e1, e1 * e1 * e1, e1 * e1);
+    for k in 0..model {
         let f = (k + 1) as f32 * nu;
-        let boxes = transfer(f, g.axis_slope, 0.0);
-        let x = core::f32::consts::PI * PSF_STEP_PX * f;
-        let e = libm::expf(-2.0 * x * x);
-        // E^(i²), stepped by E^((i+1)² − i²) = E^(2i + 1), itself stepped by E².
-        let (mut gauss, mut step, e2) = (1.0, e, e * e);
+        let boxes = sinc_of(box_a.1, f * widths.0) * sinc_of(box_b.1, f * widths.1);
+        box_a = turn(box_a, (ca1, sa1));
+        box_b = turn(box_b, (cb1, sb1));
+        // E_k^(i²), stepped by E_k^((i+1)² − i²) = E_k^(2i + 1), itself stepped by E_k².
+        let (mut gauss, mut step, e2) = (1.0, ek, ek * ek);
         for row in mtf.iter_mut() {
             row[k] = boxes * gauss;
             gauss *= step;
             step *= e2;
         }
+        ek *= ek_step;
+        ek_step *= e1_2;
     }
-    let dnd: f32 = (0..n).map(|i| fit.theta[i] * fit.rhs[i]).sum();
-    let g00 = fit.normal[0][0];
+    let g00 = fit.cs[0];
     let r0 = fit.rhs[0];
     // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
-    // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k): the Gram matrix
-    // m = uᵀ·N·u and uᵀ·rhs, computed once, make each candidate a (1 + H) × (1 + H) product.
-    const U: usize = 1 + HARMONICS;
-    // u_k's two entries (cos kψ, sin kψ), k = 1…harmonics.
-    let mut rot = [(0f32, 0f32); HARMONICS];
-    let mut k_psi = (cpsi, spsi);
-    for r in rot.iter_mut().take(harmonics) {
-        *r = k_psi;
-        k_psi = turn(k_psi, (cpsi, spsi));
-    }
-    // u_0 is e_0 and u_k has two entries (harmonic k's slots): N·u and uᵀ·N·u from those
-    // columns and entries only (the zeros of a dense product add nothing).
-    let mut m = [[0f32; U]; U];
-    let mut ur = [0f32; U];
-    let slots = |i: usize| -> [(usize, f32); 2] {
-        if i == 0 {
-            [(0, 1.0), (0, 0.0)]
-        } else {
-            [(2 * i - 1, rot[i - 1].0), (2 * i, rot[i - 1].1)]
-        }
-    };
-    for i in 0..=harmonics {
-        let si = slots(i);
-        let mut nb = [0f32; NP];
-        for (r, row) in fit.normal.iter().enumerate().take(n) {
-            nb[r] = row[si[0].0] * si[0].1 + row[si[1].0] * si[1].1;
-        }
-        for (j, mj) in m.iter_mut().enumerate().take(harmonics + 1) {
-            let sj = slots(j);
-            mj[i] = sj[0].1 * nb[sj[0].0] + sj[1].1 * nb[sj[1].0];
-        }
-        ur[i] = si[0].1 * fit.rhs[si[0].0] + si[1].1 * fit.rhs[si[1].0];
-    }
+    // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k), k up to the
+    // model's harmonics: the Gram matrix m = uᵀ·N·u and uᵀ·rhs, computed once, make each
+    // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
+    let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
+    gram(&fit, model, (cpsi, spsi), &mut m, &mut ur);
     // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
     let (range_a, range_b) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
     // Only the two windows' candidates are computed and kept: key = spread·2·SLOTS + the
@@ -1059,7 +1129,11 @@ pub fn separate(
             (Hyp::SurfaceHot, w - SLOTS)
         }
     };
-    let mut cand = [Candidate::default(); CANDIDATES];
+    // Keys outside the windows keep an infinite misfit (the passes below run over all).
+    let mut cand = [Candidate {
+        chi2: f32::INFINITY,
+        ..Candidate::default()
+    }; CANDIDATES];
     let wanted = |i: usize| range_a.contains(&i) || range_b.contains(&i);
     let mut shape = [[0f32; HARMONICS]; H_COUNT];
     for (i, sh) in shape.iter_mut().enumerate() {
@@ -1068,81 +1142,105 @@ pub fn separate(
         }
         let (s1, c1) = sin_cos_turns(0.5 * h_at(i));
         let (mut ck, mut sk) = (c1, s1);
-        for (k, x) in sh.iter_mut().enumerate().take(harmonics) {
+        for (k, x) in sh.iter_mut().enumerate().take(model) {
             *x = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32);
             (ck, sk) = turn((ck, sk), (c1, s1));
         }
     }
-    let inv_sigma2 = 1.0 / fit.sigma2;
-    let keys = |hyp: Hyp, psf: usize| {
-        let first = psf * 2 * SLOTS + base_of(hyp);
-        range_of(hyp).enumerate().map(move |(k, i)| (first + k, i))
-    };
-    let every = |psf: usize| keys(Hyp::HeaterHot, psf).chain(keys(Hyp::SurfaceHot, psf));
+    // Each candidate's misfit Σ w·r² first, its χ² once the noise is known.
+    let mut rss_min = f32::INFINITY;
+    // The design's prior, z² per place of the two windows: the exposed fraction a candidate
+    // says the frame shows, against the design.
     let inv_prior_sd = 1.0 / EXPOSED_PRIOR_SD;
-    for (psf, (key, i)) in (0..PSFS).flat_map(|psf| every(psf).map(move |x| (psf, x))) {
-        let mut c = [0f32; U];
-        c[0] = h_at(i);
-        // The exposed fraction this candidate says the frame shows, against the design.
-        let exposed = if slot_of(key).0 == Hyp::HeaterHot {
-            c[0]
-        } else {
-            1.0 - c[0]
-        };
-        let z = (exposed - design_exposed) * inv_prior_sd;
-        for k in 0..HARMONICS {
-            c[k + 1] = shape[i][k] * mtf[psf][k];
+    let mut prior_chi2 = [0f32; 2 * SLOTS];
+    for hyp in [Hyp::HeaterHot, Hyp::SurfaceHot] {
+        for (k, i) in range_of(hyp).enumerate() {
+            let exposed = if hyp == Hyp::HeaterHot {
+                h_at(i)
+            } else {
+                1.0 - h_at(i)
+            };
+            let z = (exposed - design_exposed) * inv_prior_sd;
+            prior_chi2[base_of(hyp) + k] = z * z;
         }
-        // g01 = (m·c)_0, g11 = cᵀ·m·c (m symmetric: its upper triangle, off-diagonal twice),
-        // rv = c·ur.
-        let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
-        for i in 0..U {
-            let mut off = 0f32;
-            for j in i + 1..U {
-                off += m[i][j] * c[j];
+    }
+    for (psf, hyp) in (0..PSFS).flat_map(|psf| [(psf, Hyp::HeaterHot), (psf, Hyp::SurfaceHot)]) {
+        let first = psf * 2 * SLOTS + base_of(hyp);
+        for (slot, i) in range_of(hyp).enumerate() {
+            let key = first + slot;
+            let mut c = [0f32; U];
+            c[0] = h_at(i);
+            for k in 0..HARMONICS {
+                c[k + 1] = shape[i][k] * mtf[psf][k];
             }
-            g11 += c[i] * (m[i][i] * c[i] + 2.0 * off);
-            rv += c[i] * ur[i];
-            if i == 0 {
-                g01 = m[0][0] * c[0] + off;
+            // g01 = (m·c)_0, g11 = cᵀ·m·c (m symmetric: its upper triangle, off-diagonal twice),
+            // rv = c·ur.
+            let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
+            for i in 0..U {
+                let mut off = 0f32;
+                for j in i + 1..U {
+                    off += m[i][j] * c[j];
+                }
+                g11 += c[i] * (m[i][i] * c[i] + 2.0 * off);
+                rv += c[i] * ur[i];
+                if i == 0 {
+                    g01 = m[0][0] * c[0] + off;
+                }
             }
+            let det = g00 * g11 - g01 * g01;
+            let regular = det > 1e-6 * g00 * g11;
+            let inv_det = if regular { 1.0 / det } else { 0.0 };
+            let (mut a, mut b) = if regular {
+                (
+                    (g11 * r0 - g01 * rv) * inv_det,
+                    (g00 * rv - g01 * r0) * inv_det,
+                )
+            } else {
+                (r0 / g00, 0.0)
+            };
+            let explained = if b < 0.0 {
+                a = r0 / g00;
+                b = 0.0;
+                a * r0
+            } else {
+                a * r0 + b * rv
+            };
+            let (va, vb, cab) = if regular {
+                (g11 * inv_det, g00 * inv_det, -g01 * inv_det)
+            } else {
+                (1.0 / g00, 0.0, 0.0)
+            };
+            let var_hot = va + vb + 2.0 * cab;
+            let rss = (fit.yy - explained).max(0.0);
+            if rss < rss_min {
+                rss_min = rss;
+            }
+            cand[key] = Candidate {
+                a,
+                b,
+                var: if var_hot > va { var_hot } else { va },
+                chi2: rss,
+            };
         }
-        let det = g00 * g11 - g01 * g01;
-        let regular = det > 1e-6 * g00 * g11;
-        let inv_det = if regular { 1.0 / det } else { 0.0 };
-        let (mut a, mut b) = if regular {
-            (
-                (g11 * r0 - g01 * rv) * inv_det,
-                (g00 * rv - g01 * r0) * inv_det,
-            )
-        } else {
-            (r0 / g00, 0.0)
-        };
-        let explained = if b < 0.0 {
-            a = r0 / g00;
-            b = 0.0;
-            a * r0
-        } else {
-            a * r0 + b * rv
-        };
-        let (va, vb, cab) = if regular {
-            (g11 * inv_det, g00 * inv_det, -g01 * inv_det)
-        } else {
-            (1.0 / g00, 0.0, 0.0)
-        };
-        let var_hot = va + vb + 2.0 * cab;
-        cand[key] = Candidate {
-            a,
-            b,
-            var: if var_hot > va { var_hot } else { va },
-            chi2: ((dnd - explained) * inv_sigma2).max(0.0) + z * z,
-        };
+    }
+    // The noise: the best candidate's misfit per degree of freedom (the model holds the
+    // stripes' harmonics to the model's band; what is left is the pixels' noise, and what the
+    // model still misses), floored as the fit's.
+    let sigma2 =
+        (rss_min / (fit.bins - MODEL_PARAMETERS).max(1.0)).max(NOISE_FLOOR_K * NOISE_FLOOR_K);
+    let inv_sigma2 = 1.0 / sigma2;
+    for row in cand.chunks_exact_mut(2 * SLOTS) {
+        for (c, z2) in row.iter_mut().zip(&prior_chi2) {
+            c.chi2 = c.chi2 * inv_sigma2 + z2;
+        }
     }
     // The best candidate (its key) of a hypothesis at the spreads `psfs`.
     let best_in = |hyp: Hyp, psfs: core::ops::Range<usize>| {
         let mut best: Option<usize> = None;
+        let (base, nh) = (base_of(hyp), range_of(hyp).len());
         for psf in psfs {
-            for (j, _) in keys(hyp, psf) {
+            let first = psf * 2 * SLOTS + base;
+            for j in first..first + nh {
                 if best.is_none_or(|b| cand[j].chi2 < cand[b].chi2) {
                     best = Some(j);
                 }
@@ -1199,10 +1297,11 @@ pub fn separate(
         let (base, nh) = (base_of(hyp_best), range_of(hyp_best).len());
         // A hypothesis's candidates at one spread lie side by side, in h order.
         let row = |psf: usize| &cand[psf * 2 * SLOTS + base..][..nh];
-        // χ² is against the fit's residual variance, which holds the model's mismatch as well
-        // as the pixels' noise (their scatter within a fine bin); the posterior takes the
-        // noise, but no less than 1/POSTERIOR_SHARPEN of the residual variance.
-        let ratio = fit.sigma2 / fit.noise2;
+        // χ² is against the best candidate's residual variance, which holds the model's
+        // mismatch as well as the pixels' noise (their scatter within a fine bin); the
+        // posterior takes the noise, but no less than 1/POSTERIOR_SHARPEN of the residual
+        // variance.
+        let ratio = sigma2 / fit.noise2;
         posterior(
             row,
             nh,
@@ -1225,7 +1324,8 @@ pub fn separate(
     let mut merged_spread = 0f32;
     for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
         let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
-        for (j, _) in (0..PSFS).flat_map(|psf| keys(hy, psf)) {
+        let (base, nh) = (base_of(hy), range_of(hy).len());
+        for j in (0..PSFS).flat_map(|psf| psf * 2 * SLOTS + base..psf * 2 * SLOTS + base + nh) {
             let c = &cand[j];
             if c.chi2 > cmin + CONFIDENCE_CHI2 {
                 continue;
@@ -1394,6 +1494,58 @@ mod tests {
             "{n} profiles, mean relative error of the period: periodogram {pgram:.4}, \
              fundamental {one:.4}, three harmonics {three:.4}"
         );
+    }
+
+    #[test]
+    fn the_gram_matrix_from_the_turned_sums_is_the_basis_products() {
+        // The candidates' Gram matrix by the Toeplitz-plus-Hankel sums against uᵀ·N·u and
+        // uᵀ·rhs summed bin by bin, with N and rhs of the basis (1, cos kθ, sin kθ) to the
+        // model's harmonics: a thin stripe's profile, a tilted core's bins.
+        let p = stripes(5.2, 0.29, 1.3, 30.0);
+        let nu = 1.0 / 5.2;
+        let model = HARMONICS;
+        let fit = harmonic_fit(&p, nu, 3, model).expect("a fit");
+        let psi = sin_cos_turns(0.137);
+        let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
+        gram(&fit, model, (psi.1, psi.0), &mut m, &mut ur);
+        // Per bin, the model's basis at the bin: u_k·x = cos(k(θ − ψ)).
+        let mut want = [[0f64; U]; U];
+        let mut want_r = [0f64; U];
+        for b in 0..p.used {
+            let w = p.cnt[b] as f64;
+            if w == 0.0 {
+                continue;
+            }
+            let t = (p.tsum[b] / p.cnt[b]) as f64;
+            let y = (p.sum[b] / p.cnt[b]) as f64;
+            let phase = core::f64::consts::TAU * (nu as f64 * t - 0.137);
+            let x: [f64; U] = core::array::from_fn(|k| (k as f64 * phase).cos());
+            for i in 0..U {
+                for j in 0..U {
+                    want[i][j] += w * x[i] * x[j];
+                }
+                want_r[i] += w * y * x[i];
+            }
+        }
+        for i in 0..U {
+            for j in 0..U {
+                // Σ w bounds every entry of uᵀ·N·u.
+                assert!(
+                    (m[i][j] as f64 - want[i][j]).abs() < 2e-4 * want[0][0],
+                    "m[{i}][{j}] {} against {}",
+                    m[i][j],
+                    want[i][j]
+                );
+            }
+            // Σ w·|y| bounds every entry of uᵀ·rhs.
+            let scale: f64 = (0..p.used).map(|b| p.sum[b].abs() as f64).sum();
+            assert!(
+                (ur[i] as f64 - want_r[i]).abs() < 2e-4 * scale,
+                "ur[{i}] {} against {}",
+                ur[i],
+                want_r[i]
+            );
+        }
     }
 
     #[test]
