@@ -741,6 +741,38 @@ enum Hyp {
     SurfaceHot,
 }
 
+/// Write [`transfer`] at the first `model` harmonics of `nu` (cycles per pixel, along an axis
+/// of slope `slope`) and each spread of [`PSF_SIGMAS_PX`] into `mtf` (`mtf[spread][k]`): the
+/// footprint's two boxes, cos α and sin α wide, their sines at k·ν by the angle-sum step from
+/// ν's, times the Gaussian's: the spreads are multiples i·δ of one step, so
+/// exp(−2(πσkν)²) = E_k^(i²) with E_k = E_1^(k²), both stepped by products (one `expf` in all).
+fn transfers(nu: f32, slope: f32, model: usize, mtf: &mut [[f32; HARMONICS]; PSFS]) {
+    let inv_norm = 1.0 / crate::fmath::sqrt(1.0 + slope * slope);
+    let widths = (inv_norm, libm::fabsf(slope) * inv_norm);
+    let (sa1, ca1) = sin_cos_turns(0.5 * nu * widths.0);
+    let (sb1, cb1) = sin_cos_turns(0.5 * nu * widths.1);
+    let (mut box_a, mut box_b) = ((ca1, sa1), (cb1, sb1));
+    let x1 = core::f32::consts::PI * PSF_STEP_PX * nu;
+    let e1 = libm::expf(-2.0 * x1 * x1);
+    // E_k, stepped by E_1^(2k + 1), itself stepped by E_1².
+    let (mut ek, mut ek_step, e1_2) = (e1, e1 * e1 * e1, e1 * e1);
+    for k in 0..model {
+        let f = (k + 1) as f32 * nu;
+        let boxes = sinc_of(box_a.1, f * widths.0) * sinc_of(box_b.1, f * widths.1);
+        box_a = turn(box_a, (ca1, sa1));
+        box_b = turn(box_b, (cb1, sb1));
+        // E_k^(i²), stepped by E_k^((i+1)² − i²) = E_k^(2i + 1), itself stepped by E_k².
+        let (mut gauss, mut step, e2) = (1.0, ek, ek * ek);
+        for row in mtf.iter_mut() {
+            row[k] = boxes * gauss;
+            gauss *= step;
+            step *= e2;
+        }
+        ek *= ek_step;
+        ek_step *= e1_2;
+    }
+}
+
 /// Write the candidates' Gram matrix m = uᵀ·N·u and uᵀ·rhs into `m` and `ur`, for the fit's
 /// sums and `model` harmonics at the fundamental's phase ψ (cos ψ, sin ψ), where u_0 = e_0 and
 /// u_k = (cos kψ, sin kψ) in harmonic k's slots of the basis (1, cos θ, sin θ, cos 2θ, …).
@@ -1069,35 +1101,8 @@ pub fn separate(
     let (a1, b1) = (fit.theta[1], fit.theta[2]);
     let r1 = crate::fmath::sqrt(a1 * a1 + b1 * b1).max(1e-12);
     let (cpsi, spsi) = (a1 / r1, b1 / r1);
-    // The footprint's transfer per harmonic ([`transfer`]: two boxes, cos α and sin α wide,
-    // their sines at k·ν by the angle-sum step from ν's), times the Gaussian's: the spreads are
-    // multiples i·δ of one step, so exp(−2(πσkν)²) = E_k^(i²) with E_k = E_1^(k²), both
-    // stepped by products (one `expf` in all).
     let mut mtf = [[0f32; HARMONICS]; PSFS];
-    let inv_norm = 1.0 / crate::fmath::sqrt(1.0 + g.axis_slope * g.axis_slope);
-    let widths = (inv_norm, libm::fabsf(g.axis_slope) * inv_norm);
-    let (sa1, ca1) = sin_cos_turns(0.5 * nu * widths.0);
-    let (sb1, cb1) = sin_cos_turns(0.5 * nu * widths.1);
-    let (mut box_a, mut box_b) = ((ca1, sa1), (cb1, sb1));
-    let x1 = core::f32::consts::PI * PSF_STEP_PX * nu;
-    let e1 = libm::expf(-2.0 * x1 * x1);
-    // E_k, stepped by E_1^(2k + 1), itself stepped by E_1².
-    let (mut ek, mut ek_step, e1_2) = (e1, e1 * e1 * e1, e1 * e1);
-    for k in 0..model {
-        let f = (k + 1) as f32 * nu;
-        let boxes = sinc_of(box_a.1, f * widths.0) * sinc_of(box_b.1, f * widths.1);
-        box_a = turn(box_a, (ca1, sa1));
-        box_b = turn(box_b, (cb1, sb1));
-        // E_k^(i²), stepped by E_k^((i+1)² − i²) = E_k^(2i + 1), itself stepped by E_k².
-        let (mut gauss, mut step, e2) = (1.0, ek, ek * ek);
-        for row in mtf.iter_mut() {
-            row[k] = boxes * gauss;
-            gauss *= step;
-            step *= e2;
-        }
-        ek *= ek_step;
-        ek_step *= e1_2;
-    }
+    transfers(nu, g.axis_slope, model, &mut mtf);
     let g00 = fit.cs[0];
     let r0 = fit.rhs[0];
     // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
@@ -1664,6 +1669,27 @@ mod tests {
         // The same row, gentle (no vertex): the half steps' weighted mean lies near it too.
         let p = of_row(2.0);
         assert!((p.h_steps - 2.3).abs() < 0.1, "h {}", p.h_steps);
+    }
+
+    #[test]
+    fn the_stepped_transfers_are_the_transfer_function() {
+        // The table the candidates use, built by angle-sum and product steps, against
+        // `transfer` evaluated at each harmonic and spread: upright and tilted axes, short and
+        // long periods.
+        for (nu, slope) in [(0.2f32, 0.0f32), (0.19, 0.36), (0.125, -0.7), (0.07, 0.2)] {
+            let mut mtf = [[0f32; HARMONICS]; PSFS];
+            transfers(nu, slope, HARMONICS, &mut mtf);
+            for (i, row) in mtf.iter().enumerate() {
+                for (k, &x) in row.iter().enumerate() {
+                    let want = transfer((k + 1) as f32 * nu, slope, PSF_SIGMAS_PX[i]);
+                    assert!(
+                        (x - want).abs() < 2e-5,
+                        "nu {nu} slope {slope} spread {i} harmonic {}: {x} against {want}",
+                        k + 1
+                    );
+                }
+            }
+        }
     }
 
     #[test]
