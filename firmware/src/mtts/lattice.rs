@@ -199,11 +199,7 @@ fn turn((c, s): (f32, f32), (c1, s1): (f32, f32)) -> (f32, f32) {
 
 /// sin(πx)/(πx).
 fn sinc(x: f32) -> f32 {
-    if libm::fabsf(x) < 1e-4 {
-        1.0
-    } else {
-        sin_cos_turns(0.5 * x).0 / (core::f32::consts::PI * x)
-    }
+    sinc_of(sin_cos_turns(0.5 * x).0, x)
 }
 
 /// sin(πx)/(πx) given sin(πx) (`sin_pi_x`).
