@@ -261,15 +261,15 @@ fn the_exposed_fraction_is_fitted_between_its_grid_points() {
 fn a_period_past_the_longest_searched_never_resolves() {
     // An unseen member whose 0.65 px surface stripes (period 4.0 px, exposed 0.84, σ 0.38 px,
     // a 2.9 K gap) the core does not show: the periodogram peaked at its longest period and the refinement
-    // took it past (25.5 px, beyond the 24 searched). Its T2 is 5 K off; with a bound under
-    // 1 K it came out resolved and swapped — now it is at most ambiguous.
+    // took it past (25.5 px, beyond the 24 searched). Its T2 was 5 K off; with a bound under
+    // 1 K it came out resolved and swapped — now it is at most ambiguous (since the bins'
+    // slopes, 2.4 K off within a 4.2 K bound).
     let m = host_sim::imaging::view_family::Member::draw(1_000_877);
     let out = host_sim::imaging::mtts_wp::member_outcome(
         &m,
         PriorCase::Right,
         &mut Box::new(thermorph::mtts::Scratch::new()),
     );
-    assert!(out.err_k[1] > out.bound_k, "{out:?}");
     assert_ne!(out.quality, Quality::Resolved, "{out:?}");
     assert!(!out.swapped && !out.confidently_wrong(), "{out:?}");
 }
@@ -327,8 +327,8 @@ fn long_lattices_of_thin_stripes_are_fitted_within_0_3_k() {
     // Unseen members exposed 0.75–0.85 (surface stripes 0.15–0.25 of the period) with periods
     // of 10–16 px: the period refined on three harmonics, and six harmonics fitted for a design
     // of thin stripes (measured, mean |T2| over every frame: 0.40 K with the fundamental's
-    // refinement and five harmonics, 0.23 K then, 0.235 K with the exposure's prior, on these
-    // 128).
+    // refinement and five harmonics, 0.23 K then, 0.235 K with the exposure's prior, 0.229 K
+    // with the bins' slopes, on these 128).
     let (n, mean) = thin_stripe_cell(0.75..0.85, 10.0..16.0);
     assert!(
         n >= 100 && mean <= 0.3,
@@ -343,10 +343,11 @@ fn thin_stripes_of_short_periods_lean_on_the_design_s_exposure() {
     // valley; the Gaussian prior on the exposed fraction about the design
     // (`lattice::EXPOSED_PRIOR_SD`) weighs the valley (measured, mean |T2| over every frame:
     // 0.506 K with a flat prior over the window, 0.463 K with the prior, 0.437 K with the
-    // candidates' model to the design's harmonics below 1.25 cycles per pixel, on these 83).
+    // candidates' model to the design's harmonics below 1.25 cycles per pixel, 0.425 K with the
+    // bins' slopes, on these 83).
     let (n, mean) = thin_stripe_cell(0.75..0.85, 6.0..10.0);
     assert!(
-        n >= 80 && mean <= 0.45,
+        n >= 80 && mean <= 0.44,
         "{n} members: mean |T2| {mean:.3} K"
     );
 }
@@ -358,7 +359,8 @@ fn the_thesis_s_thin_surface_stripes_take_the_model_s_higher_harmonics() {
     // of the profile keeps the design's five harmonics below 1.25 cycles per pixel
     // (`lattice::MODEL_BAND_CPP`) where the free fit's 0.75 stops at three, and those stripes'
     // harmonics tell their width from the optics' spread (measured, mean |T2| over every
-    // frame: 0.208 K with the free fit's harmonics only, 0.178 K now, on these 194).
+    // frame: 0.208 K with the free fit's harmonics only, 0.178 K with them, 0.173 K with the
+    // bins' slopes, on these 194).
     let outs = members_outcomes(
         (UNSEEN.start..UNSEEN.start + 240).map(thesis),
         PriorCase::Right,
@@ -366,7 +368,7 @@ fn the_thesis_s_thin_surface_stripes_take_the_model_s_higher_harmonics() {
     let sel: Vec<_> = outs.iter().filter(|o| o.gap_k.abs() >= 3.0).collect();
     let mean = sel.iter().map(|o| o.err_k[1]).sum::<f64>() / sel.len() as f64;
     assert!(
-        sel.len() >= 180 && mean <= 0.195,
+        sel.len() >= 180 && mean <= 0.19,
         "{} members: mean |T2| {mean:.3} K",
         sel.len()
     );

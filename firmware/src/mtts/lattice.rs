@@ -31,7 +31,9 @@
 //!    core's pixels give a misfit χ² (the per-pixel least squares, through the normal matrix
 //!    of the fit's basis extended, for a lattice of short period, to the harmonics the design
 //!    needs below [`MODEL_BAND_CPP`], 1.25 cycles per pixel: a thin stripe's higher harmonics,
-//!    which the free fit cannot hold apart, are the model's own and not noise), with the noise
+//!    which the free fit cannot hold apart, are the model's own and not noise; each ¼ px bin
+//!    of the profile gives its pixels' mean and, where they lie at several places along the
+//!    axis, their slope: see `FINE`), with the noise
 //!    estimated from the best candidate's residual. The exposed fraction is thus fitted per
 //!    frame, and so is the spread: T1, T2 and h are their posterior means over the chosen
 //!    hypothesis's window and the spreads (likelihood e^(−χ²/2), flat over the spreads,
@@ -244,18 +246,44 @@ pub const LONE_PIXEL_K: f32 = 2.0;
 /// Fewest core pixels for [`LONE_PIXEL_K`]'s test (a core of a few pixels has no "every other").
 const LONE_MIN_PIXELS: f32 = 8.0;
 
+/// Least spread Σ (t − t̄)² of a bin's pixels along the axis for its slope to count, px²
+/// (pixels at one place, within rounding, tell no slope).
+const SLOPE_MIN_PX2: f32 = 1e-6;
 /// Fine bins per pixel of axial length.
+///
+/// A tilted axis puts a bin's pixels at several places within it, and across a sharp stripe's
+/// edge their values differ by a kelvin or more: that slope is what tells a stripe's width from
+/// the optics' spread, which a bin's mean alone throws away. So the candidates' misfit takes
+/// each bin to first order — its pixels at t̄ + δ see the model plus δ times its derivative —
+/// which adds the bins' slopes Y/S (S = Σ δ², Y = Σ δ·y, from [`Bin`]'s sums) weighed by S,
+/// exact up to the profile's curvature within ¼ px (`gram`; the free fit and the frequency's
+/// refinement keep the means alone). Unseen family members, |gap| ≥ 3 K: mean |T2| 0.114 →
+/// 0.110 K, exposed 0.75–0.85 at 6–10 px 0.48 → 0.46 K, the thesis's lattice 0.18 → 0.17 K;
+/// seen members 0.113 → 0.111 K (their thin-stripe cells at 10–16 px 0.26 → 0.24 K, at 4–6 px
+/// 0.64 → 0.67 K). Finer bins instead (16 per px, the means alone) bought less (0.112
+/// K unseen) for 28 700 more Cortex-M4 instructions; the slopes, with the profile's pass
+/// made cheaper (one array of bins, only the columns each row's core can reach), cost 3 470
+/// (`bash scripts/bench-m4`, first frame).
 const FINE: usize = 4;
 /// Fine bins of the core's axial profile.
 const FINE_BINS: usize = FINE * BINS;
 
-/// The core's pixels binned along the axis (one pass over the image): per fine bin (¼ px) the
-/// sum of values less the reference, the count and the sum of axial positions; with the core's
-/// count, mean and range.
+/// One fine bin of the core's axial profile: its pixels' sum of values less the reference,
+/// count and sum of axial positions; Σ τ² and Σ τ·y, τ a pixel's place within the bin (bin
+/// widths, 0…1): how far its pixels spread along the axis and how their values slope over it.
+#[derive(Clone, Copy, Default)]
+struct Bin {
+    sum: f32,
+    cnt: f32,
+    tsum: f32,
+    tt: f32,
+    ty: f32,
+}
+
+/// The core's pixels binned along the axis (one pass over the columns each row's core can
+/// reach): a [`Bin`] per ¼ px; with the core's count, mean and range.
 struct Profile {
-    sum: [f32; FINE_BINS],
-    cnt: [f32; FINE_BINS],
-    tsum: [f32; FINE_BINS],
+    bins: [Bin; FINE_BINS],
     /// Fine bins in use (the last non-empty one + 1).
     used: usize,
     /// Axial position of bin 0's start, pixels.
@@ -270,7 +298,7 @@ struct Profile {
 }
 
 impl Profile {
-    fn of(img: &[f32; IMG_PIXELS], xy: &Coords, u_core: f32) -> Option<Profile> {
+    fn of(img: &[f32; IMG_PIXELS], xy: &Coords, g: &Geometry, u_core: f32) -> Option<Profile> {
         // The smallest axial coordinate in the image is at a corner.
         let corners = [0, IMG_COLS - 1, (IMG_ROWS - 1) * IMG_COLS, IMG_PIXELS - 1];
         let mut tmin = f32::INFINITY;
@@ -281,9 +309,7 @@ impl Profile {
         }
         let t0 = floor(tmin);
         let mut p = Profile {
-            sum: [0.0; FINE_BINS],
-            cnt: [0.0; FINE_BINS],
-            tsum: [0.0; FINE_BINS],
+            bins: [Bin::default(); FINE_BINS],
             used: 0,
             t0,
             reference: 0.0,
@@ -297,40 +323,61 @@ impl Profile {
         // The second highest and lowest values, and the (bin, axial position) of the extremes.
         let (mut hi2, mut lo2) = (f32::NEG_INFINITY, f32::INFINITY);
         let (mut hi_at, mut lo_at) = ((0usize, 0f32), (0usize, 0f32));
-        for ((&u, &t), &v) in xy.u.iter().zip(xy.t.iter()).zip(img.iter()) {
-            if u < u_core {
-                if p.total == 0.0 {
-                    p.reference = v;
-                }
-                let dt = t - t0;
-                let b = ((dt * FINE as f32) as usize).min(FINE_BINS - 1);
-                let y = v - p.reference;
-                p.sum[b] += y;
-                p.cnt[b] += 1.0;
-                p.tsum[b] += t;
-                p.total += 1.0;
-                p.sq += y * y;
-                s += y;
-                if b >= p.used {
-                    p.used = b + 1;
-                }
-                // Most pixels pass neither second extreme: one comparison each.
-                if v < lo2 {
-                    if v < p.lo {
-                        lo2 = p.lo;
-                        p.lo = v;
-                        lo_at = (b, t);
-                    } else {
-                        lo2 = v;
+        // Each row's core lies within u_core·w·√(1 + slope²) columns of the axis: only those
+        // columns (and one more either side, for rounding) are looked at, in the same order.
+        let reach =
+            u_core * g.half_width_px * crate::fmath::sqrt(1.0 + g.axis_slope * g.axis_slope);
+        // The values are kept less a reference near the core's, for the sums' precision: the
+        // pixel on the axis in the middle row (the nearest column in the image).
+        let mid = IMG_ROWS / 2;
+        let axis_col = floor(g.axis_col0 + g.axis_slope * mid as f32 + 0.5);
+        p.reference = img[mid * IMG_COLS + axis_col.max(0.0).min((IMG_COLS - 1) as f32) as usize];
+        for r in 0..IMG_ROWS {
+            let centre = g.axis_col0 + g.axis_slope * r as f32;
+            let first = floor(centre - reach).max(0.0).min(IMG_COLS as f32) as usize;
+            let end = (floor(centre + reach) + 2.0).max(0.0).min(IMG_COLS as f32) as usize;
+            let row = r * IMG_COLS;
+            let span = row + first.min(end)..row + end;
+            for ((&u, &t), &v) in xy.u[span.clone()]
+                .iter()
+                .zip(xy.t[span.clone()].iter())
+                .zip(img[span].iter())
+            {
+                if u < u_core {
+                    let q = (t - t0) * FINE as f32;
+                    let b = (q as usize).min(FINE_BINS - 1);
+                    let y = v - p.reference;
+                    let tau = q - b as f32;
+                    let bin = &mut p.bins[b];
+                    bin.sum += y;
+                    bin.cnt += 1.0;
+                    bin.tsum += t;
+                    bin.tt += tau * tau;
+                    bin.ty += tau * y;
+                    p.total += 1.0;
+                    p.sq += y * y;
+                    s += y;
+                    if b >= p.used {
+                        p.used = b + 1;
                     }
-                }
-                if v > hi2 {
-                    if v > p.hi {
-                        hi2 = p.hi;
-                        p.hi = v;
-                        hi_at = (b, t);
-                    } else {
-                        hi2 = v;
+                    // Most pixels pass neither second extreme: one comparison each.
+                    if v < lo2 {
+                        if v < p.lo {
+                            lo2 = p.lo;
+                            p.lo = v;
+                            lo_at = (b, t);
+                        } else {
+                            lo2 = v;
+                        }
+                    }
+                    if v > hi2 {
+                        if v > p.hi {
+                            hi2 = p.hi;
+                            p.hi = v;
+                            hi_at = (b, t);
+                        } else {
+                            hi2 = v;
+                        }
                     }
                 }
             }
@@ -355,9 +402,13 @@ impl Profile {
     /// out of the running sum `s` of values less the reference.
     fn drop(&mut self, v: f32, (b, t): (usize, f32), s: &mut f32) {
         let y = v - self.reference;
-        self.sum[b] -= y;
-        self.cnt[b] -= 1.0;
-        self.tsum[b] -= t;
+        let tau = (t - self.t0) * FINE as f32 - b as f32;
+        let bin = &mut self.bins[b];
+        bin.sum -= y;
+        bin.cnt -= 1.0;
+        bin.tsum -= t;
+        bin.tt -= tau * tau;
+        bin.ty -= tau * y;
         self.total -= 1.0;
         self.sq -= y * y;
         *s -= y;
@@ -385,16 +436,11 @@ impl Coarse {
             t0: p.t0,
             total: p.total.max(1.0),
         };
-        for (b, (s4, c4)) in p.sum[..p.used]
-            .chunks(FINE)
-            .zip(p.cnt[..p.used].chunks(FINE))
-            .enumerate()
-            .take(BINS)
-        {
+        for (b, four) in p.bins[..p.used].chunks(FINE).enumerate().take(BINS) {
             let (mut y, mut n) = (0f32, 0f32);
-            for (&a, &k) in s4.iter().zip(c4) {
-                y += a;
-                n += k;
+            for bin in four {
+                y += bin.sum;
+                n += bin.cnt;
             }
             c.y[b] = y - n * p.mean_dev;
         }
@@ -478,7 +524,8 @@ fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)>
 }
 
 /// Per-pixel least squares at frequency `nu`: the normal matrix, its right-hand side, the
-/// solution and the residual variance per pixel.
+/// solution and the residual variance per pixel; with the bins' slopes (see [`FINE`]) for the
+/// candidates' model.
 struct HarmonicFit {
     n: usize,
     normal: [[f32; NP]; NP],
@@ -492,6 +539,16 @@ struct HarmonicFit {
     /// Σ w·y², K², and the bins in use.
     yy: f32,
     bins: f32,
+    /// The bins' slopes (with `slopes`, else zero): Σ S·cos mθ and Σ S·sin mθ, S a bin's
+    /// Σ (t − t̄)² (px²), m = 0…2·(the model's harmonics); Σ Y·(cos kθ, sin kθ), Y its
+    /// Σ (t − t̄)·y (K·px), k = 1…(the model's harmonics), in the slots of [`Self::rhs`].
+    ds_c: [f32; 2 * HARMONICS + 1],
+    ds_s: [f32; 2 * HARMONICS + 1],
+    dy: [f32; NP],
+    /// Σ Y²/S over the bins of more than one axial position, K², and how many: what their
+    /// slopes add to Σ w·y² and to the bins.
+    slope_yy: f32,
+    slope_bins: f32,
     sigma2: f32,
     /// Pixel noise variance: the scatter of the pixels within a fine bin (same lattice
     /// phase), K².
@@ -503,12 +560,12 @@ struct HarmonicFit {
 /// [`harmonic_fit_by`] at frequency `nu`, with the sums of the candidates' model up to `model`
 /// harmonics.
 fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize, model: usize) -> Option<HarmonicFit> {
-    harmonic_fit_by(p, harmonics, model, |_, t| sin_cos_turns(nu * t))
+    harmonic_fit_by::<true>(p, harmonics, model, |_, t| sin_cos_turns(nu * t))
 }
 
 /// [`harmonic_fit`] with the fundamental's (sin, cos) at bin b, axial position t from
 /// `angle(b, t)` (which may keep them for a second pass).
-fn harmonic_fit_by(
+fn harmonic_fit_by<const SLOPES: bool>(
     p: &Profile,
     harmonics: usize,
     model: usize,
@@ -526,12 +583,18 @@ fn harmonic_fit_by(
         sn: [0.0; 2 * HARMONICS + 1],
         yy: 0.0,
         bins: 0.0,
+        ds_c: [0.0; 2 * HARMONICS + 1],
+        ds_s: [0.0; 2 * HARMONICS + 1],
+        dy: [0.0; NP],
+        slope_yy: 0.0,
+        slope_bins: 0.0,
         sigma2: 0.0,
         noise2: 0.0,
         rss: 0.0,
     };
     // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
-    // sample at their mean position, their count its weight. The normal matrix's entries are
+    // sample at their mean position, their count its weight (and, with `SLOPES`, their slope
+    // over the bin a sample of the derivative there: see [`FINE`]). The normal matrix's entries are
     // products of cos and sin of jθ and kθ (j, k ≤ H), each half a sum or difference of the cos
     // or sin of mθ (m ≤ 2H): the bins accumulate those 4H + 1 sums, not the (2H + 1)(2H + 2)/2
     // products.
@@ -539,13 +602,15 @@ fn harmonic_fit_by(
     let mut cs = [0f32; 2 * HARMONICS + 1];
     let mut sn = [0f32; 2 * HARMONICS + 1];
     for b in 0..p.used {
-        let w = p.cnt[b];
+        let bin = &p.bins[b];
+        let w = bin.cnt;
         if w == 0.0 {
             continue;
         }
         let inv = 1.0 / w;
-        let (s1, c1) = angle(b, p.tsum[b] * inv);
-        let y = p.sum[b] * inv;
+        let tm = bin.tsum * inv;
+        let (s1, c1) = angle(b, tm);
+        let y = bin.sum * inv;
         let wy = w * y;
         cs[0] += w;
         f.rhs[0] += wy;
@@ -556,17 +621,58 @@ fn harmonic_fit_by(
         let (cs_lo, cs_hi) = cs[1..=2 * model].split_at_mut(model);
         let (sn_lo, sn_hi) = sn[1..=2 * model].split_at_mut(model);
         let rhs = f.rhs[1..=2 * model].chunks_exact_mut(2);
-        for ((cm, sm), r) in cs_lo.iter_mut().zip(sn_lo.iter_mut()).zip(rhs) {
-            *cm += w * c;
-            *sm += w * s;
-            r[0] += wy * c;
-            r[1] += wy * s;
-            (c, s) = turn((c, s), (c1, s1));
-        }
-        for (cm, sm) in cs_hi.iter_mut().zip(sn_hi.iter_mut()) {
-            *cm += w * c;
-            *sm += w * s;
-            (c, s) = turn((c, s), (c1, s1));
+        // The bin's spread S and slope Y about its mean place (τ̄ in bin widths); a bin of
+        // one place has none.
+        let tau = (tm - p.t0) * FINE as f32 - b as f32;
+        let sb = (bin.tt - w * tau * tau) * (1.0 / (FINE * FINE) as f32);
+        if SLOPES && sb > SLOPE_MIN_PX2 {
+            let yb = (bin.ty - tau * bin.sum) * (1.0 / FINE as f32);
+            f.slope_yy += yb * yb / sb;
+            f.slope_bins += 1.0;
+            f.ds_c[0] += sb;
+            let (dc_lo, dc_hi) = f.ds_c[1..=2 * model].split_at_mut(model);
+            let (ds_lo, ds_hi) = f.ds_s[1..=2 * model].split_at_mut(model);
+            let dy = f.dy[1..=2 * model].chunks_exact_mut(2);
+            for (((cm, sm), (dcm, dsm)), (r, d)) in cs_lo
+                .iter_mut()
+                .zip(sn_lo.iter_mut())
+                .zip(dc_lo.iter_mut().zip(ds_lo.iter_mut()))
+                .zip(rhs.zip(dy))
+            {
+                *cm += w * c;
+                *sm += w * s;
+                *dcm += sb * c;
+                *dsm += sb * s;
+                r[0] += wy * c;
+                r[1] += wy * s;
+                d[0] += yb * c;
+                d[1] += yb * s;
+                (c, s) = turn((c, s), (c1, s1));
+            }
+            for ((cm, sm), (dcm, dsm)) in cs_hi
+                .iter_mut()
+                .zip(sn_hi.iter_mut())
+                .zip(dc_hi.iter_mut().zip(ds_hi.iter_mut()))
+            {
+                *cm += w * c;
+                *sm += w * s;
+                *dcm += sb * c;
+                *dsm += sb * s;
+                (c, s) = turn((c, s), (c1, s1));
+            }
+        } else {
+            for ((cm, sm), r) in cs_lo.iter_mut().zip(sn_lo.iter_mut()).zip(rhs) {
+                *cm += w * c;
+                *sm += w * s;
+                r[0] += wy * c;
+                r[1] += wy * s;
+                (c, s) = turn((c, s), (c1, s1));
+            }
+            for (cm, sm) in cs_hi.iter_mut().zip(sn_hi.iter_mut()) {
+                *cm += w * c;
+                *sm += w * s;
+                (c, s) = turn((c, s), (c1, s1));
+            }
         }
         yy += wy * y;
         bins += 1.0;
@@ -638,7 +744,7 @@ fn harmonics_for(design_exposed: f32) -> usize {
 #[inline(never)] // called twice: one copy in the flash
 fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS]) -> Option<f32> {
     let k = k.clamp(1, REFINE_HARMONICS);
-    let f = harmonic_fit_by(p, k, k, |b, t| {
+    let f = harmonic_fit_by::<false>(p, k, k, |b, t| {
         let a = sin_cos_turns(nu * t);
         angles[b] = a;
         a
@@ -647,13 +753,14 @@ fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS])
     let (mut jr, mut jj) = (0f32, 0f32);
     let mut xj = [0f32; NP];
     for b in 0..p.used {
-        let w = p.cnt[b];
+        let bin = &p.bins[b];
+        let w = bin.cnt;
         if w == 0.0 {
             continue;
         }
         let inv = 1.0 / w;
-        let t = p.tsum[b] * inv;
-        let y = p.sum[b] * inv;
+        let t = bin.tsum * inv;
+        let y = bin.sum * inv;
         let (s1, c1) = angles[b];
         let (mut c, mut s) = (c1, s1);
         // cos jθ, sin jθ of this bin, j = 1…k.
@@ -771,10 +878,13 @@ fn transfers(nu: f32, slope: f32, model: usize, mtf: &mut [[f32; HARMONICS]; PSF
 
 /// Write the candidates' Gram matrix m = uᵀ·N·u and uᵀ·rhs into `m` and `ur`, for the fit's
 /// sums and `model` harmonics at the fundamental's phase ψ (cos ψ, sin ψ), where u_0 = e_0 and
-/// u_k = (cos kψ, sin kψ) in harmonic k's slots of the basis (1, cos θ, sin θ, cos 2θ, …).
+/// u_k = (cos kψ, sin kψ) in harmonic k's slots of the basis (1, cos θ, sin θ, cos 2θ, …),
+/// θ = 2πν·t at `nu` cycles per pixel; with the bins' slopes (the fit's `ds_c`, `ds_s`, `dy`)
+/// added through the model's derivative along the axis.
 fn gram(
     fit: &HarmonicFit,
     model: usize,
+    nu: f32,
     (cpsi, spsi): (f32, f32),
     m: &mut [[f32; U]; U],
     ur: &mut [f32; U],
@@ -784,12 +894,23 @@ fn gram(
     // products of the normal matrix's 2 × 2 blocks (each entry half a sum or difference of
     // the C and S at |i − j| and i + j) reduce to m_00 = R_0, m_0j = R_j and
     // m_ij = (R_|i−j| + R_(i+j))/2: Toeplitz plus Hankel, one product each.
+    //
+    // The slopes: a pixel at t̄ + δ in a bin of mean place t̄ sees the model at t̄ plus δ times
+    // its derivative, and a candidate's misfit over the bin's pixels is the bin mean's plus
+    // its slope's: Σ S·(Y/S − v')² with S = Σ δ², Y = Σ δ·y (the cross terms vanish, Σ δ = 0).
+    // The k-th unit's derivative is −2πν·k·sin(k(θ − ψ)), so the slopes add
+    // (2πν)²·i·j·(RS_|i−j| − RS_(i+j))/2 to m_ij (RS the S-weighted R) and
+    // −2πν·i·Σ Y·sin(i(θ − ψ)) to ur_i.
     let mut turned = [0f32; 2 * HARMONICS + 1];
+    let mut turned_s = [0f32; 2 * HARMONICS + 1];
     let mut j_psi = (1f32, 0f32);
-    for (j, r) in turned.iter_mut().enumerate().take(2 * model + 1) {
-        *r = fit.cs[j] * j_psi.0 + fit.sn[j] * j_psi.1;
+    for j in 0..=2 * model {
+        turned[j] = fit.cs[j] * j_psi.0 + fit.sn[j] * j_psi.1;
+        turned_s[j] = fit.ds_c[j] * j_psi.0 + fit.ds_s[j] * j_psi.1;
         j_psi = turn(j_psi, (cpsi, spsi));
     }
+    let w = core::f32::consts::TAU * nu;
+    let w2 = 0.5 * w * w;
     m[0][0] = turned[0];
     ur[0] = fit.rhs[0];
     let mut k_psi = (cpsi, spsi);
@@ -797,11 +918,13 @@ fn gram(
         m[0][i] = turned[i];
         m[i][0] = turned[i];
         for j in 1..=i {
-            let x = 0.5 * (turned[i - j] + turned[i + j]);
+            let x = 0.5 * (turned[i - j] + turned[i + j])
+                + w2 * (i * j) as f32 * (turned_s[i - j] - turned_s[i + j]);
             m[i][j] = x;
             m[j][i] = x;
         }
-        ur[i] = fit.rhs[2 * i - 1] * k_psi.0 + fit.rhs[2 * i] * k_psi.1;
+        ur[i] = fit.rhs[2 * i - 1] * k_psi.0 + fit.rhs[2 * i] * k_psi.1
+            - w * i as f32 * (fit.dy[2 * i] * k_psi.0 - fit.dy[2 * i - 1] * k_psi.1);
         k_psi = turn(k_psi, (cpsi, spsi));
     }
 }
@@ -1013,7 +1136,7 @@ pub fn separate(
 ) -> Separation {
     let win = window(design_exposed);
     let u_core = lattice_core_u(g.half_width_px);
-    let Some(prof) = Profile::of(img, xy, u_core) else {
+    let Some(prof) = Profile::of(img, xy, g, u_core) else {
         // No core pixel at all (cannot happen with a positive half-width): the image mean.
         let m = img.iter().sum::<f32>() / IMG_PIXELS as f32;
         return Separation {
@@ -1106,7 +1229,7 @@ pub fn separate(
     // model's harmonics: the Gram matrix m = uᵀ·N·u and uᵀ·rhs, computed once, make each
     // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
     let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
-    gram(&fit, model, (cpsi, spsi), &mut m, &mut ur);
+    gram(&fit, model, nu, (cpsi, spsi), &mut m, &mut ur);
     // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
     let (range_a, range_b) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
     // Only the two windows' candidates are computed and kept: key = spread·2·SLOTS + the
@@ -1212,7 +1335,7 @@ pub fn separate(
                 (1.0 / g00, 0.0, 0.0)
             };
             let var_hot = va + vb + 2.0 * cab;
-            let rss = (fit.yy - explained).max(0.0);
+            let rss = (fit.yy + fit.slope_yy - explained).max(0.0);
             if rss < rss_min {
                 rss_min = rss;
             }
@@ -1227,8 +1350,8 @@ pub fn separate(
     // The noise: the best candidate's misfit per degree of freedom (the model holds the
     // stripes' harmonics to the model's band; what is left is the pixels' noise, and what the
     // model still misses), floored as the fit's.
-    let sigma2 =
-        (rss_min / (fit.bins - MODEL_PARAMETERS).max(1.0)).max(NOISE_FLOOR_K * NOISE_FLOOR_K);
+    let sigma2 = (rss_min / (fit.bins + fit.slope_bins - MODEL_PARAMETERS).max(1.0))
+        .max(NOISE_FLOOR_K * NOISE_FLOOR_K);
     let inv_sigma2 = 1.0 / sigma2;
     for row in cand.chunks_exact_mut(2 * SLOTS) {
         for (c, z2) in row.iter_mut().zip(&prior_chi2) {
@@ -1428,9 +1551,7 @@ mod tests {
     /// top and bottom clip it.
     fn stripes(period_px: f32, h: f32, phase_px: f32, length_px: f32) -> Profile {
         let mut p = Profile {
-            sum: [0.0; FINE_BINS],
-            cnt: [0.0; FINE_BINS],
-            tsum: [0.0; FINE_BINS],
+            bins: [Bin::default(); FINE_BINS],
             used: 0,
             t0: 0.0,
             reference: 300.0,
@@ -1452,14 +1573,14 @@ mod tests {
                 .sum::<f32>()
                 / 64.0;
             let w = (1 + b.min(bins - 1 - b) / 6).min(4) as f32;
-            p.sum[b] = w * y;
-            p.cnt[b] = w;
-            p.tsum[b] = w * t;
+            p.bins[b].sum = w * y;
+            p.bins[b].cnt = w;
+            p.bins[b].tsum = w * t;
             p.total += w;
             p.sq += w * y * y;
         }
         p.used = bins;
-        p.mean_dev = p.sum.iter().sum::<f32>() / p.total;
+        p.mean_dev = p.bins.iter().map(|b| b.sum).sum::<f32>() / p.total;
         p
     }
 
@@ -1498,6 +1619,86 @@ mod tests {
     }
 
     #[test]
+    fn the_bins_slopes_make_the_gram_matrix_the_pixels_own() {
+        // A tilted core (several places per ¼ px bin) of a smooth profile: the candidates'
+        // Gram matrix and right-hand side with the bins' slopes against the products of the
+        // basis linearised about each bin's mean place, summed pixel by pixel in f64 —
+        // x_k = cos(k(θ̄ − ψ)) − δ·2πν·k·sin(k(θ̄ − ψ)), δ the pixel's offset from the mean.
+        // Without the slopes, the bins' means alone, the entries of the higher harmonics miss
+        // by far more than the tolerance.
+        let g = Geometry {
+            axis_col0: 15.3,
+            axis_slope: 0.23,
+            half_width_px: 9.0,
+            ..Geometry::DEFAULT
+        };
+        let xy = g.coords_all();
+        let nu = 1.0 / 6.1f32;
+        let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+            let th = core::f32::consts::TAU * nu * xy.t[p];
+            320.0
+                + 3.0 * libm::cosf(th + 0.4)
+                + 1.2 * libm::cosf(2.0 * th - 0.3)
+                + 0.5 * libm::sinf(3.0 * th)
+        });
+        let u_core = lattice_core_u(g.half_width_px);
+        let p = Profile::of(&img, &xy, &g, u_core).expect("a core");
+        let model = 5;
+        let fit = harmonic_fit(&p, nu, 3, model).expect("a fit");
+        let psi = sin_cos_turns(0.137);
+        let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
+        gram(&fit, model, nu, (psi.1, psi.0), &mut m, &mut ur);
+        let (mut want, mut want_r) = ([[0f64; U]; U], [0f64; U]);
+        let (mut bins_only, mut spread) = ([[0f64; U]; U], 0f64);
+        let w = core::f64::consts::TAU * nu as f64;
+        for q in 0..IMG_PIXELS {
+            if xy.u[q] >= u_core {
+                continue;
+            }
+            let b = (((xy.t[q] - p.t0) * FINE as f32) as usize).min(FINE_BINS - 1);
+            let mean_t = (p.bins[b].tsum / p.bins[b].cnt) as f64;
+            let delta = xy.t[q] as f64 - mean_t;
+            spread += delta * delta;
+            let phase = w * mean_t - core::f64::consts::TAU * 0.137;
+            let x: [f64; U] = core::array::from_fn(|k| {
+                let k = k as f64;
+                (k * phase).cos() - delta * w * k * (k * phase).sin()
+            });
+            let x0: [f64; U] = core::array::from_fn(|k| (k as f64 * phase).cos());
+            let y = (img[q] - p.reference) as f64;
+            for i in 0..=model {
+                for j in 0..=model {
+                    want[i][j] += x[i] * x[j];
+                    bins_only[i][j] += x0[i] * x0[j];
+                }
+                want_r[i] += y * x[i];
+            }
+        }
+        // The core's pixels do spread within their bins (else the test shows nothing).
+        assert!(spread > 0.1, "{spread}");
+        let scale: f64 = (0..p.used).map(|b| p.bins[b].sum.abs() as f64).sum();
+        let mut missed = 0f64;
+        for i in 0..=model {
+            for j in 0..=model {
+                assert!(
+                    (m[i][j] as f64 - want[i][j]).abs() < 1e-4 * want[0][0],
+                    "m[{i}][{j}] {} against {}",
+                    m[i][j],
+                    want[i][j]
+                );
+                missed = missed.max((bins_only[i][j] - want[i][j]).abs());
+            }
+            assert!(
+                (ur[i] as f64 - want_r[i]).abs() < 1e-4 * scale,
+                "ur[{i}] {} against {}",
+                ur[i],
+                want_r[i]
+            );
+        }
+        assert!(missed > 1e-2 * want[0][0], "{missed}");
+    }
+
+    #[test]
     fn the_gram_matrix_from_the_turned_sums_is_the_basis_products() {
         // The candidates' Gram matrix by the Toeplitz-plus-Hankel sums against uᵀ·N·u and
         // uᵀ·rhs summed bin by bin, with N and rhs of the basis (1, cos kθ, sin kθ) to the
@@ -1508,17 +1709,17 @@ mod tests {
         let fit = harmonic_fit(&p, nu, 3, model).expect("a fit");
         let psi = sin_cos_turns(0.137);
         let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
-        gram(&fit, model, (psi.1, psi.0), &mut m, &mut ur);
+        gram(&fit, model, nu, (psi.1, psi.0), &mut m, &mut ur);
         // Per bin, the model's basis at the bin: u_k·x = cos(k(θ − ψ)).
         let mut want = [[0f64; U]; U];
         let mut want_r = [0f64; U];
         for b in 0..p.used {
-            let w = p.cnt[b] as f64;
+            let w = p.bins[b].cnt as f64;
             if w == 0.0 {
                 continue;
             }
-            let t = (p.tsum[b] / p.cnt[b]) as f64;
-            let y = (p.sum[b] / p.cnt[b]) as f64;
+            let t = (p.bins[b].tsum / p.bins[b].cnt) as f64;
+            let y = (p.bins[b].sum / p.bins[b].cnt) as f64;
             let phase = core::f64::consts::TAU * (nu as f64 * t - 0.137);
             let x: [f64; U] = core::array::from_fn(|k| (k as f64 * phase).cos());
             for i in 0..U {
@@ -1539,7 +1740,7 @@ mod tests {
                 );
             }
             // Σ w·|y| bounds every entry of uᵀ·rhs.
-            let scale: f64 = (0..p.used).map(|b| p.sum[b].abs() as f64).sum();
+            let scale: f64 = (0..p.used).map(|b| p.bins[b].sum.abs() as f64).sum();
             assert!(
                 (ur[i] as f64 - want_r[i]).abs() < 2e-4 * scale,
                 "ur[{i}] {} against {}",
