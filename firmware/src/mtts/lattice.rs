@@ -558,13 +558,14 @@ struct HarmonicFit {
 }
 
 /// [`harmonic_fit_by`] at frequency `nu`, with the sums of the candidates' model up to `model`
-/// harmonics.
+/// harmonics and the bins' slopes.
 fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize, model: usize) -> Option<HarmonicFit> {
     harmonic_fit_by::<true>(p, harmonics, model, |_, t| sin_cos_turns(nu * t))
 }
 
 /// [`harmonic_fit`] with the fundamental's (sin, cos) at bin b, axial position t from
-/// `angle(b, t)` (which may keep them for a second pass).
+/// `angle(b, t)` (which may keep them for a second pass); the bins' slopes' sums only with
+/// `SLOPES` (the frequency's refinement, [`gn_step`], does without).
 fn harmonic_fit_by<const SLOPES: bool>(
     p: &Profile,
     harmonics: usize,
@@ -594,10 +595,10 @@ fn harmonic_fit_by<const SLOPES: bool>(
     };
     // The pixels of a fine bin (¼ px) share nearly one axial position: their mean is the
     // sample at their mean position, their count its weight (and, with `SLOPES`, their slope
-    // over the bin a sample of the derivative there: see [`FINE`]). The normal matrix's entries are
-    // products of cos and sin of jθ and kθ (j, k ≤ H), each half a sum or difference of the cos
-    // or sin of mθ (m ≤ 2H): the bins accumulate those 4H + 1 sums, not the (2H + 1)(2H + 2)/2
-    // products.
+    // over the bin a sample of the derivative there: see [`FINE`]). The normal matrix's
+    // entries are products of cos and sin of jθ and kθ (j, k ≤ H), each half a sum or
+    // difference of the cos or sin of mθ (m ≤ 2H): the bins accumulate those 4H + 1 sums, not
+    // the (2H + 1)(2H + 2)/2 products.
     let (mut yy, mut bins) = (0f32, 0f32);
     let mut cs = [0f32; 2 * HARMONICS + 1];
     let mut sn = [0f32; 2 * HARMONICS + 1];

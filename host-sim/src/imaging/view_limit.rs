@@ -302,17 +302,18 @@ pub fn exact_bayes(m: &Member) -> Option<[f64; 2]> {
         }
     }
     let lowest = points.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
-    let (mut sw, mut s1, mut s2_) = (0.0, 0.0, 0.0);
+    // The posterior means: each (e, σ)'s least squares weighed by its posterior mass.
+    let (mut sw, mut sum_t1, mut sum_t2) = (0.0, 0.0, 0.0);
     for &(chi, w, t1, t2) in &points {
         let w = w * (lowest - chi).exp();
         sw += w;
-        s1 += w * t1;
-        s2_ += w * t2;
+        sum_t1 += w * t1;
+        sum_t2 += w * t2;
     }
     (sw > 0.0).then(|| {
         [
-            (s1 / sw - m.temps.heater_k).abs(),
-            (s2_ / sw - m.temps.surface_k).abs(),
+            (sum_t1 / sw - m.temps.heater_k).abs(),
+            (sum_t2 / sw - m.temps.surface_k).abs(),
         ]
     })
 }
