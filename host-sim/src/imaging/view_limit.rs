@@ -36,6 +36,7 @@
 use nalgebra::{SMatrix, SVector};
 use thermorph::mtts::IMG_COLS;
 
+use crate::imaging::view::Rendered;
 use crate::imaging::view_family::Member;
 
 /// Highest frequency summed, cycles per pixel: beyond it, at harmonic k ≥ 12·P ≥ 48, a
@@ -114,17 +115,22 @@ fn values(p: &[f64; N], t: &[f64], cos_a: f64, sin_a: f64, out: &mut [f64]) {
     }
 }
 
-/// Each core pixel's axial coordinate for `m` (module docs).
-fn core_coordinates(m: &Member) -> Vec<f64> {
-    let r = m.render();
-    let g = &m.geometry;
-    let slope = g.tilt_deg.to_radians().tan();
-    let norm = (1.0 + slope * slope).sqrt();
+/// The core pixels (module docs) of `m` rendered as `r`: their indices, row-major.
+fn core_pixels(m: &Member, r: &Rendered) -> Vec<usize> {
     let bad = &m.bad[..m.bad_count];
     (0..r.image_k.len())
         .filter(|&p| r.fraction[0][p] + r.fraction[1][p] >= CORE_SHARE)
         .filter(|&p| bad.iter().all(|b| b.index != p))
-        .map(|p| {
+        .collect()
+}
+
+/// The axial coordinate of each of `m`'s pixels `core`.
+fn core_coordinates(m: &Member, core: &[usize]) -> Vec<f64> {
+    let g = &m.geometry;
+    let slope = g.tilt_deg.to_radians().tan();
+    let norm = (1.0 + slope * slope).sqrt();
+    core.iter()
+        .map(|&p| {
             let (row, col) = ((p / IMG_COLS) as f64, (p % IMG_COLS) as f64);
             (row + slope * (col - g.axis_col0)) / norm
         })
@@ -150,7 +156,7 @@ fn truth(m: &Member) -> ([f64; N], f64, f64) {
 /// The bound of member `m` (module docs); `None` when it has no core pixels or the
 /// information is singular.
 pub fn limit(m: &Member) -> Option<Limit> {
-    let t = core_coordinates(m);
+    let t = core_coordinates(m, &core_pixels(m, &m.render()));
     if t.is_empty() {
         return None;
     }
@@ -216,15 +222,11 @@ const BAYES_FOOTPRINT_ONLY: f64 = 0.2;
 /// `None` when the member has no core pixels.
 pub fn exact_bayes(m: &Member) -> Option<[f64; 2]> {
     let r = m.render();
-    let bad = &m.bad[..m.bad_count];
-    let core: Vec<usize> = (0..r.image_k.len())
-        .filter(|&p| r.fraction[0][p] + r.fraction[1][p] >= CORE_SHARE)
-        .filter(|&p| bad.iter().all(|b| b.index != p))
-        .collect();
+    let core = core_pixels(m, &r);
     if core.len() < 3 {
         return None;
     }
-    let t = core_coordinates(m);
+    let t = core_coordinates(m, &core);
     let y: Vec<f64> = core.iter().map(|&p| r.image_k[p] as f64).collect();
     let (truth_p, cos_a, sin_a) = truth(m);
     let (centre, period) = (truth_p[3], truth_p[4]);
@@ -339,7 +341,7 @@ mod tests {
         for seed in [3, 8, 21, 40] {
             let m = clean(seed);
             let r = render_psf(&m.geometry, &m.temps, m.psf_sigma_px, 0.0, 1);
-            let t = core_coordinates(&m);
+            let t = core_coordinates(&m, &core_pixels(&m, &m.render()));
             let (p, cos_a, sin_a) = truth(&m);
             let mut v = vec![0.0; t.len()];
             values(&p, &t, cos_a, sin_a, &mut v);
