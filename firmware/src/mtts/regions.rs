@@ -7,10 +7,11 @@
 //!    Below [`MIN_CONTRAST_K`] of contrast the geometry is not re-estimated: the previous
 //!    frame's is kept (or, on the first frame, a centred vertical cylinder of the default
 //!    width).
-//! 2. Cylinder: pixels farther than ½·contrast from bg form a mask; in each row an outermost
-//!    run of at most 2 px beside a wider one (a hot spring, a hot pixel) is dropped; each row's
-//!    mask centroid and width give, by weighted least squares, the axis `col = a + b·row` (shift and tilt) and the
-//!    half-width `w` (median row width, perpendicular). Every pixel gets a perpendicular
+//! 2. Cylinder: pixels farther than ½·contrast from bg form a mask; in each row that holds a
+//!    run of 3 px, an outermost run of at most 2 px within [`SPRING_GAP_PX`] of the next (a
+//!    hot spring, a hot pixel) is dropped; each row's mask centroid and width give, by
+//!    weighted least squares, the axis `col = a + b·row` (shift and tilt) and the half-width
+//!    `w` (median row width, perpendicular). Every pixel gets a perpendicular
 //!    distance ratio u = |d|/w and an axial coordinate t along the axis.
 //! 3. Zones: u < [`CORE_U`] core, < [`EDGE_U`] edge (region 3), < [`RADIATION_U`] radiation
 //!    (region 4), else background (region 5).
@@ -375,15 +376,32 @@ struct RowBody {
     clipped: bool,
 }
 
+/// Widest gap between an outermost narrow run and the next run for the narrow one to be
+/// dropped as a spring's, pixels (the rows of [`fit_cylinder`]). A spring 1.5 px off the
+/// column's side leaves at most 2 px between; the rings' edge across a gap row whose heater is
+/// near the room's temperature lies a column's width from the other edge. Tuned on the seen
+/// family members (`host_sim::imaging::view_family`, |gap| ≥ 3 K, mean |T1|, |T2|, a throwaway
+/// host experiment): no limit 0.078, 0.111 K; 1 px 0.078, 0.110; 2 px 0.077, 0.109; 3 px
+/// 0.077, 0.108; 4 px 0.078, 0.109; 6 px 0.078, 0.110 K. Unseen members with 3 px: 0.073,
+/// 0.110 → 0.073, 0.108 K; exposed 0.75–0.85 at 6–10 px 0.46 → 0.44 K
+/// (`bash scripts/work-precision`).
+pub const SPRING_GAP_PX: u32 = 3;
+
 /// The cylinder's own pixels in one row's mask (bit c: column c lies beyond the threshold):
-/// the outermost run of set bits on either side is dropped when it is at most 2 px wide and
-/// the row also holds a run at least 3 px wide. A hot spring beside the column (0.5 px wide,
-/// 1.5 px off its side) lights one or two pixels apart from it, and where the other spring lies
-/// off the image its row's centroid would be pulled towards the one in view: at a 25° lean the
-/// fitted tilt read ≈ 2.8° short (a 5.6° bend). A broken or hot pixel off the column goes the
-/// same way. A row of narrow runs only (the rings' edges of a gap row whose heater is near the
-/// room's temperature) is left whole: its runs are the column's. Works run by run, not pixel by
-/// pixel (a row holds a handful of runs).
+/// the outermost run of set bits on either side is dropped when it is at most 2 px wide, at
+/// most [`SPRING_GAP_PX`] from the next run, and the row also holds a run at least 3 px wide.
+/// A hot spring beside the column (0.5 px wide, 1.5 px off its side) lights one or two pixels
+/// apart from it, and where the other spring lies off the image its row's centroid would be
+/// pulled towards the one in view: at a 25° lean the fitted tilt read ≈ 2.8° short (a 5.6°
+/// bend). A broken or hot pixel just off the column goes the same way. A narrow run farther
+/// out is the column's own: the rings' edge of a gap row whose heater is near the room's
+/// temperature, whose other edge is a 3 px run (dropping it put the row's centroid on that
+/// edge: unseen member 1000842's tilt −0.087 read −0.013, now −0.052). A row of narrow runs
+/// only is left whole for the same reason. Such a row's width is its pixel count, narrower
+/// than the column (its span would be the column's, but measuring every row's width by its
+/// span took the seen members' mean |T2| from 0.108 to 0.113 K: a core that reaches the edges
+/// costs more than a narrow one). Works run by run, not pixel by pixel (a row holds a handful
+/// of runs).
 fn row_body(mask: u32) -> RowBody {
     // Runs as (first column, end column exclusive); 32 columns hold at most 16.
     let mut runs = [(0u32, 0u32); IMG_COLS / 2];
@@ -400,12 +418,14 @@ fn row_body(mask: u32) -> RowBody {
         x &= (u64::from(u32::MAX) << e) as u32;
     }
     let (mut lo, mut hi) = (0, k);
-    if widest >= 3 {
-        // The widest run stays, so lo < hi.
-        if runs[0].1 - runs[0].0 <= 2 {
+    // A single run is the body whatever its width; the widest run stays, so lo < hi.
+    if widest >= 3 && k >= 2 {
+        let (first, next) = (runs[0], runs[1]);
+        if first.1 - first.0 <= 2 && next.0 - first.1 <= SPRING_GAP_PX {
             lo = 1;
         }
-        if runs[k - 1].1 - runs[k - 1].0 <= 2 {
+        let (before, last) = (runs[k - 2], runs[k - 1]);
+        if last.1 - last.0 <= 2 && last.0 - before.1 <= SPRING_GAP_PX {
             hi = k - 1;
         }
     }
@@ -598,6 +618,41 @@ mod tests {
     }
 
     #[test]
+    fn a_heater_at_the_room_s_temperature_leaves_the_column_its_lean() {
+        // Thin rings (exposed 0.8 of a 6 px period) 12 K over a heater at the room's
+        // temperature: most rows show only the column's two edges, 1 to 3 px wide each.
+        for (slope, phase) in [(-0.087, 1.0), (0.2, 0.0), (-0.3, 2.5), (0.1, 4.0)] {
+            let g = Geometry {
+                axis_col0: 16.9,
+                axis_slope: slope,
+                half_width_px: 9.6,
+                period_px: 6.0,
+                phase_px: phase,
+                exposed: 0.8,
+                lattice_known: true,
+                ..Geometry::DEFAULT
+            };
+            let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+                let (u, t) = g.coords(p / IMG_COLS, p % IMG_COLS);
+                if u < 0.78 {
+                    if g.in_gap(t) { 298.5 } else { 310.0 }
+                } else if u < 1.0 {
+                    309.0
+                } else {
+                    298.0
+                }
+            });
+            // The rows' own scatter is small, and the line through them the column's (its
+            // width reads narrow, the rows' pixel counts: the lattice's core stays inside it).
+            // Dropping the far edge as a spring read −0.3 as −0.18, the slope's error 0.15.
+            let fit = fit_cylinder(&img, range_k(&img)).unwrap();
+            assert!((fit.slope - slope).abs() < 0.04, "{slope}: {fit:?}");
+            assert!(fit.slope_se < 0.08, "{slope}: {fit:?}");
+            assert!((fit.col0 - 16.9).abs() < 0.5, "{slope}: {fit:?}");
+        }
+    }
+
+    #[test]
     fn finds_a_shifted_tilted_cylinder() {
         let img = cylinder_image(13.0, 0.15, 6.0, false);
         let fit = fit_cylinder(&img, range_k(&img)).unwrap();
@@ -637,11 +692,17 @@ mod tests {
         let b = body(&[4, 5, 12, 13, 20]);
         assert_eq!((b.n, b.sum_col), (5, 54));
         // Only the outermost run goes; a narrow run inside stays; the body at the side clips.
-        let b = body(&[0, 1, 2, 3, 6, 20, 21, 22, 23, 30, 31]);
+        let b = body(&[0, 1, 2, 3, 6, 20, 21, 22, 23, 27, 28]);
         assert_eq!(
             (b.n, b.sum_col, b.clipped),
             (9, 6 + 6 + 20 + 21 + 22 + 23, true)
         );
+        // A narrow run farther out than a spring (the rings' edge of a gap row whose other
+        // edge is 3 px wide) is the column's: it stays. Three columns between: still a spring.
+        let b = body(&[7, 8, 24, 25, 26]);
+        assert_eq!((b.n, b.sum_col), (5, 7 + 8 + 24 + 25 + 26));
+        let b = body(&[7, 8, 12, 13, 14]);
+        assert_eq!((b.n, b.sum_col), (3, 12 + 13 + 14));
         let full = row_body(u32::MAX);
         assert_eq!((full.n, full.sum_col, full.clipped), (32, 496, true));
         assert_eq!(row_body(0).n, 0);
