@@ -268,6 +268,13 @@ const FINE: usize = 4;
 /// Fine bins of the core's axial profile.
 const FINE_BINS: usize = FINE * BINS;
 
+/// Axial position `t` in fine-bin widths from the profile's start `t0`, pixels in: its integer
+/// part is the pixel's bin, the rest its place τ within that bin (0…1), as [`Bin`] keeps it.
+#[inline(always)]
+fn fine_place(t: f32, t0: f32) -> f32 {
+    (t - t0) * FINE as f32
+}
+
 /// One fine bin of the core's axial profile: its pixels' sum of values less the reference,
 /// count and sum of axial positions; Σ τ² and Σ τ·y, τ a pixel's place within the bin (bin
 /// widths, 0…1): how far its pixels spread along the axis and how their values slope over it.
@@ -344,7 +351,7 @@ impl Profile {
                 .zip(img[span].iter())
             {
                 if u < u_core {
-                    let q = (t - t0) * FINE as f32;
+                    let q = fine_place(t, t0);
                     let b = (q as usize).min(FINE_BINS - 1);
                     let y = v - p.reference;
                     let tau = q - b as f32;
@@ -402,7 +409,7 @@ impl Profile {
     /// out of the running sum `s` of values less the reference.
     fn drop(&mut self, v: f32, (b, t): (usize, f32), s: &mut f32) {
         let y = v - self.reference;
-        let tau = (t - self.t0) * FINE as f32 - b as f32;
+        let tau = fine_place(t, self.t0) - b as f32;
         let bin = &mut self.bins[b];
         bin.sum -= y;
         bin.cnt -= 1.0;
@@ -624,7 +631,7 @@ fn harmonic_fit_by<const SLOPES: bool>(
         let rhs = f.rhs[1..=2 * model].chunks_exact_mut(2);
         // The bin's spread S and slope Y about its mean place (τ̄ in bin widths); a bin of
         // one place has none.
-        let tau = (tm - p.t0) * FINE as f32 - b as f32;
+        let tau = fine_place(tm, p.t0) - b as f32;
         let sb = (bin.tt - w * tau * tau) * (1.0 / (FINE * FINE) as f32);
         if SLOPES && sb > SLOPE_MIN_PX2 {
             let yb = (bin.ty - tau * bin.sum) * (1.0 / FINE as f32);
@@ -1656,7 +1663,7 @@ mod tests {
             if xy.u[q] >= u_core {
                 continue;
             }
-            let b = (((xy.t[q] - p.t0) * FINE as f32) as usize).min(FINE_BINS - 1);
+            let b = (fine_place(xy.t[q], p.t0) as usize).min(FINE_BINS - 1);
             let mean_t = (p.bins[b].tsum / p.bins[b].cnt) as f64;
             let delta = xy.t[q] as f64 - mean_t;
             spread += delta * delta;
