@@ -268,8 +268,9 @@ const FINE: usize = 4;
 /// Fine bins of the core's axial profile.
 const FINE_BINS: usize = FINE * BINS;
 
-/// Axial position `t` in fine-bin widths from the profile's start `t0`, pixels in: its integer
-/// part is the pixel's bin, the rest its place τ within that bin (0…1), as [`Bin`] keeps it.
+/// Axial position `t` (pixels) in fine-bin widths from the profile's start `t0` (pixels): its
+/// integer part is the pixel's bin, the rest its place τ within that bin (0…1), as [`Bin`]
+/// keeps it.
 #[inline(always)]
 fn fine_place(t: f32, t0: f32) -> f32 {
     (t - t0) * FINE as f32

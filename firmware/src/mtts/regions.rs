@@ -759,32 +759,26 @@ mod tests {
         assert!((fit.tilt_slope - slope).abs() < 0.03, "{fit:?}");
     }
 
-    #[test]
-    fn the_background_and_the_contrast_are_the_sorted_values_own() {
-        // Random images (a few values repeated, so ties and equal bins occur) against a sort:
-        // the outer columns' median, and the 95th percentile of |v − bg| by an upward count.
-        let mut state = 0x2545_f491_u32;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state
-        };
-        for case in 0..300 {
-            let levels = 2 + case % 40;
-            let img: [f32; IMG_PIXELS] = core::array::from_fn(|_| {
-                280.0 + (next() % levels) as f32 * 0.37 + (next() % 3) as f32 * 11.0
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(300))]
+
+        /// Images of a few values repeated (ties, equal bins) against a sort: the outer
+        /// columns' median, and the 95th percentile of |v − bg| by an upward count.
+        #[test]
+        fn the_background_and_the_contrast_are_the_sorted_values_own(
+            codes in proptest::collection::vec((0u32..40, 0u32..3), IMG_PIXELS),
+            levels in 2u32..42,
+        ) {
+            let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+                let (fine, coarse) = codes[p];
+                280.0 + (fine % levels) as f32 * 0.37 + coarse as f32 * 11.0
             });
             let mut border: std::vec::Vec<f32> = (0..IMG_ROWS)
                 .flat_map(|r| [img[r * IMG_COLS], img[r * IMG_COLS + IMG_COLS - 1]])
                 .collect();
             border.sort_by(f32::total_cmp);
             let bg = border_median(&img);
-            assert_eq!(
-                bg,
-                0.5 * (border[IMG_ROWS - 1] + border[IMG_ROWS]),
-                "case {case}"
-            );
+            proptest::prop_assert_eq!(bg, 0.5 * (border[IMG_ROWS - 1] + border[IMG_ROWS]));
             let range = range_k(&img);
             let hi = (range.1 - bg).max(bg - range.0);
             let scale = 255.0 / hi;
@@ -801,11 +795,7 @@ mod tests {
                     acc > target
                 })
                 .unwrap();
-            assert_eq!(
-                deviation_95(&img, bg, range),
-                (bin as f32 + 0.5) / scale,
-                "case {case}"
-            );
+            proptest::prop_assert_eq!(deviation_95(&img, bg, range), (bin as f32 + 0.5) / scale);
         }
     }
 
