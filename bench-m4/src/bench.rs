@@ -161,6 +161,7 @@ fn main() -> ! {
             &mut g,
             thermorph::mtts::Prior::Unknown,
             f32::from(thermorph::mtts::DEFAULT_EXPOSED_PCT) / 100.0,
+            scratch.hottest_k - scratch.coldest_k,
         ))
     });
     let (_, t_ov) = measure(|| {

@@ -54,6 +54,21 @@ pub fn pow2(n: i32) -> f32 {
     f32::from_bits(((n + 127) as u32) << 23)
 }
 
+/// Return the larger of `a` and `b`, or `a` when `b` is NaN, as `f32::max` does: without its
+/// library call on the Cortex-M4 (`fmaxf`: a call, eleven instructions and a return, where this
+/// is a comparison and a conditional move). Unlike `f32::max`, NaN `a` gives NaN: a value that
+/// may be NaN goes second (a bound first: `max(0.0, x)`).
+#[inline(always)]
+pub fn max(a: f32, b: f32) -> f32 {
+    if b > a { b } else { a }
+}
+
+/// Return the smaller of `a` and `b`, or `a` when `b` is NaN ([`max`]'s twin, for `f32::min`).
+#[inline(always)]
+pub fn min(a: f32, b: f32) -> f32 {
+    if b < a { b } else { a }
+}
+
 /// Return ⌊`x`⌋ without a library call (`f32::floor` is one on the Cortex-M4), for |x| < 2^31.
 #[inline]
 pub fn floor(x: f32) -> f32 {

@@ -542,8 +542,15 @@ pub fn lloyd(
         }
     }
     // Order clusters by mean and report them.
+    // An insertion sort of at most MAX_K (`core`'s sort would take 4.9 KB of the board's flash).
     let mut order: [usize; MAX_K] = core::array::from_fn(|i| i);
-    order[..k].sort_unstable_by(|&a, &b| c[a].total_cmp(&c[b]));
+    for i in 1..k {
+        let mut j = i;
+        while j > 0 && c[order[j - 1]].total_cmp(&c[order[j]]).is_gt() {
+            order.swap(j - 1, j);
+            j -= 1;
+        }
+    }
     let mut out = Clusters::empty();
     let mut sse = 0f64;
     let mut rank = [0usize; MAX_K];

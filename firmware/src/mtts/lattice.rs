@@ -46,7 +46,13 @@
 //!
 //! The core's profile leaves out a lone pixel more than [`LONE_PIXEL_K`] beyond every other
 //! (a hot or dead pixel the EEPROM does not flag): one such pixel moves its bin by its whole
-//! excess, and the fit's harmonics with it.
+//! excess, and the fit's harmonics with it. A bad pixel that is not the core's extreme (a hot
+//! pixel on a cold stripe) is left out too when it lies beyond both its row neighbours by more
+//! than 5 % of the frame's range, and at least [`LONE_PIXEL_K`]: if at most four core pixels
+//! do. More are the lattice's own — a thin stripe crossing the rows at a slant puts single
+//! pixels beyond both neighbours — and stay (the first four are noted as the pass goes; the
+//! rest of the pass is as without the rule). Unseen family members, |gap| ≥ 3 K: mean |T1|,
+//! |T2| 0.073, 0.108 → 0.070, 0.104 K; exposed 0.75–0.85 at 6–10 px, T2 0.44 → 0.36 K.
 //!
 //! Which target is hotter: hot stripes of fraction h are the heater if the exposed fraction
 //! d = h, or the surface if d = 1 − h. The block's design fixes d within
@@ -81,7 +87,7 @@
 use super::Quality;
 use super::regions::{CORE_U, Coords, Geometry};
 use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
-use crate::fmath::{floor, sin_cos_turns};
+use crate::fmath::{floor, max, min, sin_cos_turns};
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
 pub const EXPOSED_MIN: f32 = 0.15;
@@ -226,8 +232,8 @@ pub fn transfer(nu: f32, slope: f32, sigma_px: f32) -> f32 {
 /// Distance ratio below which a pixel belongs to the lattice core: the core less about one
 /// pixel (the footprint and the optics' spread reach the edges), at least the axis pixels.
 pub fn lattice_core_u(half_width_px: f32) -> f32 {
-    let w = half_width_px.max(0.5);
-    (CORE_U - 0.75 / w).max(0.6 / w).min(CORE_U)
+    let w = max(0.5, half_width_px);
+    min(max(CORE_U - 0.75 / w, 0.6 / w), CORE_U)
 }
 
 /// The core's reference value, mean and range, K.
@@ -245,6 +251,17 @@ struct Core {
 pub const LONE_PIXEL_K: f32 = 2.0;
 /// Fewest core pixels for [`LONE_PIXEL_K`]'s test (a core of a few pixels has no "every other").
 const LONE_MIN_PIXELS: f32 = 8.0;
+/// A core pixel more than this share of the frame's range (and at least [`LONE_PIXEL_K`])
+/// beyond both its row neighbours is a hot or dead pixel (if there are at most [`ODD_MAX`]):
+/// a fixed 2 K took the 273 K camera-on cycle's mean |T2| from 0.077 to 0.113 K, where gaps of
+/// tens of kelvin put a slanted stripe's single pixels that far beyond their neighbours.
+const BAD_RANGE_FRACTION: f32 = 0.05;
+/// Most core pixels beyond both row neighbours that the profile leaves out as bad: more are
+/// the lattice's own stripes, and all stay. Seen family members, |gap| ≥ 3 K, mean |T1|, |T2|:
+/// no rule 0.0772, 0.1084 K; at most 3 0.0781, 0.1055; 4 or 6 0.0771, 0.1055; no limit 0.0769,
+/// 0.1055. Without a limit a thin stripe at a slant lost its pixels (unseen member 1000543,
+/// tilt −30°, exposed 0.83: |T2| 0.27 → 0.70 K, past its bound).
+const ODD_MAX: usize = 4;
 
 /// Least spread Σ (t − t̄)² of a bin's pixels along the axis for its slope to count, px²
 /// (pixels at one place, within rounding, tell no slope).
@@ -306,7 +323,13 @@ struct Profile {
 }
 
 impl Profile {
-    fn of(img: &[f32; IMG_PIXELS], xy: &Coords, g: &Geometry, u_core: f32) -> Option<Profile> {
+    fn of(
+        img: &[f32; IMG_PIXELS],
+        xy: &Coords,
+        g: &Geometry,
+        u_core: f32,
+        bad_k: f32,
+    ) -> Option<Profile> {
         // The smallest axial coordinate in the image is at a corner.
         let corners = [0, IMG_COLS - 1, (IMG_ROWS - 1) * IMG_COLS, IMG_PIXELS - 1];
         let mut tmin = f32::INFINITY;
@@ -331,6 +354,9 @@ impl Profile {
         // The second highest and lowest values, and the (bin, axial position) of the extremes.
         let (mut hi2, mut lo2) = (f32::NEG_INFINITY, f32::INFINITY);
         let (mut hi_at, mut lo_at) = ((0usize, 0f32), (0usize, 0f32));
+        // Pixels beyond both row neighbours (value, axial position): the first ODD_MAX.
+        let mut odd = [(0f32, 0f32); ODD_MAX];
+        let mut n_odd = 0usize;
         // Each row's core lies within u_core·w·√(1 + slope²) columns of the axis: only those
         // columns (and one more either side, for rounding) are looked at, in the same order.
         let reach =
@@ -339,19 +365,38 @@ impl Profile {
         // pixel on the axis in the middle row (the nearest column in the image).
         let mid = IMG_ROWS / 2;
         let axis_col = floor(g.axis_col0 + g.axis_slope * mid as f32 + 0.5);
-        p.reference = img[mid * IMG_COLS + axis_col.max(0.0).min((IMG_COLS - 1) as f32) as usize];
+        p.reference = img[mid * IMG_COLS + min(max(0.0, axis_col), (IMG_COLS - 1) as f32) as usize];
         for r in 0..IMG_ROWS {
             let centre = g.axis_col0 + g.axis_slope * r as f32;
-            let first = floor(centre - reach).max(0.0).min(IMG_COLS as f32) as usize;
-            let end = (floor(centre + reach) + 2.0).max(0.0).min(IMG_COLS as f32) as usize;
+            let first = (floor(centre - reach) as i32).clamp(0, IMG_COLS as i32) as usize;
+            let end = (floor(centre + reach) as i32 + 2).clamp(0, IMG_COLS as i32) as usize;
             let row = r * IMG_COLS;
-            let span = row + first.min(end)..row + end;
-            for ((&u, &t), &v) in xy.u[span.clone()]
-                .iter()
-                .zip(xy.t[span.clone()].iter())
-                .zip(img[span].iter())
-            {
-                if u < u_core {
+            let first = first.min(end);
+            let m = IMG_COLS - 1;
+            let line: &[f32; IMG_COLS] = img[row..row + IMG_COLS]
+                .try_into()
+                .unwrap_or(&[0.0; IMG_COLS]);
+            let us: &[f32; IMG_COLS] = xy.u[row..row + IMG_COLS]
+                .try_into()
+                .unwrap_or(&[0.0; IMG_COLS]);
+            let ts: &[f32; IMG_COLS] = xy.t[row..row + IMG_COLS]
+                .try_into()
+                .unwrap_or(&[0.0; IMG_COLS]);
+            for c in first..end {
+                if us[c & m] < u_core {
+                    let (t, v) = (ts[c & m], line[c & m]);
+                    // Beyond both row neighbours: the left one first, the right one only past
+                    // it — most pixels are not (the pixel itself at the image's sides).
+                    let dl = v - line[c.wrapping_sub(1) & m];
+                    if c > 0 && dl.abs() > bad_k {
+                        let dr = v - line[(c + 1).min(m)];
+                        if dl * dr > 0.0 && dr.abs() > bad_k {
+                            if let Some(o) = odd.get_mut(n_odd) {
+                                *o = (v, t);
+                            }
+                            n_odd += 1;
+                        }
+                    }
                     let q = fine_place(t, t0);
                     let b = (q as usize).min(FINE_BINS - 1);
                     let y = v - p.reference;
@@ -390,13 +435,31 @@ impl Profile {
                 }
             }
         }
+        // A few pixels beyond both row neighbours are hot or dead pixels the EEPROM does not
+        // flag, and are left out; many are the lattice's own (thin stripes crossing the rows
+        // at a slant), and stay.
+        let (mut hi_kept, mut lo_kept) = (true, true);
+        if n_odd <= ODD_MAX {
+            for &(v, t) in &odd[..n_odd] {
+                let b = (fine_place(t, t0) as usize).min(FINE_BINS - 1);
+                p.drop(v, (b, t), &mut s);
+                if (v, t) == (p.hi, hi_at.1) {
+                    p.hi = hi2;
+                    hi_kept = false;
+                }
+                if (v, t) == (p.lo, lo_at.1) {
+                    p.lo = lo2;
+                    lo_kept = false;
+                }
+            }
+        }
         // A lone pixel far beyond every other in the core (a hot or dead pixel the EEPROM does
         // not flag) is left out: one such pixel shifts its bin by its whole excess.
-        if p.total > LONE_MIN_PIXELS && p.hi - hi2 > LONE_PIXEL_K {
+        if hi_kept && p.total > LONE_MIN_PIXELS && p.hi - hi2 > LONE_PIXEL_K {
             p.drop(p.hi, hi_at, &mut s);
             p.hi = hi2;
         }
-        if p.total > LONE_MIN_PIXELS && lo2 - p.lo > LONE_PIXEL_K {
+        if lo_kept && p.total > LONE_MIN_PIXELS && lo2 - p.lo > LONE_PIXEL_K {
             p.drop(p.lo, lo_at, &mut s);
             p.lo = lo2;
         }
@@ -442,7 +505,7 @@ impl Coarse {
             y: [0.0; BINS],
             used: p.length().min(BINS),
             t0: p.t0,
-            total: p.total.max(1.0),
+            total: max(p.total, 1.0),
         };
         for (b, four) in p.bins[..p.used].chunks(FINE).enumerate().take(BINS) {
             let (mut y, mut n) = (0f32, 0f32);
@@ -713,7 +776,7 @@ fn harmonic_fit_by<const SLOPES: bool>(
     // Σ w·r² over the bins is (bins − n)·σ² for a pixel noise σ.
     let floor_k = NOISE_FLOOR_K;
     f.rss = yy - fit;
-    f.sigma2 = (f.rss / (bins - n as f32)).max(floor_k * floor_k);
+    f.sigma2 = max(floor_k * floor_k, f.rss / (bins - n as f32));
     f.noise2 = if p.total > bins {
         ((p.sq - yy) / (p.total - bins)).clamp(floor_k * floor_k, f.sigma2)
     } else {
@@ -732,7 +795,7 @@ fn harmonic_fit_by<const SLOPES: bool>(
 /// better: a sixth harmonic cost the thesis's block accuracy in the camera-on cycle (mean |T2|
 /// 0.064 → 0.112 K) and the standard scenes' T1 (mean 0.010 → 0.028 K).
 fn harmonics_for(design_exposed: f32) -> usize {
-    let thin = design_exposed.min(1.0 - design_exposed).max(0.05);
+    let thin = max(min(design_exposed, 1.0 - design_exposed), 0.05);
     // 1 + ⌈1/h⌉.
     ((1.0 - floor(-1.0 / thin)) as usize).clamp(BASE_HARMONICS, HARMONICS)
 }
@@ -807,7 +870,7 @@ fn solve(a: &[[f32; NP]; NP], b: &[f32], n: usize) -> Option<[f32; NP]> {
                 s -= l[i][k] * l[j][k];
             }
             if i == j {
-                if s <= 1e-4 * a[i][i].max(1e-12) {
+                if s <= 1e-4 * max(1e-12, a[i][i]) {
                     return None;
                 }
                 l[i][i] = crate::fmath::sqrt(s);
@@ -946,8 +1009,8 @@ fn h_at(j: usize) -> f32 {
 /// The exposed fractions a frame of a block designed with `design` may show.
 fn window(design: f32) -> (f32, f32) {
     (
-        (design - EXPOSED_TOLERANCE).max(EXPOSED_MIN) - 1e-4,
-        (design + EXPOSED_TOLERANCE).min(EXPOSED_MAX) + 1e-4,
+        max(design - EXPOSED_TOLERANCE, EXPOSED_MIN) - 1e-4,
+        min(design + EXPOSED_TOLERANCE, EXPOSED_MAX) + 1e-4,
     )
 }
 
@@ -958,9 +1021,9 @@ fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize> {
         Hyp::HeaterHot => (lo, hi),
         Hyp::SurfaceHot => (1.0 - hi, 1.0 - lo),
     };
-    let first = ((hlo - H_FIRST) / H_STEP).max(0.0);
+    let first = max(0.0, (hlo - H_FIRST) / H_STEP);
     let first = first as usize + usize::from(first > floor(first));
-    let last = ((hhi - H_FIRST) / H_STEP).max(-1.0);
+    let last = max(-1.0, (hhi - H_FIRST) / H_STEP);
     let end = if last < 0.0 {
         0
     } else {
@@ -1084,7 +1147,7 @@ fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32
     let (mut sw, mut sa, mut sb, mut sh) = (0f32, 0f32, 0f32, 0f32);
     let mut add = |chi2: f32, a: f32, b: f32, half_steps: f32, mass: f32| {
         // A midpoint may dip below the best point; far below is the interpolation's.
-        let d = ((chi2 - lo) * sharpen).max(-POSTERIOR_CHI2);
+        let d = max(-POSTERIOR_CHI2, (chi2 - lo) * sharpen);
         if d < POSTERIOR_CHI2 {
             // e^(−d/2) as 2^(−d·log₂e/2).
             let w = mass * crate::fmath::exp2(d * (-0.5 * core::f32::consts::LOG2_E));
@@ -1135,17 +1198,21 @@ fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32
 }
 
 /// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
-/// cylinder geometry `g` (its lattice fields are updated), with the coordinates `xy` of `g`.
+/// cylinder geometry `g` (its lattice fields are updated), with the coordinates `xy` of `g`;
+/// `range_k` is the frame's range (hottest less coldest pixel, K), which scales the test for
+/// bad pixels (the module docs).
 pub fn separate(
     img: &[f32; IMG_PIXELS],
     xy: &Coords,
     g: &mut Geometry,
     prior: Prior,
     design_exposed: f32,
+    range_k: f32,
 ) -> Separation {
+    let bad_k = max(LONE_PIXEL_K, BAD_RANGE_FRACTION * range_k);
     let win = window(design_exposed);
     let u_core = lattice_core_u(g.half_width_px);
-    let Some(prof) = Profile::of(img, xy, g, u_core) else {
+    let Some(prof) = Profile::of(img, xy, g, u_core, bad_k) else {
         // No core pixel at all (cannot happen with a positive half-width): the image mean.
         let m = img.iter().sum::<f32>() / IMG_PIXELS as f32;
         return Separation {
@@ -1170,7 +1237,7 @@ pub fn separate(
         quality: Quality::Fallback,
     };
     let length = prof.length() as f32;
-    let p_max = PERIOD_MAX_PX.min(length / 1.2);
+    let p_max = min(PERIOD_MAX_PX, length / 1.2);
     let (lo, hi, step) = if g.lattice_known {
         let nu = 1.0 / g.period_px;
         (0.88 * nu, 1.12 * nu, 0.004)
@@ -1180,8 +1247,8 @@ pub fn separate(
     let coarse = Coarse::of(&prof);
     let found = find_frequency(
         &coarse,
-        lo.max(1.0 / p_max),
-        hi.min(1.0 / PERIOD_MIN_PX),
+        max(lo, 1.0 / p_max),
+        min(hi, 1.0 / PERIOD_MIN_PX),
         step,
     )
     .filter(|&(_, amp)| amp >= MIN_LATTICE_K);
@@ -1227,7 +1294,7 @@ pub fn separate(
         };
     };
     let (a1, b1) = (fit.theta[1], fit.theta[2]);
-    let r1 = crate::fmath::sqrt(a1 * a1 + b1 * b1).max(1e-12);
+    let r1 = max(1e-12, crate::fmath::sqrt(a1 * a1 + b1 * b1));
     let (cpsi, spsi) = (a1 / r1, b1 / r1);
     let mut mtf = [[0f32; HARMONICS]; PSFS];
     transfers(nu, g.axis_slope, model, &mut mtf);
@@ -1344,7 +1411,7 @@ pub fn separate(
                 (1.0 / g00, 0.0, 0.0)
             };
             let var_hot = va + vb + 2.0 * cab;
-            let rss = (fit.yy + fit.slope_yy - explained).max(0.0);
+            let rss = max(0.0, fit.yy + fit.slope_yy - explained);
             if rss < rss_min {
                 rss_min = rss;
             }
@@ -1465,7 +1532,7 @@ pub fn separate(
             }
             let (x1, x2) = temps(c, hy);
             let sd = crate::fmath::sqrt(fit.noise2 * c.var);
-            let m = libm::fabsf(x1 - mean).max(libm::fabsf(x2 - mean)) + 2.0 * sd;
+            let m = max(libm::fabsf(x1 - mean), libm::fabsf(x2 - mean)) + 2.0 * sd;
             if m > merged_spread {
                 merged_spread = m;
             }
@@ -1473,8 +1540,8 @@ pub fn separate(
             // clear verdict: the prior or the previous frame picked), the other's: a wrong
             // pick lies within that.
             if hy == hyp || !clear {
-                let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2)) + 2.0 * sd;
-                spread = spread.max(e);
+                let e = max(libm::fabsf(x1 - t1), libm::fabsf(x2 - t2)) + 2.0 * sd;
+                spread = max(spread, e);
             }
         }
     }
@@ -1488,7 +1555,7 @@ pub fn separate(
         }
         if let Some(j) = best_in(hyp, psf..psf + 1) {
             let (x1, x2) = temps(&cand[j], hyp);
-            let e = libm::fabsf(x1 - t1).max(libm::fabsf(x2 - t2));
+            let e = max(libm::fabsf(x1 - t1), libm::fabsf(x2 - t2));
             if e > spread {
                 spread = e;
             }
@@ -1651,7 +1718,7 @@ mod tests {
                 + 0.5 * libm::sinf(3.0 * th)
         });
         let u_core = lattice_core_u(g.half_width_px);
-        let p = Profile::of(&img, &xy, &g, u_core).expect("a core");
+        let p = Profile::of(&img, &xy, &g, u_core, f32::INFINITY).expect("a core");
         let model = 5;
         let fit = harmonic_fit(&p, nu, 3, model).expect("a fit");
         let psi = sin_cos_turns(0.137);
@@ -1705,6 +1772,67 @@ mod tests {
             );
         }
         assert!(missed > 1e-2 * want[0][0], "{missed}");
+    }
+
+    #[test]
+    fn a_few_pixels_beyond_both_their_row_neighbours_are_left_out_of_the_profile() {
+        // Hot or dead pixels of one value (so the lone-pixel rule, which drops only an extreme
+        // beyond every other, keeps all but a single one) on a smooth tilted core: up to
+        // ODD_MAX of them the row rule leaves exactly those out and the rest of the profile as
+        // the clean image has it; one more, and they are taken for the lattice's own and kept.
+        let g = Geometry {
+            axis_col0: 15.3,
+            axis_slope: 0.23,
+            half_width_px: 9.0,
+            ..Geometry::DEFAULT
+        };
+        let xy = g.coords_all();
+        let nu = 1.0 / 6.1f32;
+        let clean: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+            320.0 + 3.0 * libm::cosf(core::f32::consts::TAU * nu * xy.t[p] + 0.4)
+        });
+        let u_core = lattice_core_u(g.half_width_px);
+        let bad_k = max(BAD_RANGE_FRACTION * 6.0, LONE_PIXEL_K);
+        let base = Profile::of(&clean, &xy, &g, u_core, bad_k).expect("a core");
+        let all = Profile::of(&clean, &xy, &g, u_core, f32::INFINITY).expect("a core");
+        // A smooth core loses nothing to the rule.
+        assert_eq!(base.total, all.total);
+        for (n, dead) in [
+            (1, false),
+            (ODD_MAX, false),
+            (ODD_MAX, true),
+            (ODD_MAX + 1, false),
+        ] {
+            let mut img = clean;
+            let mut at = [usize::MAX; ODD_MAX + 1];
+            for (k, a) in at.iter_mut().enumerate().take(n) {
+                let r = 3 + 4 * k;
+                let dc = if k % 2 == 0 { 3 } else { -4 };
+                let c = (g.axis_col0 + g.axis_slope * r as f32) as i32 + dc;
+                let q = r * IMG_COLS + c as usize;
+                assert!(xy.u[q] < u_core, "pixel {q} in the core");
+                img[q] = if dead { 310.0 } else { 330.0 };
+                *a = (fine_place(xy.t[q], base.t0) as usize).min(FINE_BINS - 1);
+            }
+            // Without the row rule they stay, but for one alone, the lone pixel's.
+            let kept = Profile::of(&img, &xy, &g, u_core, f32::INFINITY).expect("a core");
+            let lone = if n == 1 { 1.0 } else { 0.0 };
+            assert_eq!(kept.total, base.total - lone, "{n} without the rule");
+            let p = Profile::of(&img, &xy, &g, u_core, bad_k).expect("a core");
+            if n > ODD_MAX {
+                assert_eq!(p.total, base.total, "{n} are the lattice's");
+                continue;
+            }
+            // Each left out once, whichever rules take it.
+            assert_eq!(p.total, base.total - n as f32);
+            for b in 0..FINE_BINS {
+                let left_out = at.iter().filter(|&&a| a == b).count() as f32;
+                assert_eq!(p.bins[b].cnt, base.bins[b].cnt - left_out, "bin {b}");
+                if left_out == 0.0 {
+                    assert_eq!(p.bins[b].sum, base.bins[b].sum, "bin {b}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -502,6 +502,7 @@ impl Mtts {
             &mut g,
             self.prior,
             f32::from(self.config.exposed_pct) / 100.0,
+            *hottest_k - *coldest_k,
         );
         self.geometry = g;
         let (o, cylinder_min) = regions::overlap_and_min(work, &g, xy, clusters);
