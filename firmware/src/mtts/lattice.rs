@@ -253,8 +253,9 @@ pub const LONE_PIXEL_K: f32 = 2.0;
 const LONE_MIN_PIXELS: f32 = 8.0;
 /// A core pixel more than this share of the frame's range (and at least [`LONE_PIXEL_K`])
 /// beyond both its row neighbours is a hot or dead pixel (if there are at most [`ODD_MAX`]):
-/// a fixed 2 K took the 273 K camera-on cycle's mean |T2| from 0.077 to 0.113 K, where gaps of
-/// tens of kelvin put a slanted stripe's single pixels that far beyond their neighbours.
+/// a fixed 2 K (measured before the limit of [`ODD_MAX`]) took the 273 K camera-on cycle's mean
+/// |T2| from 0.077 to 0.113 K, where gaps of tens of kelvin put a slanted stripe's single pixels
+/// that far beyond their neighbours.
 const BAD_RANGE_FRACTION: f32 = 0.05;
 /// Most core pixels beyond both row neighbours that the profile leaves out as bad: more are
 /// the lattice's own stripes, and all stay. Seen family members, |gap| ≥ 3 K, mean |T1|, |T2|:
@@ -372,6 +373,8 @@ impl Profile {
             let end = (floor(centre + reach) as i32 + 2).clamp(0, IMG_COLS as i32) as usize;
             let row = r * IMG_COLS;
             let first = first.min(end);
+            // Whole rows of 32, indexed under a mask: no range checks in the loop (a row always
+            // fits, so the fallbacks are never taken).
             let m = IMG_COLS - 1;
             let line: &[f32; IMG_COLS] = img[row..row + IMG_COLS]
                 .try_into()
@@ -437,7 +440,8 @@ impl Profile {
         }
         // A few pixels beyond both row neighbours are hot or dead pixels the EEPROM does not
         // flag, and are left out; many are the lattice's own (thin stripes crossing the rows
-        // at a slant), and stay.
+        // at a slant), and stay. The core's range may keep another of them: it serves only
+        // the fallback's bound, which it widens.
         let (mut hi_kept, mut lo_kept) = (true, true);
         if n_odd <= ODD_MAX {
             for &(v, t) in &odd[..n_odd] {
@@ -1694,6 +1698,19 @@ mod tests {
         );
     }
 
+    /// A tilted column (several places per ¼ px bin) and its coordinates, with a lattice
+    /// frequency, cycles per pixel, for smooth test profiles.
+    fn tilted_core() -> (Geometry, Coords, f32) {
+        let g = Geometry {
+            axis_col0: 15.3,
+            axis_slope: 0.23,
+            half_width_px: 9.0,
+            ..Geometry::DEFAULT
+        };
+        let xy = g.coords_all();
+        (g, xy, 1.0 / 6.1)
+    }
+
     #[test]
     fn the_bins_slopes_make_the_gram_matrix_the_pixels_own() {
         // A tilted core (several places per ¼ px bin) of a smooth profile: the candidates'
@@ -1702,14 +1719,7 @@ mod tests {
         // x_k = cos(k(θ̄ − ψ)) − δ·2πν·k·sin(k(θ̄ − ψ)), δ the pixel's offset from the mean.
         // Without the slopes, the bins' means alone, the entries of the higher harmonics miss
         // by far more than the tolerance.
-        let g = Geometry {
-            axis_col0: 15.3,
-            axis_slope: 0.23,
-            half_width_px: 9.0,
-            ..Geometry::DEFAULT
-        };
-        let xy = g.coords_all();
-        let nu = 1.0 / 6.1f32;
+        let (g, xy, nu) = tilted_core();
         let img: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
             let th = core::f32::consts::TAU * nu * xy.t[p];
             320.0
@@ -1780,14 +1790,7 @@ mod tests {
         // beyond every other, keeps all but a single one) on a smooth tilted core: up to
         // ODD_MAX of them the row rule leaves exactly those out and the rest of the profile as
         // the clean image has it; one more, and they are taken for the lattice's own and kept.
-        let g = Geometry {
-            axis_col0: 15.3,
-            axis_slope: 0.23,
-            half_width_px: 9.0,
-            ..Geometry::DEFAULT
-        };
-        let xy = g.coords_all();
-        let nu = 1.0 / 6.1f32;
+        let (g, xy, nu) = tilted_core();
         let clean: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
             320.0 + 3.0 * libm::cosf(core::f32::consts::TAU * nu * xy.t[p] + 0.4)
         });
