@@ -162,6 +162,7 @@ fn main() -> ! {
             thermorph::mtts::Prior::Unknown,
             f32::from(thermorph::mtts::DEFAULT_EXPOSED_PCT) / 100.0,
             scratch.hottest_k - scratch.coldest_k,
+            &scratch.filled,
         ))
     });
     let (_, t_ov) = measure(|| {

@@ -53,6 +53,12 @@
 //! pixels beyond both neighbours — and stay (the first four are noted as the pass goes; the
 //! rest of the pass is as without the rule). Unseen family members, |gap| ≥ 3 K: mean |T1|,
 //! |T2| 0.073, 0.108 → 0.070, 0.104 K; exposed 0.75–0.85 at 6–10 px, T2 0.44 → 0.36 K.
+//! A broken pixel the pipeline filled in from its neighbours ([`super::inpaint`]) is left out
+//! too: it is no measurement of its place, and across a stripe a pixel wide it is the mean of
+//! both targets (unseen member 1000995, two in its core: |T2| 2.10 → 0.77 K). Unseen members,
+//! |gap| ≥ 3 K: mean |T1|, |T2| 0.070, 0.104 → 0.069, 0.101 K, the 6–10 px cell 0.36 →
+//! 0.33 K; seen 0.0771, 0.1055 → 0.0760, 0.1064 K. The filled pixels are dropped after the
+//! pass (a frame has few), which costs nothing on a frame without.
 //!
 //! Which target is hotter: hot stripes of fraction h are the heater if the exposed fraction
 //! d = h, or the surface if d = 1 − h. The block's design fixes d within
@@ -86,7 +92,7 @@
 
 use super::Quality;
 use super::regions::{CORE_U, Coords, Geometry};
-use super::{IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
+use super::{FilledRows, IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
 use crate::fmath::{floor, max, min, sin_cos_turns};
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
@@ -309,7 +315,9 @@ struct Bin {
 }
 
 /// The core's pixels binned along the axis (one pass over the columns each row's core can
-/// reach): a [`Bin`] per ¼ px; with the core's count, mean and range.
+/// reach): a [`Bin`] per ¼ px; with the core's count, mean and range. Bad pixels are left out
+/// (the module docs): a few beyond both row neighbours, a lone extreme, and every pixel filled
+/// in.
 struct Profile {
     bins: [Bin; FINE_BINS],
     /// Fine bins in use (the last non-empty one + 1).
@@ -332,6 +340,7 @@ impl Profile {
         g: &Geometry,
         u_core: f32,
         bad_k: f32,
+        filled: &FilledRows,
     ) -> Option<Profile> {
         // The smallest axial coordinate in the image is at a corner.
         let corners = [0, IMG_COLS - 1, (IMG_ROWS - 1) * IMG_COLS, IMG_PIXELS - 1];
@@ -357,8 +366,8 @@ impl Profile {
         // The second highest and lowest values, and the (bin, axial position) of the extremes.
         let (mut hi2, mut lo2) = (f32::NEG_INFINITY, f32::INFINITY);
         let (mut hi_at, mut lo_at) = ((0usize, 0f32), (0usize, 0f32));
-        // Pixels beyond both row neighbours (value, axial position): the first ODD_MAX.
-        let mut odd = [(0f32, 0f32); ODD_MAX];
+        // Pixels beyond both row neighbours (value, axial position, index): the first ODD_MAX.
+        let mut odd = [(0f32, 0f32, 0usize); ODD_MAX];
         let mut n_odd = 0usize;
         // Each row's core lies within u_core·w·√(1 + slope²) columns of the axis: only those
         // columns (and one more either side, for rounding) are looked at, in the same order.
@@ -369,12 +378,16 @@ impl Profile {
         let mid = IMG_ROWS / 2;
         let axis_col = floor(g.axis_col0 + g.axis_slope * mid as f32 + 0.5);
         p.reference = img[mid * IMG_COLS + min(max(0.0, axis_col), (IMG_COLS - 1) as f32) as usize];
-        for r in 0..IMG_ROWS {
+        // The columns of row r looked at: first..end.
+        let columns = |r: usize| {
             let centre = g.axis_col0 + g.axis_slope * r as f32;
             let first = (floor(centre - reach) as i32).clamp(0, IMG_COLS as i32) as usize;
             let end = (floor(centre + reach) as i32 + 2).clamp(0, IMG_COLS as i32) as usize;
+            (first.min(end), end)
+        };
+        for r in 0..IMG_ROWS {
+            let (first, end) = columns(r);
             let row = r * IMG_COLS;
-            let first = first.min(end);
             // Whole rows of 32, indexed under a mask: no range checks in the loop (a row always
             // fits, so the fallbacks are never taken).
             let m = IMG_COLS - 1;
@@ -397,7 +410,7 @@ impl Profile {
                         let dr = v - line[(c + 1).min(m)];
                         if dl * dr > 0.0 && dr.abs() > bad_k {
                             if let Some(o) = odd.get_mut(n_odd) {
-                                *o = (v, t);
+                                *o = (v, t, row + c);
                             }
                             n_odd += 1;
                         }
@@ -440,22 +453,42 @@ impl Profile {
                 }
             }
         }
-        // A few pixels beyond both row neighbours are hot or dead pixels the EEPROM does not
-        // flag, and are left out; many are the lattice's own (thin stripes crossing the rows
-        // at a slant), and stay. The core's range may keep another of them: it serves only
-        // the fallback's bound, which it widens.
+        // Left out: a few pixels beyond both row neighbours, hot or dead pixels the EEPROM does
+        // not flag (many are the lattice's own, thin stripes crossing the rows at a slant, and
+        // stay), and every pixel that was broken and filled in from its neighbours (no
+        // measurement of its place: across a thin stripe, the mean of both targets). The
+        // core's range may keep another of them: it serves only the fallback's bound, which it
+        // widens.
         let (mut hi_kept, mut lo_kept) = (true, true);
+        let is_filled = |q: usize| (filled[q / IMG_COLS] >> (q % IMG_COLS)) & 1 != 0;
+        let mut leave_out = |p: &mut Profile, v: f32, t: f32| {
+            let b = (fine_place(t, t0) as usize).min(FINE_BINS - 1);
+            p.drop(v, (b, t), &mut s);
+            if (v, t) == (p.hi, hi_at.1) {
+                p.hi = hi2;
+                hi_kept = false;
+            }
+            if (v, t) == (p.lo, lo_at.1) {
+                p.lo = lo2;
+                lo_kept = false;
+            }
+        };
         if n_odd <= ODD_MAX {
-            for &(v, t) in &odd[..n_odd] {
-                let b = (fine_place(t, t0) as usize).min(FINE_BINS - 1);
-                p.drop(v, (b, t), &mut s);
-                if (v, t) == (p.hi, hi_at.1) {
-                    p.hi = hi2;
-                    hi_kept = false;
+            for &(v, t, q) in &odd[..n_odd] {
+                if !is_filled(q) {
+                    leave_out(&mut p, v, t);
                 }
-                if (v, t) == (p.lo, lo_at.1) {
-                    p.lo = lo2;
-                    lo_kept = false;
+            }
+        }
+        for (r, &fill) in filled.iter().enumerate() {
+            if fill == 0 {
+                continue;
+            }
+            let (first, end) = columns(r);
+            for c in first..end {
+                let q = r * IMG_COLS + c;
+                if (fill >> c) & 1 != 0 && xy.u[q] < u_core {
+                    leave_out(&mut p, img[q], xy.t[q]);
                 }
             }
         }
@@ -1206,7 +1239,8 @@ fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32
 /// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
 /// cylinder geometry `g` (its lattice fields are updated), with the coordinates `xy` of `g`;
 /// `range_k` is the frame's range (hottest less coldest pixel, K), which scales the test for
-/// bad pixels (the module docs).
+/// bad pixels (the module docs); the pixels of `filled` were broken and filled in, and are left
+/// out of the fit.
 pub fn separate(
     img: &[f32; IMG_PIXELS],
     xy: &Coords,
@@ -1214,11 +1248,12 @@ pub fn separate(
     prior: Prior,
     design_exposed: f32,
     range_k: f32,
+    filled: &FilledRows,
 ) -> Separation {
     let bad_k = max(LONE_PIXEL_K, BAD_RANGE_FRACTION * range_k);
     let win = window(design_exposed);
     let u_core = lattice_core_u(g.half_width_px);
-    let Some(prof) = Profile::of(img, xy, g, u_core, bad_k) else {
+    let Some(prof) = Profile::of(img, xy, g, u_core, bad_k, filled) else {
         // No core pixel at all (cannot happen with a positive half-width): the image mean.
         let m = img.iter().sum::<f32>() / IMG_PIXELS as f32;
         return Separation {
@@ -1730,7 +1765,7 @@ mod tests {
                 + 0.5 * libm::sinf(3.0 * th)
         });
         let u_core = lattice_core_u(g.half_width_px);
-        let p = Profile::of(&img, &xy, &g, u_core, f32::INFINITY).expect("a core");
+        let p = Profile::of(&img, &xy, &g, u_core, f32::INFINITY, &[0; IMG_ROWS]).expect("a core");
         let model = 5;
         let fit = harmonic_fit(&p, nu, 3, model).expect("a fit");
         let psi = sin_cos_turns(0.137);
@@ -1798,8 +1833,9 @@ mod tests {
         });
         let u_core = lattice_core_u(g.half_width_px);
         let bad_k = max(BAD_RANGE_FRACTION * 6.0, LONE_PIXEL_K);
-        let base = Profile::of(&clean, &xy, &g, u_core, bad_k).expect("a core");
-        let all = Profile::of(&clean, &xy, &g, u_core, f32::INFINITY).expect("a core");
+        let base = Profile::of(&clean, &xy, &g, u_core, bad_k, &[0; IMG_ROWS]).expect("a core");
+        let all =
+            Profile::of(&clean, &xy, &g, u_core, f32::INFINITY, &[0; IMG_ROWS]).expect("a core");
         // A smooth core loses nothing to the rule.
         assert_eq!(base.total, all.total);
         for (n, dead) in [
@@ -1820,10 +1856,11 @@ mod tests {
                 *a = (fine_place(xy.t[q], base.t0) as usize).min(FINE_BINS - 1);
             }
             // Without the row rule they stay, but for one alone, the lone pixel's.
-            let kept = Profile::of(&img, &xy, &g, u_core, f32::INFINITY).expect("a core");
+            let kept =
+                Profile::of(&img, &xy, &g, u_core, f32::INFINITY, &[0; IMG_ROWS]).expect("a core");
             let lone = if n == 1 { 1.0 } else { 0.0 };
             assert_eq!(kept.total, base.total - lone, "{n} without the rule");
-            let p = Profile::of(&img, &xy, &g, u_core, bad_k).expect("a core");
+            let p = Profile::of(&img, &xy, &g, u_core, bad_k, &[0; IMG_ROWS]).expect("a core");
             if n > ODD_MAX {
                 assert_eq!(p.total, base.total, "{n} are the lattice's");
                 continue;
@@ -1838,6 +1875,63 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn pixels_filled_in_are_left_out_of_the_profile_once() {
+        // Broken pixels the pipeline filled in from their neighbours, on a smooth tilted core:
+        // each is left out, whatever value it was filled with — one beyond its row neighbours
+        // (which the row rule takes too: left out once, not twice), the core's hottest (the
+        // lone-pixel rule's) — and the rest of the profile is the clean image's. A filled
+        // pixel off the core changes nothing.
+        let (g, xy, nu) = tilted_core();
+        let clean: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
+            320.0 + 3.0 * libm::cosf(core::f32::consts::TAU * nu * xy.t[p] + 0.4)
+        });
+        let u_core = lattice_core_u(g.half_width_px);
+        let bad_k = max(BAD_RANGE_FRACTION * 6.0, LONE_PIXEL_K);
+        let none = [0u32; IMG_ROWS];
+        let base = Profile::of(&clean, &xy, &g, u_core, bad_k, &none).expect("a core");
+        let at = |r: usize, dc: i32| {
+            let c = (g.axis_col0 + g.axis_slope * r as f32) as i32 + dc;
+            r * IMG_COLS + c as usize
+        };
+        // In the core: near its mid-line, near its side, beyond its row neighbours, its hottest.
+        let inside = [at(4, 0), at(9, 4), at(14, -3), at(19, 1)];
+        let outside = at(11, 10);
+        assert!(xy.u[outside] >= u_core, "pixel {outside} off the core");
+        let mut img = clean;
+        let mut filled = [0u32; IMG_ROWS];
+        for (k, &q) in inside.iter().chain([&outside]).enumerate() {
+            assert!(q == outside || xy.u[q] < u_core, "pixel {q} in the core");
+            filled[q / IMG_COLS] |= 1 << (q % IMG_COLS);
+            img[q] = [321.0, 318.5, 335.0, 360.0, 400.0][k];
+        }
+        let p = Profile::of(&img, &xy, &g, u_core, bad_k, &filled).expect("a core");
+        assert_eq!(p.total, base.total - inside.len() as f32);
+        // Per bin, the clean pixels left out: how many, and their values less the reference.
+        let mut out = [(0f32, 0f32); FINE_BINS];
+        for &q in &inside {
+            let b = (fine_place(xy.t[q], base.t0) as usize).min(FINE_BINS - 1);
+            out[b].0 += 1.0;
+            out[b].1 += clean[q] - base.reference;
+        }
+        assert_eq!(p.reference, base.reference);
+        for (b, &(n, y)) in out.iter().enumerate() {
+            assert_eq!(p.bins[b].cnt, base.bins[b].cnt - n, "bin {b}");
+            let want = base.bins[b].sum - y;
+            assert!(
+                (p.bins[b].sum - want).abs() < 1e-3,
+                "bin {b}: {} against {want}",
+                p.bins[b].sum
+            );
+        }
+        // The core's range is no longer the filled hottest's (it may keep the next one left
+        // out: the fallback's bound, which it widens).
+        assert!(p.hi < 360.0, "the core's hottest {}", p.hi);
+        // Not marked, the same values stay (but for the row rule's and the lone one's).
+        let kept = Profile::of(&img, &xy, &g, u_core, bad_k, &none).expect("a core");
+        assert_eq!(kept.total, base.total - 2.0);
     }
 
     #[test]

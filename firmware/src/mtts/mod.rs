@@ -291,14 +291,19 @@ impl Weights {
 /// Fill non-finite or implausible pixels with the mean of their valid 8-neighbours, repeating
 /// until all are filled; returns how many were broken, or `NoValidPixels`.
 pub fn inpaint(img: &mut [f32; IMG_PIXELS]) -> Result<u16, MttsError> {
-    inpaint_range(img).map(|(bad, _, _)| bad)
+    inpaint_range(img, &mut [0; IMG_ROWS]).map(|(bad, _, _)| bad)
 }
 
-/// [`inpaint`], also returning the image's range (lowest, highest value), K. Filled pixels are
-/// means of valid ones, so the range is that of the valid pixels.
-fn inpaint_range(img: &mut [f32; IMG_PIXELS]) -> Result<(u16, f32, f32), MttsError> {
+/// [`inpaint`], also returning the image's range (lowest, highest value), K, and marking the
+/// filled pixels in `filled`. Filled pixels are means of valid ones, so the range is that of
+/// the valid pixels.
+fn inpaint_range(
+    img: &mut [f32; IMG_PIXELS],
+    filled: &mut FilledRows,
+) -> Result<(u16, f32, f32), MttsError> {
     let mut bad = 0u16;
     let (mut lo, mut hi) = (PLAUSIBLE_K.1, PLAUSIBLE_K.0);
+    *filled = [0; IMG_ROWS];
     for v in img.iter_mut() {
         // NaN fails both comparisons.
         if *v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1 {
@@ -324,6 +329,7 @@ fn inpaint_range(img: &mut [f32; IMG_PIXELS]) -> Result<(u16, f32, f32), MttsErr
                 continue;
             }
             let (r, c) = ((p / IMG_COLS) as i32, (p % IMG_COLS) as i32);
+            filled[r as usize] |= 1 << c;
             let (mut s, mut n) = (0f32, 0f32);
             for dr in -1..=1 {
                 for dc in -1..=1 {
@@ -346,6 +352,10 @@ fn inpaint_range(img: &mut [f32; IMG_PIXELS]) -> Result<(u16, f32, f32), MttsErr
     Ok((bad, lo, hi))
 }
 
+/// Which pixels of a frame were broken and filled in ([`inpaint`]): bit c of word r is the
+/// pixel in row r, column c.
+pub type FilledRows = [u32; IMG_ROWS];
+
 /// Working memory of the pipeline (keep it in a `static` on the target).
 pub struct Scratch {
     up: UpsampleScratch,
@@ -360,6 +370,8 @@ pub struct Scratch {
     pub hottest_k: f32,
     /// The last frame's lowest value, K (the other end of that range).
     pub coldest_k: f32,
+    /// The last frame's pixels that were broken and filled in.
+    pub filled: FilledRows,
 }
 
 impl Default for Scratch {
@@ -380,6 +392,7 @@ impl Scratch {
             // Zero, as every field: an all-zero static lies in .bss, not in flash.
             hottest_k: 0.0,
             coldest_k: 0.0,
+            filled: [0; IMG_ROWS],
         }
     }
 }
@@ -451,7 +464,7 @@ impl Mtts {
         scratch: &mut Scratch,
     ) -> Result<u16, MttsError> {
         scratch.work = *image;
-        let (filled, lo, hi) = inpaint_range(&mut scratch.work)?;
+        let (filled, lo, hi) = inpaint_range(&mut scratch.work, &mut scratch.filled)?;
         if filled > self.config.max_filled {
             return Err(MttsError::TooManyBroken {
                 broken: filled,
@@ -492,6 +505,7 @@ impl Mtts {
             xy,
             hottest_k,
             coldest_k,
+            filled: filled_rows,
             ..
         } = scratch;
         let (mut g, fresh) =
@@ -503,6 +517,7 @@ impl Mtts {
             self.prior,
             f32::from(self.config.exposed_pct) / 100.0,
             *hottest_k - *coldest_k,
+            filled_rows,
         );
         self.geometry = g;
         let (o, cylinder_min) = regions::overlap_and_min(work, &g, xy, clusters);
