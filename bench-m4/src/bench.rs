@@ -106,8 +106,9 @@ fn main() -> ! {
     let total = to_768 + upsample + cluster + regions;
     // The next frame starts from this one's geometry (the lattice search narrows to ±2 px).
     let (_, regions_next) = measure(|| black_box(mtts.stage_regions(&clusters, filled, scratch)));
-    // A block of thin stripes (designed 85 % exposed): the lattice fits six harmonics, not five
-    // (`lattice::harmonics_for`); its first frame is held to the same budget.
+    // A block of thin stripes (designed 85 % exposed): the lattice fits six harmonics, not five,
+    // and models seven (`lattice::harmonics_for`, `model_for`); its first frame is held to the
+    // same budget.
     let Ok(mut thin) = Mtts::new(Config {
         exposed_pct: 85,
         ..Config::default()

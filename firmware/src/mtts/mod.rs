@@ -301,9 +301,26 @@ fn inpaint_range(
     img: &mut [f32; IMG_PIXELS],
     filled: &mut FilledRows,
 ) -> Result<(u16, f32, f32), MttsError> {
+    *filled = [0; IMG_ROWS];
+    // Most frames have no broken pixel: their range first, by plain comparisons (a NaN passes
+    // neither, and is told apart); only a frame whose range is not
+    // all plausible, or that holds a NaN, is looked at pixel by pixel.
+    let (mut lo, mut hi) = (img[0], img[0]);
+    let mut nan = false;
+    for &v in img.iter() {
+        if v < lo {
+            lo = v;
+        }
+        if v > hi {
+            hi = v;
+        }
+        nan |= v.is_nan();
+    }
+    if !nan && lo >= PLAUSIBLE_K.0 && hi <= PLAUSIBLE_K.1 {
+        return Ok((0, lo, hi));
+    }
     let mut bad = 0u16;
     let (mut lo, mut hi) = (PLAUSIBLE_K.1, PLAUSIBLE_K.0);
-    *filled = [0; IMG_ROWS];
     for v in img.iter_mut() {
         // NaN fails both comparisons.
         if *v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1 {
@@ -707,6 +724,37 @@ mod tests {
         let out = m.process(&img, &mut scratch()).unwrap();
         assert_eq!(out.filled_pixels, 3);
         assert!((out.t1().unwrap().k() - 300.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_range_and_the_filled_pixels_are_the_valid_pixels_own() {
+        // A clean frame (the path that only finds its range) and frames with one pixel broken
+        // in each way (NaN first, where the range starts; beyond either plausible end; an
+        // infinity): the range is the valid pixels', and exactly the broken pixels are marked.
+        let clean: [f32; IMG_PIXELS] = core::array::from_fn(|p| 290.0 + (p % 97) as f32 * 0.5);
+        let (lo, hi) = (290.0, 290.0 + 96.0 * 0.5);
+        let mut filled = [u32::MAX; IMG_ROWS];
+        let mut img = clean;
+        assert_eq!(inpaint_range(&mut img, &mut filled), Ok((0, lo, hi)));
+        assert_eq!(filled, [0; IMG_ROWS]);
+        assert_eq!(img, clean);
+        for (q, v) in [
+            (0, f32::NAN),
+            (40, PLAUSIBLE_K.0 - 1.0),
+            (700, PLAUSIBLE_K.1 + 1.0),
+            (767, f32::NEG_INFINITY),
+        ] {
+            let mut img = clean;
+            img[q] = v;
+            let (bad, l, h) = inpaint_range(&mut img, &mut filled).expect("a frame");
+            assert_eq!(bad, 1, "pixel {q} at {v}");
+            // The valid pixels' range (other pixels hold each extreme too).
+            assert_eq!((l, h), (lo, hi), "pixel {q} at {v}");
+            let mut want = [0u32; IMG_ROWS];
+            want[q / IMG_COLS] = 1 << (q % IMG_COLS);
+            assert_eq!(filled, want, "pixel {q} at {v}");
+            assert!(img[q].is_finite() && img[q] >= lo && img[q] <= hi);
+        }
     }
 
     #[test]
