@@ -1867,18 +1867,26 @@ mod tests {
         assert!(missed > 1e-2 * want[0][0], "{missed}");
     }
 
-    #[test]
-    fn a_few_pixels_beyond_both_their_row_neighbours_are_left_out_of_the_profile() {
-        // Hot or dead pixels of one value (so the lone-pixel rule, which drops only an extreme
-        // beyond every other, keeps all but a single one) on a smooth tilted core: up to
-        // ODD_MAX of them the row rule leaves exactly those out and the rest of the profile as
-        // the clean image has it; one more, and they are taken for the lattice's own and kept.
+    /// The tilted core's image of a smooth lattice (a fundamental of 3 K about 320 K), its
+    /// core's distance ratio and the bad-pixel threshold of a frame 6 K in range: what the
+    /// bad-pixel tests spoil.
+    fn smooth_core() -> (Geometry, Coords, [f32; IMG_PIXELS], f32, f32) {
         let (g, xy, nu) = tilted_core();
         let clean: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
             320.0 + 3.0 * libm::cosf(core::f32::consts::TAU * nu * xy.t[p] + 0.4)
         });
         let u_core = lattice_core_u(g.half_width_px);
         let bad_k = max(BAD_RANGE_FRACTION * 6.0, LONE_PIXEL_K);
+        (g, xy, clean, u_core, bad_k)
+    }
+
+    #[test]
+    fn a_few_pixels_beyond_both_their_row_neighbours_are_left_out_of_the_profile() {
+        // Hot or dead pixels of one value (so the lone-pixel rule, which drops only an extreme
+        // beyond every other, keeps all but a single one) on a smooth tilted core: up to
+        // ODD_MAX of them the row rule leaves exactly those out and the rest of the profile as
+        // the clean image has it; one more, and they are taken for the lattice's own and kept.
+        let (g, xy, clean, u_core, bad_k) = smooth_core();
         let base = Profile::of(&clean, &xy, &g, u_core, bad_k, &[0; IMG_ROWS]).expect("a core");
         let all =
             Profile::of(&clean, &xy, &g, u_core, f32::INFINITY, &[0; IMG_ROWS]).expect("a core");
@@ -1930,12 +1938,7 @@ mod tests {
         // (which the row rule takes too: left out once, not twice), the core's hottest (the
         // lone-pixel rule's) — and the rest of the profile is the clean image's. A filled
         // pixel off the core changes nothing.
-        let (g, xy, nu) = tilted_core();
-        let clean: [f32; IMG_PIXELS] = core::array::from_fn(|p| {
-            320.0 + 3.0 * libm::cosf(core::f32::consts::TAU * nu * xy.t[p] + 0.4)
-        });
-        let u_core = lattice_core_u(g.half_width_px);
-        let bad_k = max(BAD_RANGE_FRACTION * 6.0, LONE_PIXEL_K);
+        let (g, xy, clean, u_core, bad_k) = smooth_core();
         let none = [0u32; IMG_ROWS];
         let base = Profile::of(&clean, &xy, &g, u_core, bad_k, &none).expect("a core");
         let at = |r: usize, dc: i32| {
@@ -2046,6 +2049,24 @@ mod tests {
             assert_eq!(model_for(design), HARMONICS, "{design}");
         }
         assert_eq!((FIT_HARMONICS, HARMONICS), (6, 7));
+    }
+
+    #[test]
+    fn the_candidates_products_stop_at_the_model_without_changing_them() {
+        // A symmetric Gram matrix of the full model and a candidate of the base model (its
+        // entries past the fifth harmonic zero): the products over the base model's length are
+        // the full loop's, to the bit; with a seventh harmonic they are not.
+        let m: [[f32; U]; U] =
+            core::array::from_fn(|i| core::array::from_fn(|j| 1.0 / (1.0 + (i + j) as f32)));
+        let ur: [f32; U] = core::array::from_fn(|i| 0.3 - 0.1 * i as f32);
+        let mut c: [f32; U] = core::array::from_fn(|i| 0.7 / (1.0 + i as f32));
+        for x in &mut c[1 + BASE_HARMONICS..] {
+            *x = 0.0;
+        }
+        let base = quadratic::<{ 1 + BASE_HARMONICS }>(&m, &ur, &c);
+        assert_eq!(base, quadratic::<U>(&m, &ur, &c));
+        c[U - 1] = 0.05;
+        assert_ne!(base, quadratic::<U>(&m, &ur, &c));
     }
 
     #[test]

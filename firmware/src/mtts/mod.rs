@@ -2,7 +2,8 @@
 //!
 //! The thesis pipeline (6.3.3.1) — cubic interpolation, k-means on temperature, regions by
 //! temperature rank — made deterministic, optimal and spatially aware:
-//! 1. broken pixels (NaN) are filled from their valid neighbours ([`inpaint`]);
+//! 1. broken pixels (NaN) are filled from their valid neighbours ([`inpaint`]), and marked
+//!    ([`Scratch::filled`]: the lattice fit leaves them out);
 //! 2. [`upsample`]: bicubic by s = 1…8 (default 4), streamed into a histogram;
 //! 3. [`cluster`]: exact 1-D k-means of the binned values (K = 2…8, default 5) by dynamic
 //!    programming — or Lloyd with random / k-means++ seeding for comparison;
@@ -303,8 +304,8 @@ fn inpaint_range(
 ) -> Result<(u16, f32, f32), MttsError> {
     *filled = [0; IMG_ROWS];
     // Most frames have no broken pixel: their range first, by plain comparisons (a NaN passes
-    // neither, and is told apart); only a frame whose range is not
-    // all plausible, or that holds a NaN, is looked at pixel by pixel.
+    // neither, and is told apart); only a frame whose range is not all plausible, or that holds
+    // a NaN, is looked at pixel by pixel.
     let (mut lo, mut hi) = (img[0], img[0]);
     let mut nan = false;
     for &v in img.iter() {
