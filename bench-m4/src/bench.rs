@@ -119,6 +119,13 @@ fn main() -> ! {
     // Parts of the upsample stage, for profiling.
     let mut w2 = image.to_k;
     let (_, t_inpaint) = measure(|| thermorph::mtts::inpaint(&mut w2));
+    // The same frame with four pixels the driver flags as broken (NaN; the datasheet allows up
+    // to four defective pixels): filled in, and no second pass over the frame.
+    let mut w4 = image.to_k;
+    for q in [37, 300, 301, 700] {
+        w4[q] = f32::NAN;
+    }
+    let (_, t_inpaint4) = measure(|| thermorph::mtts::inpaint(&mut w4));
     if let Ok(up) = thermorph::mtts::upsample::Upsampler::new(4) {
         let mut us = thermorph::mtts::upsample::UpsampleScratch::new();
         let (_, t_interp) = measure(|| {
@@ -138,8 +145,9 @@ fn main() -> ! {
             )
         });
         hprintln!(
-            "part inpaint insns={} interpolate_only insns={} fused_histogram insns={} reset insns={} minmax insns={}",
+            "part inpaint insns={} inpaint_four_broken insns={} interpolate_only insns={} fused_histogram insns={} reset insns={} minmax insns={}",
             t_inpaint,
+            t_inpaint4,
             t_interp,
             t_hist,
             t_reset,

@@ -303,11 +303,12 @@ fn inpaint_range(
     filled: &mut FilledRows,
 ) -> Result<(u16, f32, f32), MttsError> {
     *filled = [0; IMG_ROWS];
-    // Most frames have no broken pixel: their range first, by plain comparisons (a NaN passes
-    // neither, and is told apart); only a frame whose range is not all plausible, or that holds
-    // a NaN, is looked at pixel by pixel.
-    let (mut lo, mut hi) = (img[0], img[0]);
-    let mut nan = false;
+    // The range by plain comparisons, which a NaN (a pixel the driver flags as broken) passes
+    // neither, and the NaNs counted. Only a frame whose range is not all plausible (a glitch:
+    // a value off the sensor's scale, an infinity) is looked at pixel by pixel: a flagged pixel
+    // every frame costs no second pass.
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut bad = 0u16;
     for &v in img.iter() {
         if v < lo {
             lo = v;
@@ -315,57 +316,66 @@ fn inpaint_range(
         if v > hi {
             hi = v;
         }
-        nan |= v.is_nan();
+        bad += u16::from(v.is_nan());
     }
-    if !nan && lo >= PLAUSIBLE_K.0 && hi <= PLAUSIBLE_K.1 {
-        return Ok((0, lo, hi));
-    }
-    let mut bad = 0u16;
-    let (mut lo, mut hi) = (PLAUSIBLE_K.1, PLAUSIBLE_K.0);
-    for v in img.iter_mut() {
-        // NaN fails both comparisons.
-        if *v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1 {
-            if *v < lo {
-                lo = *v;
+    if !(lo >= PLAUSIBLE_K.0 && hi <= PLAUSIBLE_K.1) {
+        bad = 0;
+        (lo, hi) = (PLAUSIBLE_K.1, PLAUSIBLE_K.0);
+        for v in img.iter_mut() {
+            // NaN fails both comparisons.
+            if *v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1 {
+                if *v < lo {
+                    lo = *v;
+                }
+                if *v > hi {
+                    hi = *v;
+                }
+            } else {
+                *v = f32::NAN;
+                bad += 1;
             }
-            if *v > hi {
-                hi = *v;
-            }
-        } else {
-            *v = f32::NAN;
-            bad += 1;
         }
     }
     if bad as usize == IMG_PIXELS {
         return Err(MttsError::NoValidPixels);
     }
+    if bad == 0 {
+        return Ok((0, lo, hi));
+    }
+    for (p, v) in img.iter().enumerate() {
+        if v.is_nan() {
+            filled[p / IMG_COLS] |= 1 << (p % IMG_COLS);
+        }
+    }
+    // In rounds, each broken pixel with a valid neighbour takes their mean. A neighbour is
+    // valid when it was not broken at the round's start (`todo`): a pixel filled in this round
+    // feeds the next round, not this one. Only the broken pixels are visited, by their marks.
+    let mut todo = *filled;
     let mut left = bad;
     while left > 0 {
-        let prev = *img;
-        for p in 0..IMG_PIXELS {
-            if !prev[p].is_nan() {
-                continue;
-            }
-            let (r, c) = ((p / IMG_COLS) as i32, (p % IMG_COLS) as i32);
-            filled[r as usize] |= 1 << c;
-            let (mut s, mut n) = (0f32, 0f32);
-            for dr in -1..=1 {
-                for dc in -1..=1 {
-                    let (rr, cc) = (r + dr, c + dc);
-                    if (0..IMG_ROWS as i32).contains(&rr) && (0..IMG_COLS as i32).contains(&cc) {
-                        let v = prev[rr as usize * IMG_COLS + cc as usize];
-                        if !v.is_nan() {
-                            s += v;
+        let mut next = todo;
+        for r in 0..IMG_ROWS {
+            let mut bits = todo[r];
+            while bits != 0 {
+                let c = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (mut s, mut n) = (0f32, 0f32);
+                for rr in r.saturating_sub(1)..(r + 2).min(IMG_ROWS) {
+                    for cc in c.saturating_sub(1)..(c + 2).min(IMG_COLS) {
+                        if (todo[rr] >> cc) & 1 == 0 {
+                            s += img[rr * IMG_COLS + cc];
                             n += 1.0;
                         }
                     }
                 }
-            }
-            if n > 0.0 {
-                img[p] = s / n;
-                left -= 1;
+                if n > 0.0 {
+                    img[r * IMG_COLS + c] = s / n;
+                    next[r] &= !(1 << c);
+                    left -= 1;
+                }
             }
         }
+        todo = next;
     }
     Ok((bad, lo, hi))
 }
@@ -713,6 +723,90 @@ mod tests {
         // Values stand at their bin's centre: within half a bin of 400 K.
         let half_bin = 100.0 / cluster::DEFAULT_BINS as f32 / 2.0;
         assert!((out.clusters.means[1] - 400.0).abs() <= half_bin + 1e-3);
+    }
+
+    /// Fill broken pixels as the pipeline's first version did, pixel by pixel: non-finite or
+    /// implausible values are NaN, then rounds over a copy of the frame, each NaN taking its
+    /// valid 8-neighbours' mean. Returns how many were broken.
+    fn inpaint_by_copies(img: &mut [f32; IMG_PIXELS]) -> u16 {
+        let mut bad = 0;
+        for v in img.iter_mut() {
+            if !(*v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1) {
+                *v = f32::NAN;
+                bad += 1;
+            }
+        }
+        let mut left = bad;
+        while left > 0 {
+            let prev = *img;
+            for p in (0..IMG_PIXELS).filter(|&p| prev[p].is_nan()) {
+                let (r, c) = ((p / IMG_COLS) as i32, (p % IMG_COLS) as i32);
+                let (mut s, mut n) = (0f32, 0f32);
+                for rr in r - 1..=r + 1 {
+                    for cc in c - 1..=c + 1 {
+                        if (0..IMG_ROWS as i32).contains(&rr) && (0..IMG_COLS as i32).contains(&cc)
+                        {
+                            let v = prev[rr as usize * IMG_COLS + cc as usize];
+                            if !v.is_nan() {
+                                s += v;
+                                n += 1.0;
+                            }
+                        }
+                    }
+                }
+                if n > 0.0 {
+                    img[p] = s / n;
+                    left -= 1;
+                }
+            }
+        }
+        bad
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(300))]
+
+        /// Any frame with some valid pixel: the same filled frame, to the bit, as pixel-by-pixel
+        /// rounds over copies; the marks are exactly the broken pixels; the range is the valid
+        /// pixels'. Broken pixels come alone, in clusters and as whole rows, NaN, infinite or
+        /// off the plausible scale.
+        #[test]
+        fn inpainting_is_the_rounds_over_copies(
+            base in proptest::collection::vec(250.0f32..400.0, IMG_PIXELS),
+            broken in proptest::collection::vec((0usize..IMG_PIXELS, 0u8..4, 0usize..3), 0..40),
+        ) {
+            let mut img: [f32; IMG_PIXELS] = core::array::from_fn(|p| base[p]);
+            for &(q, kind, spread) in &broken {
+                let v = [f32::NAN, f32::INFINITY, PLAUSIBLE_K.1 + 5.0, PLAUSIBLE_K.0 - 5.0][kind as usize];
+                // One pixel, a 3-pixel run, or a whole row.
+                let span = match spread { 0 => q..q + 1, 1 => q..(q + 3).min(IMG_PIXELS), _ => {
+                    let r = q / IMG_COLS;
+                    r * IMG_COLS..(r + 1) * IMG_COLS
+                } };
+                for p in span {
+                    img[p] = v;
+                }
+            }
+            let was_broken: Vec<bool> =
+                img.iter().map(|v| !(*v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1)).collect();
+            let mut want = img;
+            let want_bad = inpaint_by_copies(&mut want);
+            let valid: Vec<f32> = img.iter().copied().filter(|v| *v >= PLAUSIBLE_K.0 && *v <= PLAUSIBLE_K.1).collect();
+            let mut filled = [0; IMG_ROWS];
+            let got = inpaint_range(&mut img, &mut filled);
+            if valid.is_empty() {
+                proptest::prop_assert_eq!(got, Err(MttsError::NoValidPixels));
+                return Ok(());
+            }
+            let lo = valid.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = valid.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            proptest::prop_assert_eq!(got, Ok((want_bad, lo, hi)));
+            for p in 0..IMG_PIXELS {
+                proptest::prop_assert_eq!(img[p].to_bits(), want[p].to_bits(), "pixel {}", p);
+                let marked = (filled[p / IMG_COLS] >> (p % IMG_COLS)) & 1 != 0;
+                proptest::prop_assert_eq!(marked, was_broken[p], "pixel {}", p);
+            }
+        }
     }
 
     #[test]
