@@ -107,7 +107,7 @@ fn main() -> ! {
     // The next frame starts from this one's geometry (the lattice search narrows to ±2 px).
     let (_, regions_next) = measure(|| black_box(mtts.stage_regions(&clusters, filled, scratch)));
     // A block of thin stripes (designed 85 % exposed): the lattice fits six harmonics, not five,
-    // and models seven (`lattice::harmonics_for`, `model_for`); its first frame is held to the
+    // and models ten (`lattice::harmonics_for`, `model_for`); its first frame is held to the
     // same budget.
     let Ok(mut thin) = Mtts::new(Config {
         exposed_pct: 85,

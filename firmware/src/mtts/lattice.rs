@@ -30,7 +30,7 @@
 //! 3. for each h on a grid and each spread, the (a, b) whose square wave best matches the
 //!    core's pixels give a misfit χ² (the per-pixel least squares, through the normal matrix
 //!    of the fit's basis extended, for a lattice of short period, to the harmonics the design
-//!    needs below [`MODEL_BAND_CPP`], 1.25 cycles per pixel — five, seven for a design of
+//!    needs below [`MODEL_BAND_CPP`], 1.5 cycles per pixel — five, ten for a design of
 //!    stripes under a quarter of the period, `model_for`: a thin stripe's higher harmonics,
 //!    which the free fit cannot hold apart, are the model's own and not noise; each ¼ px bin
 //!    of the profile gives its pixels' mean and, where they lie at several places along the
@@ -55,16 +55,23 @@
 //! rest of the pass is as without the rule). Unseen family members, |gap| ≥ 3 K: mean |T1|,
 //! |T2| 0.073, 0.108 → 0.070, 0.104 K; exposed 0.75–0.85 at 6–10 px, T2 0.44 → 0.36 K.
 //!
-//! The candidates' model of a thin-stripe design reaches a seventh harmonic, one past the fit
-//! (`model_for`): a thin stripe's spectrum 2·sin(πkh)/(πk) still holds a few percent of its
-//! gap there (6.6 % at h = 0.18), which a model stopping at the sixth reads as noise, and its
-//! misfit goes flatter along the stripe's level and width (unseen member 1000411, exposed 0.84
-//! at 6.4 px, no spread, 0.05 K of noise: |T2| 0.76 → 0.44 K; 1000632, 0.82 at 9.5 px: 0.44 →
-//! 0.27 K). Seen family members, |gap| ≥ 3 K, mean |T1|, |T2|: 0.0760, 0.1064 → 0.0753, 0.1043
-//! K; unseen 0.069, 0.101 → 0.068, 0.096 K, exposed 0.75–0.85 at 6–10 px 0.33 → 0.31 K (`bash
-//! scripts/work-precision`). The thesis's block keeps five (`model_for`). The candidates'
-//! products stop at the model's own length (`quadratic`), so a block of five pays nothing for
-//! the seventh.
+//! The candidates' model of a thin-stripe design reaches the tenth harmonic within
+//! [`MODEL_BAND_CPP`] (`model_for`): a thin stripe's spectrum 2·sin(πkh)/(πk) still holds a few
+//! percent of its gap past the fit's sixth (6.6 % at the seventh for h = 0.18), which a model
+//! stopping short reads as noise, and its misfit goes flatter along the stripe's level and
+//! width (unseen member 1000411, exposed 0.84 at 6.4 px, no spread, 0.05 K of noise: |T2| 0.76
+//! → 0.44 K with a seventh; 1000632, 0.82 at 9.5 px: 0.44 → 0.27 K). Seen family members,
+//! |gap| ≥ 3 K, mean |T1|, |T2|: 0.0760, 0.1064 K with six, 0.0753, 0.1043 K with seven,
+//! 0.0752, 0.1023 K with ten up to 1.5 cycles per pixel; unseen 0.069, 0.101 → 0.068, 0.096 →
+//! 0.068, 0.091 K (a throwaway host experiment over the first 1 000 members; the cells in
+//! `bash scripts/work-precision`). The thesis's block keeps five (`model_for`).
+//!
+//! A candidate's products cost the model's length, not its square: per spread, the Gram
+//! matrix's harmonics' block is folded once into sums over cos πnh ([`Spread`]), so each
+//! candidate is three dot products with its h's sines and cosines ([`Trig`]); and a surface-hot
+//! candidate 1 − h, the heater-hot candidate h's mirror, takes the same terms split by parity.
+//! A model of ten costs a thin-stripe design's first frame fewer instructions than the
+//! quadratic form of seven did (`bash scripts/bench-m4`).
 //!
 //! A broken pixel the pipeline filled in from its neighbours ([`super::inpaint`]) is left out
 //! too: it is no measurement of its place, and across a stripe a pixel wide it is the mean of
@@ -161,8 +168,11 @@ const FIT_HARMONICS: usize = 6;
 /// Harmonics fitted at most whatever the design ([`harmonics_for`]), and the candidates' model
 /// of a design of stripes no thinner than a quarter of the period ([`model_for`]).
 const BASE_HARMONICS: usize = 5;
-/// Harmonics of the candidates' model at most (a design of thin stripes, [`model_for`]).
-const HARMONICS: usize = 7;
+/// Harmonics of the candidates' model at most (a design of thin stripes, [`model_for`]): an
+/// even count ([`Spread::products`] splits them by parity).
+const HARMONICS: usize = 10;
+/// The candidates' products' length for a model of the base harmonics: an even count.
+const BASE_PAIRS: usize = BASE_HARMONICS + BASE_HARMONICS % 2;
 /// Unknowns of the harmonic fit at most.
 const NP: usize = 1 + 2 * FIT_HARMONICS;
 /// Entries of the fit's right-hand side: the mean and each of the model's harmonics.
@@ -173,16 +183,24 @@ const NOISE_FLOOR_K: f32 = 0.05;
 const U: usize = 1 + HARMONICS;
 /// Highest frequency the candidates' model of the profile reaches, cycles per pixel: past the
 /// free fit's 0.75 (whose coefficients a few periods of samples cannot all tell apart), up to
-/// the harmonics the design's thinner stripe needs (`harmonics_for`): a lattice of short
-/// period, whose 0.75 cycles per pixel stop the free fit before them, keeps them in the
-/// model, where a thin stripe's width and level shape them and where, left out, they weigh in
-/// the misfit as noise and hide what tells the stripe's width from the spread. Seen family
-/// members, |gap| ≥ 3 K: mean |T2| 0.118 → 0.116 K (confidently wrong 8 → 9 frames), the thesis's
-/// lattice 0.208 → 0.178 K; 1.0 and 1.5 alike (0.116 K, 10). Past the design's harmonics
-/// (up to 1.25 cycles per pixel, at most seven) the seen members gained more (0.110 K) but the
-/// thesis's block lost: the camera-on cycle's mean |T2| 0.063 → 0.095 K, the standard
-/// scenes' T1 0.010 → 0.031 K, as a sixth harmonic had (`harmonics_for`).
-pub const MODEL_BAND_CPP: f32 = 1.25;
+/// the harmonics the design's thinner stripe needs (`model_for`): a lattice of short period,
+/// whose 0.75 cycles per pixel stop the free fit before them, keeps them in the model, where a
+/// thin stripe's width and level shape them and where, left out, they weigh in the misfit as
+/// noise and hide what tells the stripe's width from the spread. Seen family members, |gap| ≥
+/// 3 K: mean |T2| 0.118 → 0.116 K at 1.0 (confidently wrong 8 → 9 frames), the thesis's
+/// lattice 0.208 → 0.178 K. Why 1.5 and not 1.25: a pixel's footprint, a box a pixel wide,
+/// passes a first sidelobe between 1 and 2 cycles per pixel whose largest gain (0.22) lies at
+/// 1.43, and a tilted axis samples the profile at every ¼ px, so a thin stripe's harmonics there
+/// reach the bins attenuated, not gone: a band of 1.25 cuts the sidelobe before its peak and
+/// reads that part as noise. With a thin-stripe design's ten harmonics the seen members tie
+/// (1.25: 0.0750, 0.1019 K; 1.5: 0.0752, 0.1023 K; thin stripes at 4–16 px 0.297 and 0.300 K);
+/// unseen members exposed 0.75–0.85 at 6–10 px 0.316 → 0.297 K (a throwaway host experiment).
+/// The thesis's block is not changed: its model stops at five, which any period ≥ 4 px holds
+/// below either band. A model past the design's harmonics for the thesis's block (at most
+/// seven below 1.25) gained the seen members (0.110 K) but lost the camera-on cycle (mean |T2|
+/// 0.063 → 0.095 K) and the standard scenes' T1 (0.010 → 0.031 K), as a sixth harmonic had
+/// (`harmonics_for`).
+pub const MODEL_BAND_CPP: f32 = 1.5;
 /// Parameters the best candidate fits (a, b, h and the spread): the degrees of freedom its
 /// misfit loses, for the noise it estimates.
 const MODEL_PARAMETERS: f32 = 4.0;
@@ -602,7 +620,7 @@ fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<(f32, f32)>
     let (mut best_i, mut best_a) = (0usize, -1f32);
     let (mut prev, mut at_best_prev, mut at_best_next) = (0f32, 0f32, 0f32);
     let mut after_best = false;
-    for i in 0..=n {
+    for i in 0..n + 1 {
         let a = amplitude(p, lo + i as f32 * step);
         if after_best {
             at_best_next = a;
@@ -810,10 +828,10 @@ fn harmonic_fit_by<const SLOPES: bool>(
         return None;
     }
     f.normal[0][0] = cs[0];
-    for k in 1..=harmonics {
+    for k in 1..harmonics + 1 {
         f.normal[0][2 * k - 1] = cs[k];
         f.normal[0][2 * k] = sn[k];
-        for j in 1..=k {
+        for j in 1..k + 1 {
             let (d, a) = (k - j, k + j);
             // cos jθ·cos kθ, sin jθ·sin kθ, cos jθ·sin kθ, sin jθ·cos kθ.
             f.normal[2 * j - 1][2 * k - 1] = 0.5 * (cs[d] + cs[a]);
@@ -860,8 +878,8 @@ fn harmonics_for(design_exposed: f32) -> usize {
 /// Harmonics of the candidates' model at most for a block whose design exposes
 /// `design_exposed` of each unit: [`BASE_HARMONICS`] where the fit keeps them (the thesis's
 /// block, whose camera-on cycle and standard scenes lost with more: [`MODEL_BAND_CPP`]), else
-/// [`HARMONICS`], one past the fit's (the module docs). The fit keeps its six: the model's
-/// harmonics are fixed by each candidate's stripe and spread, not unknowns.
+/// [`HARMONICS`], ten (the module docs). The fit keeps its six: the model's harmonics are fixed
+/// by each candidate's stripe and spread, not unknowns.
 fn model_for(design_exposed: f32) -> usize {
     if harmonics_for(design_exposed) > BASE_HARMONICS {
         HARMONICS
@@ -934,7 +952,7 @@ fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS])
 fn solve(a: &[[f32; NP]; NP], b: &[f32], n: usize) -> Option<[f32; NP]> {
     let mut l = [[0f32; NP]; NP];
     for i in 0..n {
-        for j in 0..=i {
+        for j in 0..i + 1 {
             let mut s = a[i][j];
             for k in 0..j {
                 s -= l[i][k] * l[j][k];
@@ -979,25 +997,222 @@ struct Candidate {
     chi2: f32,
 }
 
-/// Return (g01, g11, rv) of a candidate's coefficients `c` in the model's basis: g01 = (m·c)₀,
-/// g11 = cᵀ·m·c (m symmetric: its upper triangle, the off-diagonal twice) and rv = c·ur, over
-/// the first `N` entries (the mean and the model's harmonics: the rest of `c` is zero, and a
-/// loop of the model's own length costs no more than it needs).
-#[inline(always)]
-fn quadratic<const N: usize>(m: &[[f32; U]; U], ur: &[f32; U], c: &[f32; U]) -> (f32, f32, f32) {
-    let (mut g01, mut g11, mut rv) = (0f32, 0f32, 0f32);
-    for i in 0..N {
-        let mut off = 0f32;
-        for j in i + 1..N {
-            off += m[i][j] * c[j];
-        }
-        g11 += c[i] * (m[i][i] * c[i] + 2.0 * off);
-        rv += c[i] * ur[i];
-        if i == 0 {
-            g01 = m[0][0] * c[0] + off;
+/// 2/(πk), k = 1…[`HARMONICS`] (index k − 1): a stripe's k-th harmonic per unit gap and
+/// unit transfer is 2·sin(πkh)/(πk).
+const TWO_OVER_PI_K: [f32; HARMONICS] = {
+    let mut t = [0f32; HARMONICS];
+    let mut k = 0;
+    while k < HARMONICS {
+        t[k] = 2.0 / (core::f32::consts::PI * (k + 1) as f32);
+        k += 1;
+    }
+    t
+};
+
+/// The trigonometric values of one h of the grid: sin(πkh) at `sin[k − 1]`, k = 1…(the
+/// model's harmonics), and cos(πnh) at `cos[n]`, n = 0…2·(the model's harmonics).
+#[derive(Clone, Copy)]
+struct Trig {
+    sin: [f32; HARMONICS],
+    cos: [f32; 2 * HARMONICS + 1],
+}
+
+impl Default for Trig {
+    fn default() -> Self {
+        Trig {
+            sin: [0.0; HARMONICS],
+            cos: [0.0; 2 * HARMONICS + 1],
         }
     }
-    (g01, g11, rv)
+}
+
+impl Trig {
+    /// The sines and cosines of h's multiples (all of [`HARMONICS`]: a candidate's products run
+    /// over the full length, the model's rest zero, in loops of fixed length), stepped by the
+    /// angle sum from sin πh, cos πh.
+    fn of(h: f32) -> Trig {
+        let (s1, c1) = sin_cos_turns(0.5 * h);
+        let mut cos = [1f32; 2 * HARMONICS + 1];
+        let mut sin = [0f32; HARMONICS];
+        let (mut c, mut s) = (c1, s1);
+        for n in 1..2 * HARMONICS + 1 {
+            cos[n] = c;
+            if n <= HARMONICS {
+                sin[n - 1] = s;
+            }
+            (c, s) = turn((c, s), (c1, s1));
+        }
+        Trig { sin, cos }
+    }
+}
+
+/// A spread's share of every candidate's products, once per spread: a candidate's
+/// coefficients in the model's basis are c = (h, τ_1·sin πh, …, τ_K·sin πKh) with
+/// τ_k = 2·H_k/(πk) (H_k the spread's transfer), so with the Gram matrix m and uᵀ·rhs (ur)
+///
+/// - g01 = (m·c)₀ = h·m₀₀ + Σ_k a_k·sin πkh, a_k = m₀ₖ·τ_k;
+/// - rv = c·ur = h·ur₀ + Σ_k r_k·sin πkh, r_k = urₖ·τ_k;
+/// - g11 = cᵀ·m·c = h²·m₀₀ + 2h·(g01 − h·m₀₀) + Σ_n q_n·cos πnh, n = 0…2K: the harmonics'
+///   block Σ_kl M_kl·sin πkh·sin πlh (M_kl = m_kl·τ_k·τ_l), each product of sines half a
+///   difference of cos π(k − l)h and cos π(k + l)h.
+///
+/// A candidate then costs 4K + 1 products, not the (K + 1)(K + 2)/2 + K + 1 of the quadratic
+/// form: a model of ten harmonics 41 against 77, which is what lets a thin-stripe design
+/// model ten within the Cortex-M4 budget.
+struct Spread {
+    m00: f32,
+    ur0: f32,
+    a: [f32; HARMONICS],
+    r: [f32; HARMONICS],
+    q: [f32; 2 * HARMONICS + 1],
+}
+
+impl Spread {
+    /// The sums of one spread whose transfers (harmonic k at `mtf[k − 1]`) are `mtf`, for a
+    /// model of `model` harmonics, in loops of the fixed length `K` (≥ `model`; the rest zero).
+    #[inline(always)]
+    fn of<const K: usize>(
+        m: &[[f32; U]; U],
+        ur: &[f32; U],
+        mtf: &[f32; HARMONICS],
+        model: usize,
+    ) -> Spread {
+        const { assert!(K <= HARMONICS) };
+        let mut tau = [0f32; HARMONICS];
+        for (k, t) in tau.iter_mut().enumerate().take(model.min(K)) {
+            *t = mtf[k] * TWO_OVER_PI_K[k];
+        }
+        let mut a = [0f32; HARMONICS];
+        let mut r = [0f32; HARMONICS];
+        for k in 1..K + 1 {
+            a[k - 1] = m[0][k] * tau[k - 1];
+            r[k - 1] = ur[k] * tau[k - 1];
+        }
+        // The differences' (Toeplitz) and the sums' (Hankel) shares, row by row of the
+        // harmonics' block: each row's call has a constant k once inlined, so its loop over l
+        // has constant bounds and every slot a constant index (the sums stay in registers).
+        let mut toeplitz = [0f32; 2 * HARMONICS + 1];
+        let mut hankel = [0f32; 2 * HARMONICS + 1];
+        const { assert!(HARMONICS == 10) };
+        let (t, hk) = (&mut toeplitz, &mut hankel);
+        Self::row::<K>(1, m, &tau, t, hk);
+        Self::row::<K>(2, m, &tau, t, hk);
+        Self::row::<K>(3, m, &tau, t, hk);
+        Self::row::<K>(4, m, &tau, t, hk);
+        Self::row::<K>(5, m, &tau, t, hk);
+        Self::row::<K>(6, m, &tau, t, hk);
+        Self::row::<K>(7, m, &tau, t, hk);
+        Self::row::<K>(8, m, &tau, t, hk);
+        Self::row::<K>(9, m, &tau, t, hk);
+        Self::row::<K>(10, m, &tau, t, hk);
+        let mut q = [0f32; 2 * HARMONICS + 1];
+        for ((q, t), h) in q.iter_mut().zip(&toeplitz).zip(&hankel) {
+            *q = t - h;
+        }
+        Spread {
+            m00: m[0][0],
+            ur0: ur[0],
+            a,
+            r,
+            q,
+        }
+    }
+
+    /// Row `k` of the harmonics' block into the sums: the diagonal's half to slots 0 and 2k,
+    /// each l = k + 1…K to slot l − k (`toeplitz`) and k + l (`hankel`); nothing past `K`.
+    #[inline(always)]
+    fn row<const K: usize>(
+        k: usize,
+        m: &[[f32; U]; U],
+        tau: &[f32; HARMONICS],
+        toeplitz: &mut [f32; 2 * HARMONICS + 1],
+        hankel: &mut [f32; 2 * HARMONICS + 1],
+    ) {
+        if k > K {
+            return;
+        }
+        let tk = tau[k - 1];
+        let d = 0.5 * m[k][k] * tk * tk;
+        toeplitz[0] += d;
+        hankel[2 * k] += d;
+        for l in k + 1..K + 1 {
+            let e = m[k][l] * tk * tau[l - 1];
+            toeplitz[l - k] += e;
+            hankel[k + l] += e;
+        }
+    }
+
+    /// (g01, g11, rv) of the candidate of hot-stripe fraction `h`, whose sines and cosines are
+    /// `t`, and of its mirror 1 − h: sin πk(1 − h) = (−1)^(k+1)·sin πkh and
+    /// cos πn(1 − h) = (−1)^n·cos πnh, so the mirror's sums are the same terms, the odd
+    /// and the even apart, added the other way. Loops of the fixed length `K` (even; past the
+    /// model's harmonics this spread's sums are zero), which the compiler unrolls.
+    #[inline(always)]
+    fn products<const K: usize>(&self, h: f32, t: &Trig) -> [(f32, f32, f32); 2] {
+        const { assert!(K.is_multiple_of(2) && K <= HARMONICS) };
+        // Odd and even k (index k − 1), odd and even n.
+        let (mut po, mut pe, mut ro, mut re) = (0f32, 0f32, 0f32, 0f32);
+        let (mut qo, mut qe) = (0f32, self.q[0]);
+        for j in 0..K / 2 {
+            let (o, e) = (2 * j, 2 * j + 1);
+            po += self.a[o] * t.sin[o];
+            pe += self.a[e] * t.sin[e];
+            ro += self.r[o] * t.sin[o];
+            re += self.r[e] * t.sin[e];
+        }
+        for j in 0..K {
+            let (o, e) = (2 * j + 1, 2 * j + 2);
+            qo += self.q[o] * t.cos[o];
+            qe += self.q[e] * t.cos[e];
+        }
+        let one = |h: f32, p: f32, rv: f32, qq: f32| {
+            let hm = h * self.m00;
+            (hm + p, h * (hm + 2.0 * p) + qq, h * self.ur0 + rv)
+        };
+        [
+            one(h, po + pe, ro + re, qe + qo),
+            one(1.0 - h, po - pe, ro - re, qe - qo),
+        ]
+    }
+}
+
+impl Candidate {
+    /// The least-squares a ≥ any, b ≥ 0 of a candidate whose products with the fit's sums are
+    /// `(g01, g11, rv)` (g00 = Σ w, r0 = Σ w·y, `yy` = Σ w·y² with the slopes'), and its
+    /// misfit Σ w·r² in `chi2` (a χ² once the noise is known).
+    #[inline(always)]
+    fn of(g00: f32, r0: f32, yy: f32, (g01, g11, rv): (f32, f32, f32)) -> Candidate {
+        let det = g00 * g11 - g01 * g01;
+        let regular = det > 1e-6 * g00 * g11;
+        let inv_det = if regular { 1.0 / det } else { 0.0 };
+        let (mut a, mut b) = if regular {
+            (
+                (g11 * r0 - g01 * rv) * inv_det,
+                (g00 * rv - g01 * r0) * inv_det,
+            )
+        } else {
+            (r0 / g00, 0.0)
+        };
+        let explained = if b < 0.0 {
+            a = r0 / g00;
+            b = 0.0;
+            a * r0
+        } else {
+            a * r0 + b * rv
+        };
+        let (va, vb, cab) = if regular {
+            (g11 * inv_det, g00 * inv_det, -g01 * inv_det)
+        } else {
+            (1.0 / g00, 0.0, 0.0)
+        };
+        let var_hot = va + vb + 2.0 * cab;
+        Candidate {
+            a,
+            b,
+            var: if var_hot > va { var_hot } else { va },
+            chi2: max(0.0, yy - explained),
+        }
+    }
 }
 
 /// Which hypothesis: the heater is the hot stripe (A) or the cold one (B).
@@ -1067,7 +1282,7 @@ fn gram(
     let mut turned = [0f32; 2 * HARMONICS + 1];
     let mut turned_s = [0f32; 2 * HARMONICS + 1];
     let mut j_psi = (1f32, 0f32);
-    for j in 0..=2 * model {
+    for j in 0..2 * model + 1 {
         turned[j] = fit.cs[j] * j_psi.0 + fit.sn[j] * j_psi.1;
         turned_s[j] = fit.ds_c[j] * j_psi.0 + fit.ds_s[j] * j_psi.1;
         j_psi = turn(j_psi, (cpsi, spsi));
@@ -1077,10 +1292,10 @@ fn gram(
     m[0][0] = turned[0];
     ur[0] = fit.rhs[0];
     let mut k_psi = (cpsi, spsi);
-    for i in 1..=model {
+    for i in 1..model + 1 {
         m[0][i] = turned[i];
         m[i][0] = turned[i];
-        for j in 1..=i {
+        for j in 1..i + 1 {
             let x = 0.5 * (turned[i - j] + turned[i + j])
                 + w2 * (i * j) as f32 * (turned_s[i - j] - turned_s[i + j]);
             m[i][j] = x;
@@ -1106,22 +1321,24 @@ fn window(design: f32) -> (f32, f32) {
 }
 
 /// The grid indices `i` (h = h_at(i)) a hypothesis allows in the window `(lo, hi)` of exposed
-/// fractions: a range, empty when none.
+/// fractions: a range, empty when none. The surface-hot range is the heater-hot one's mirror
+/// (h ↔ 1 − h, i ↔ `H_COUNT` − 1 − i; the grid is symmetric about ½), which lets a candidate's
+/// products serve both ([`Spread::products`]).
 fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize> {
-    let (hlo, hhi) = match hyp {
-        Hyp::HeaterHot => (lo, hi),
-        Hyp::SurfaceHot => (1.0 - hi, 1.0 - lo),
-    };
-    let first = max(0.0, (hlo - H_FIRST) / H_STEP);
+    let first = max(0.0, (lo - H_FIRST) / H_STEP);
     let first = first as usize + usize::from(first > floor(first));
-    let last = max(-1.0, (hhi - H_FIRST) / H_STEP);
+    let last = max(-1.0, (hi - H_FIRST) / H_STEP);
     let end = if last < 0.0 {
         0
     } else {
         (last as usize + 1).min(H_COUNT)
     };
     let first = first.min(end);
-    first..end.min(first + SLOTS)
+    let heater_hot = first..end.min(first + SLOTS);
+    match hyp {
+        Hyp::HeaterHot => heater_hot,
+        Hyp::SurfaceHot => H_COUNT - heater_hot.end..H_COUNT - heater_hot.start,
+    }
 }
 
 /// χ² above the best point beyond which [`posterior`] leaves a point out (its weight
@@ -1427,18 +1644,13 @@ pub fn separate(
         chi2: f32::INFINITY,
         ..Candidate::default()
     }; CANDIDATES];
-    let wanted = |i: usize| range_a.contains(&i) || range_b.contains(&i);
-    let mut shape = [[0f32; HARMONICS]; H_COUNT];
-    for (i, sh) in shape.iter_mut().enumerate() {
-        if !wanted(i) {
-            continue;
-        }
-        let (s1, c1) = sin_cos_turns(0.5 * h_at(i));
-        let (mut ck, mut sk) = (c1, s1);
-        for (k, x) in sh.iter_mut().enumerate().take(model) {
-            *x = 2.0 * sk / (core::f32::consts::PI * (k + 1) as f32);
-            (ck, sk) = turn((ck, sk), (c1, s1));
-        }
+    // Per place of the heater-hot window, the stripe's harmonics' sines sin(πkh), k = 1…, and
+    // the cosines cos(πnh), n = 0…, of its h: with each spread's sums below, a candidate's
+    // products are three dot products, and its mirror's (1 − h, the surface-hot window's) the
+    // same sums split by parity ([`Spread`]).
+    let mut trig = [Trig::default(); SLOTS];
+    for (t, i) in trig.iter_mut().zip(range_a.clone()) {
+        *t = Trig::of(h_at(i));
     }
     // Each candidate's misfit Σ w·r² first, its χ² once the noise is known.
     let mut rss_min = f32::INFINITY;
@@ -1457,57 +1669,35 @@ pub fn separate(
             prior_chi2[base_of(hyp) + k] = z * z;
         }
     }
-    // A model of the base harmonics leaves the rest of each candidate's coefficients zero: its
-    // products stop there.
-    let base_model = model <= BASE_HARMONICS;
-    for (psf, hyp) in (0..PSFS).flat_map(|psf| [(psf, Hyp::HeaterHot), (psf, Hyp::SurfaceHot)]) {
-        let first = psf * 2 * SLOTS + base_of(hyp);
-        for (slot, i) in range_of(hyp).enumerate() {
-            let key = first + slot;
-            let mut c = [0f32; U];
-            c[0] = h_at(i);
-            for k in 0..HARMONICS {
-                c[k + 1] = shape[i][k] * mtf[psf][k];
+    // The products run to an even length: the model's harmonics, or a base model's rounded up
+    // (its sums past the model are zero).
+    let base_model = model <= BASE_PAIRS;
+    let fit_yy = fit.yy + fit.slope_yy;
+    let na = range_a.len();
+    for psf in 0..PSFS {
+        let spread = if base_model {
+            Spread::of::<BASE_PAIRS>(&m, &ur, &mtf[psf], model)
+        } else {
+            Spread::of::<HARMONICS>(&m, &ur, &mtf[psf], model)
+        };
+        let first = psf * 2 * SLOTS;
+        for (slot, i) in range_a.clone().enumerate() {
+            let t = &trig[slot];
+            let h = h_at(i);
+            let [pa, pb] = if base_model {
+                spread.products::<BASE_PAIRS>(h, t)
+            } else {
+                spread.products::<HARMONICS>(h, t)
+            };
+            // The heater-hot candidate h, and its mirror 1 − h: the surface-hot window's place
+            // na − 1 − slot.
+            for (key, products) in [(first + slot, pa), (first + SLOTS + na - 1 - slot, pb)] {
+                let c = Candidate::of(g00, r0, fit_yy, products);
+                if c.chi2 < rss_min {
+                    rss_min = c.chi2;
+                }
+                cand[key] = c;
             }
-            let (g01, g11, rv) = if base_model {
-                quadratic::<{ 1 + BASE_HARMONICS }>(&m, &ur, &c)
-            } else {
-                quadratic::<U>(&m, &ur, &c)
-            };
-            let det = g00 * g11 - g01 * g01;
-            let regular = det > 1e-6 * g00 * g11;
-            let inv_det = if regular { 1.0 / det } else { 0.0 };
-            let (mut a, mut b) = if regular {
-                (
-                    (g11 * r0 - g01 * rv) * inv_det,
-                    (g00 * rv - g01 * r0) * inv_det,
-                )
-            } else {
-                (r0 / g00, 0.0)
-            };
-            let explained = if b < 0.0 {
-                a = r0 / g00;
-                b = 0.0;
-                a * r0
-            } else {
-                a * r0 + b * rv
-            };
-            let (va, vb, cab) = if regular {
-                (g11 * inv_det, g00 * inv_det, -g01 * inv_det)
-            } else {
-                (1.0 / g00, 0.0, 0.0)
-            };
-            let var_hot = va + vb + 2.0 * cab;
-            let rss = max(0.0, fit.yy + fit.slope_yy - explained);
-            if rss < rss_min {
-                rss_min = rss;
-            }
-            cand[key] = Candidate {
-                a,
-                b,
-                var: if var_hot > va { var_hot } else { va },
-                chi2: rss,
-            };
         }
     }
     // The noise: the best candidate's misfit per degree of freedom (the model holds the
@@ -2036,10 +2226,10 @@ mod tests {
     }
 
     #[test]
-    fn thin_stripes_take_a_sixth_harmonic_and_a_seventh_in_the_model() {
+    fn thin_stripes_take_a_sixth_harmonic_and_a_tenth_in_the_model() {
         // The thesis's block (71 % exposed: surface stripes 0.29 of the period) keeps five,
         // fitted and modelled; stripes under a quarter of the period, hot or cold, take six in
-        // the fit and seven in the candidates' model.
+        // the fit and ten in the candidates' model.
         for design in [0.71, 0.5, 0.74, 0.26] {
             assert_eq!(harmonics_for(design), BASE_HARMONICS, "{design}");
             assert_eq!(model_for(design), BASE_HARMONICS, "{design}");
@@ -2048,25 +2238,74 @@ mod tests {
             assert_eq!(harmonics_for(design), FIT_HARMONICS, "{design}");
             assert_eq!(model_for(design), HARMONICS, "{design}");
         }
-        assert_eq!((FIT_HARMONICS, HARMONICS), (6, 7));
+        assert_eq!((FIT_HARMONICS, HARMONICS), (6, 10));
+    }
+
+    /// The quadratic form the candidates' products stand for: c = (h, τ_k·sin πkh), τ_k =
+    /// 2·H_k/(πk), k = 1…model; (g01, g11, rv) = ((m·c)₀, cᵀ·m·c, c·ur), in f64.
+    fn direct(
+        m: &[[f32; U]; U],
+        ur: &[f32; U],
+        mtf: &[f32; HARMONICS],
+        model: usize,
+        h: f32,
+    ) -> (f64, f64, f64) {
+        let mut c = [0f64; U];
+        c[0] = h as f64;
+        for k in 1..=model {
+            c[k] = 2.0 * mtf[k - 1] as f64 / (core::f64::consts::PI * k as f64)
+                * (core::f64::consts::PI * k as f64 * h as f64).sin();
+        }
+        let (mut g01, mut g11, mut rv) = (0f64, 0f64, 0f64);
+        for i in 0..U {
+            rv += c[i] * ur[i] as f64;
+            g01 += m[0][i] as f64 * c[i];
+            for j in 0..U {
+                g11 += c[i] * m[i][j] as f64 * c[j];
+            }
+        }
+        (g01, g11, rv)
     }
 
     #[test]
-    fn the_candidates_products_stop_at_the_model_without_changing_them() {
-        // A symmetric Gram matrix of the full model and a candidate of the base model (its
-        // entries past the fifth harmonic zero): the products over the base model's length are
-        // the full loop's, to the bit; with a seventh harmonic they are not.
-        let m: [[f32; U]; U] =
-            core::array::from_fn(|i| core::array::from_fn(|j| 1.0 / (1.0 + (i + j) as f32)));
-        let ur: [f32; U] = core::array::from_fn(|i| 0.3 - 0.1 * i as f32);
-        let mut c: [f32; U] = core::array::from_fn(|i| 0.7 / (1.0 + i as f32));
-        for x in &mut c[1 + BASE_HARMONICS..] {
-            *x = 0.0;
+    fn the_candidates_trigonometric_sums_are_their_quadratic_form_and_their_mirror_s() {
+        // A symmetric positive Gram matrix of the full model, its right-hand side and a
+        // spread's transfers: for every model length and h of the grid, the sums per spread
+        // and the parity split give the heater-hot candidate h and its mirror 1 − h.
+        let m: [[f32; U]; U] = core::array::from_fn(|i| {
+            core::array::from_fn(|j| {
+                let d = i.abs_diff(j) as f32;
+                (if i == j { 2.0 } else { 0.0 })
+                    + 1.0 / (1.0 + d * d)
+                    + 0.1 / (1.0 + (i + j) as f32)
+            })
+        });
+        let ur: [f32; U] = core::array::from_fn(|i| 0.3 - 0.07 * i as f32);
+        let mtf: [f32; HARMONICS] = core::array::from_fn(|k| 0.97f32.powi((k * k) as i32 / 4));
+        for model in 1..=HARMONICS {
+            let spread = if model <= BASE_PAIRS {
+                Spread::of::<BASE_PAIRS>(&m, &ur, &mtf, model)
+            } else {
+                Spread::of::<HARMONICS>(&m, &ur, &mtf, model)
+            };
+            for i in 0..H_COUNT {
+                let h = h_at(i);
+                let got = if model <= BASE_PAIRS {
+                    spread.products::<BASE_PAIRS>(h, &Trig::of(h))
+                } else {
+                    spread.products::<HARMONICS>(h, &Trig::of(h))
+                };
+                for ((g01, g11, rv), h) in got.into_iter().zip([h, 1.0 - h]) {
+                    let want = direct(&m, &ur, &mtf, model, h);
+                    for (x, w) in [(g01, want.0), (g11, want.1), (rv, want.2)] {
+                        assert!(
+                            (x as f64 - w).abs() < 2e-5 * (1.0 + w.abs()),
+                            "model {model} h {h}: {x} against {w}"
+                        );
+                    }
+                }
+            }
         }
-        let base = quadratic::<{ 1 + BASE_HARMONICS }>(&m, &ur, &c);
-        assert_eq!(base, quadratic::<U>(&m, &ur, &c));
-        c[U - 1] = 0.05;
-        assert_ne!(base, quadratic::<U>(&m, &ur, &c));
     }
 
     #[test]
