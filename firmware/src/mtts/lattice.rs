@@ -2268,6 +2268,26 @@ mod tests {
     }
 
     #[test]
+    fn the_surface_hot_window_is_the_heater_hot_one_s_mirror() {
+        // The grid is symmetric about ½ (h_at(i) + h_at(H_COUNT − 1 − i) = 1), so the
+        // surface-hot window, taken as the mirror of the heater-hot one, is the grid's points
+        // within [1 − hi, 1 − lo] for every design the configuration accepts (15–90 %): the
+        // candidates' mirror products are its own.
+        for i in 0..H_COUNT {
+            assert!((h_at(i) + h_at(H_COUNT - 1 - i) - 1.0).abs() < 1e-6);
+        }
+        for pct in 15..=90 {
+            let (lo, hi) = window(pct as f32 / 100.0);
+            let b = h_range(Hyp::SurfaceHot, (lo, hi));
+            let inside: std::vec::Vec<usize> = (0..H_COUNT)
+                .filter(|&i| (1.0 - hi..=1.0 - lo).contains(&h_at(i)))
+                .collect();
+            assert_eq!(b.clone().collect::<std::vec::Vec<_>>(), inside, "{pct} %");
+            assert!(!b.is_empty() && b.len() <= SLOTS, "{pct} %");
+        }
+    }
+
+    #[test]
     fn the_candidates_trigonometric_sums_are_their_quadratic_form_and_their_mirror_s() {
         // A symmetric positive Gram matrix of the full model, its right-hand side and a
         // spread's transfers: for every model length and h of the grid, the sums per spread
