@@ -1,6 +1,7 @@
 //! Float functions `core` does not provide: square root, fourth root, floor, exact powers of
 //! two and 2^x, sine and cosine in `f32` (libm's `sinf`/`cosf` work in `f64`, which the Cortex-M4's FPU lacks:
-//! linking them costs ≈ 10 KiB of soft-float code and far more time).
+//! linking them costs ≈ 10 KiB of soft-float code and far more time), and a clamp without
+//! core's panic (whose message links core's float formatting).
 //!
 //! On the Cortex-M4F the square root is the FPU's `VSQRT.F32` (exact, correctly rounded, a
 //! handful of cycles); elsewhere it is `libm::sqrtf`, which is also correctly rounded, so both
@@ -69,6 +70,17 @@ pub fn min(a: f32, b: f32) -> f32 {
     if b < a { b } else { a }
 }
 
+/// Return `x` limited to [`lo`, `hi`] as `f32::clamp` does (NaN `x` stays NaN), without its
+/// panic: core's `clamp` asserts `lo <= hi` and formats both bounds with `Debug` in its panic
+/// message, which links core's float-to-decimal code (about 22 KB) into the board wherever a
+/// bound is not a constant. Bounds out of order (or NaN) give what the two comparisons give:
+/// `hi` for `x > hi`, else `lo` for `x < lo`, else `x`.
+#[inline(always)]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    let x = if x < lo { lo } else { x };
+    if x > hi { hi } else { x }
+}
+
 /// Return ⌊`x`⌋ without a library call (`f32::floor` is one on the Cortex-M4), for |x| < 2^31.
 #[inline]
 pub fn floor(x: f32) -> f32 {
@@ -129,6 +141,30 @@ mod tests {
         assert_eq!(pow2(10), 1024.0);
         assert_eq!(pow2(-3), 0.125);
         assert_eq!(pow2_f64(45), 35_184_372_088_832.0);
+    }
+
+    #[test]
+    fn clamp_matches_std_for_ordered_bounds() {
+        let values = [
+            -2.0f32,
+            -1.0,
+            -0.0,
+            0.0,
+            0.5,
+            1.0,
+            3.0,
+            f32::NAN,
+            f32::INFINITY,
+        ];
+        for x in values {
+            for (lo, hi) in [(-1.0, 1.0), (0.0, 0.0), (-0.0, 0.0), (0.5, f32::INFINITY)] {
+                let (got, want) = (clamp(x, lo, hi), x.clamp(lo, hi));
+                assert_eq!(got.to_bits(), want.to_bits(), "{x} in [{lo}, {hi}]");
+            }
+        }
+        assert_eq!(clamp(0.0, 2.0, 1.0), 1.0);
+        assert_eq!(clamp(3.0, f32::NAN, 1.0), 1.0);
+        assert_eq!(clamp(-3.0, -1.0, f32::NAN), -1.0);
     }
 
     #[test]

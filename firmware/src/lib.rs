@@ -23,6 +23,8 @@
 //! - [`supervisor`]: modes, safety and the fault latch; `Supervisor::step` → `Decision`.
 //! - [`app`]: the one owner of a control period ([`app::Controller`]): button, frame, line.
 //! - [`fmath`]: the few float functions the target lacks in `core` (square root).
+//! - [`decimal`]: decimal text of fractional numbers (`{:.N}`'s text without core's float
+//!   formatting).
 #![cfg_attr(not(test), no_std)]
 
 pub mod app;
@@ -30,6 +32,7 @@ pub mod block;
 pub mod command;
 pub mod console;
 pub mod control;
+pub mod decimal;
 pub mod fmath;
 pub mod measurement;
 pub mod mlx90640;

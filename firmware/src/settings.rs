@@ -1245,7 +1245,7 @@ impl Settings {
         for (i, p) in PARAMS.iter().enumerate() {
             let at = HEADER_LEN + 4 * i;
             // Percent values are fractions inside: ×100 may land one ulp past a bound.
-            let v = (p.get)(self).clamp(p.min, p.max);
+            let v = crate::fmath::clamp((p.get)(self), p.min, p.max);
             r[at..at + 4].copy_from_slice(&v.to_le_bytes());
         }
         let crc = crc32(0, &r[..RECORD_LEN - 4]);

@@ -33,6 +33,7 @@
 //! restarts the derivative; invalid gains are refused by the setters and replaced by zeros in
 //! [`Pid::new`].
 
+use crate::fmath::clamp;
 use crate::units::Seconds;
 
 /// PID gains with their units. The output is a fraction of full actuator power (1.0 = 100 %).
@@ -223,7 +224,7 @@ impl Pid {
 
     /// Return the output given for bad input: 0 clamped into the output range.
     pub fn safe_output(&self) -> f32 {
-        0.0f32.clamp(self.config.output_min, self.config.output_max)
+        clamp(0.0, self.config.output_min, self.config.output_max)
     }
 
     /// Change the gains, bumplessly: the next output equals the last one (if there was one since
@@ -271,7 +272,7 @@ impl Pid {
         let u = if output.is_nan() {
             self.safe_output()
         } else {
-            output.clamp(self.config.output_min, self.config.output_max)
+            clamp(output, self.config.output_min, self.config.output_max)
         };
         self.last_output = Some(u);
         self.align_to = Some(u);
@@ -337,8 +338,11 @@ impl Pid {
         if let Some(u) = self.align_to.take() {
             self.integral = u - p - d;
         } else if integrate {
-            let tentative =
-                (self.integral + g.ki_per_k_s * e * dt_s).clamp(c.output_min, c.output_max);
+            let tentative = clamp(
+                self.integral + g.ki_per_k_s * e * dt_s,
+                c.output_min,
+                c.output_max,
+            );
             let raw = p + tentative + d;
             // Conditional integration: the integral grows up to where the output meets its
             // limit, never past it (and the limit never unwinds it). Refusing the whole step
@@ -355,12 +359,12 @@ impl Pid {
         if !self.integral.is_finite() {
             self.integral = 0.0;
         }
-        self.integral = self.integral.clamp(c.output_min, c.output_max);
+        self.integral = clamp(self.integral, c.output_min, c.output_max);
         let raw = p + self.integral + d;
         let u = if raw.is_nan() {
             self.safe_output()
         } else {
-            raw.clamp(c.output_min, c.output_max)
+            clamp(raw, c.output_min, c.output_max)
         };
         self.terms = PidTerms {
             p,

@@ -113,7 +113,7 @@
 use super::Quality;
 use super::regions::{CORE_U, Coords, Geometry};
 use super::{FilledRows, IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
-use crate::fmath::{floor, max, min, sin_cos_turns};
+use crate::fmath::{clamp, floor, max, min, sin_cos_turns};
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
 pub const EXPOSED_MIN: f32 = 0.15;
@@ -853,7 +853,7 @@ fn harmonic_fit_by<const SLOPES: bool>(
     f.rss = yy - fit;
     f.sigma2 = max(floor_k * floor_k, f.rss / (bins - n as f32));
     f.noise2 = if p.total > bins {
-        ((p.sq - yy) / (p.total - bins)).clamp(floor_k * floor_k, f.sigma2)
+        clamp((p.sq - yy) / (p.total - bins), floor_k * floor_k, f.sigma2)
     } else {
         f.sigma2
     };
@@ -1577,7 +1577,7 @@ pub fn separate(
     let mut angles = [(0f32, 0f32); FINE_BINS];
     for k in [1, REFINE_HARMONICS] {
         if let Some(d) = gn_step(&prof, nu, ((0.75 / nu) as usize).clamp(1, k), &mut angles) {
-            nu += d.clamp(-REFINE_LIMIT * nu, REFINE_LIMIT * nu);
+            nu += clamp(d, -REFINE_LIMIT * nu, REFINE_LIMIT * nu);
         }
     }
     // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile

@@ -6,6 +6,7 @@ use core::fmt;
 use heapless::Deque;
 
 use super::safety::Fault;
+use crate::decimal::Fixed;
 use crate::units::Millis;
 
 /// Events kept.
@@ -103,8 +104,13 @@ impl fmt::Display for Notice {
                 kd,
             } => write!(
                 f,
-                "autotune done: ku={ku_per_k:.4} tu={tu_s:.1} kp={kp:.3} ki={ki:.3} kd={kd:.3}; \
-                 the gains are in use (in RAM): `save` keeps them"
+                "autotune done: ku={} tu={} kp={} ki={} kd={}; \
+                 the gains are in use (in RAM): `save` keeps them",
+                Fixed::new(ku_per_k, 4),
+                Fixed::new(tu_s, 1),
+                Fixed::new(kp, 3),
+                Fixed::new(ki, 3),
+                Fixed::new(kd, 3)
             ),
             Notice::TuneAborted(why) => {
                 write!(f, "autotune aborted: {why}; the gains are unchanged")
@@ -113,16 +119,26 @@ impl fmt::Display for Notice {
                 deg,
                 sd_deg,
                 rest_deg: None,
-            } => write!(f, "ok pose reached {deg:.1}+-{sd_deg:.1}"),
+            } => write!(
+                f,
+                "ok pose reached {}+-{}",
+                Fixed::new(deg, 1),
+                Fixed::new(sd_deg, 1)
+            ),
             Notice::PoseReached {
                 deg,
                 sd_deg,
                 rest_deg: Some(rest),
             } => write!(
                 f,
-                "ok pose reached {deg:.1}+-{sd_deg:.1}; forming to rest at {rest:.1}"
+                "ok pose reached {}+-{}; forming to rest at {}",
+                Fixed::new(deg, 1),
+                Fixed::new(sd_deg, 1),
+                Fixed::new(rest, 1)
             ),
-            Notice::PoseOutOfReach { deg } => write!(f, "pose out of reach at {deg:.1}"),
+            Notice::PoseOutOfReach { deg } => {
+                write!(f, "pose out of reach at {}", Fixed::new(deg, 1))
+            }
         }
     }
 }
@@ -176,10 +192,12 @@ impl fmt::Display for Warning {
                 ambient_k,
             } => write!(
                 f,
-                "wall still {:.0} % frozen (inner layer {inner_k:.1} K, ambient {ambient_k:.1} K); \
-                 the heater can bring it to {:.1} %: soaking on",
-                frozen * 100.0,
-                best * 100.0
+                "wall still {} % frozen (inner layer {} K, ambient {} K); \
+                 the heater can bring it to {} %: soaking on",
+                Fixed::new(frozen * 100.0, 0),
+                Fixed::new(inner_k, 1),
+                Fixed::new(ambient_k, 1),
+                Fixed::new(best * 100.0, 1)
             ),
             Warning::CannotSoften {
                 frozen,
@@ -188,10 +206,12 @@ impl fmt::Display for Warning {
                 ambient_k,
             } => write!(
                 f,
-                "wall cannot soften: {:.0} % frozen, {:.0} % at best with the film at {film_k:.1} K \
-                 (ambient {ambient_k:.1} K): soak ended",
-                frozen * 100.0,
-                best * 100.0
+                "wall cannot soften: {} % frozen, {} % at best with the film at {} K \
+                 (ambient {} K): soak ended",
+                Fixed::new(frozen * 100.0, 0),
+                Fixed::new(best * 100.0, 0),
+                Fixed::new(film_k, 1),
+                Fixed::new(ambient_k, 1)
             ),
         }
     }

@@ -25,6 +25,7 @@
 
 use super::events::Notice;
 use super::mode::{Ctx, Drive, Mode, ModeStep, Next, Soak, ms};
+use crate::fmath::clamp;
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::units::Millis;
 
@@ -170,7 +171,7 @@ impl Posing {
                             c.announce(Notice::PoseOutOfReach { deg: bend.deg });
                             next = Some(Next::Enter(Mode::Standby));
                         } else {
-                            let step_s = (POSE_S_PER_DEG * error_deg).clamp(MIN_STEP_S, s.step_s);
+                            let step_s = clamp(POSE_S_PER_DEG * error_deg, MIN_STEP_S, s.step_s);
                             self.phase = PosePhase::Step {
                                 left_ms: ms(step_s),
                             };
@@ -204,7 +205,7 @@ impl Posing {
                 if *left_ms == 0 {
                     let sag_deg = error_deg - 0.5 * s.pose_tol_deg;
                     let step_ms =
-                        ms((POSE_S_PER_DEG * sag_deg).clamp(MIN_STEP_S, s.step_s)).min(*budget_ms);
+                        ms(clamp(POSE_S_PER_DEG * sag_deg, MIN_STEP_S, s.step_s)).min(*budget_ms);
                     if !*on
                         && sag_deg > 0.0
                         && c.estimate.frozen < FORM_STEP_FROZEN_MAX

@@ -10,6 +10,7 @@ use super::events::{EventKind, EventLog};
 use super::safety::Fault;
 use super::{Mode, Supervisor};
 use crate::command::COMMANDS;
+use crate::decimal::{Fixed, Thousandths};
 use crate::observer::Estimate;
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::settings::{PARAMS, Param, Settings};
@@ -99,12 +100,15 @@ impl Reply {
             if target_deg > limit_deg {
                 write!(
                     r,
-                    "err out-of-reach: springs {springs} reach {reach_deg:.1}"
+                    "err out-of-reach: springs {springs} reach {}",
+                    Fixed::new(reach_deg, 1)
                 )
             } else {
                 write!(
                     r,
-                    "ok mode pose {target_deg:.1} springs={springs} reach_deg={reach_deg:.1}{}",
+                    "ok mode pose {} springs={springs} reach_deg={}{}",
+                    Fixed::new(target_deg, 1),
+                    Fixed::new(reach_deg, 1),
                     if form { " form" } else { "" }
                 )
             }
@@ -155,16 +159,16 @@ impl Reply {
                 Some(m) => {
                     for (i, t) in m.regions.iter().enumerate() {
                         match t {
-                            Some(t) => write!(r, " t{}_k={:.3}", i + 1, t.k())?,
+                            Some(t) => write!(r, " t{}_k={}", i + 1, Fixed::new(t.k(), 3))?,
                             None => write!(r, " t{}_k=-", i + 1)?,
                         }
                     }
                     write!(
                         r,
-                        " quality={} frame={} age_s={:.2} filled={}",
+                        " quality={} frame={} age_s={} filled={}",
                         m.quality.name(),
                         m.seq,
-                        now.seconds_since(m.at).s(),
+                        Fixed::new(now.seconds_since(m.at).s(), 2),
                         m.filled_pixels
                     )?;
                 }
@@ -174,9 +178,9 @@ impl Reply {
             }
             write!(
                 r,
-                " heater_pct={:.1} fan_pct={:.1} springs={}",
-                s.outputs.heater.pct(),
-                s.outputs.fan.pct(),
+                " heater_pct={} fan_pct={} springs={}",
+                Fixed::new(s.outputs.heater.pct(), 1),
+                Fixed::new(s.outputs.fan.pct(), 1),
                 s.outputs.springs
             )?;
             write!(r, " select={}", s.springs)?;
@@ -193,7 +197,7 @@ impl Reply {
         Reply::with(|r| {
             write!(r, "ok events={}", events.total())?;
             for e in events.iter() {
-                write!(r, " | {:.2} ", e.at.ms() as f32 * 1e-3)?;
+                write!(r, " | {} ", Fixed::new(e.at.ms() as f32 * 1e-3, 2))?;
                 write_event(r, &e.kind)?;
             }
             Ok(())
@@ -236,7 +240,8 @@ impl Reply {
     }
 
     pub(super) fn stream_on(hz: f32) -> Reply {
-        Reply::with(|r| write!(r, "ok stream on {hz} Hz"))
+        // `{hz}`'s text for any rate typed with up to six places (see `Fixed::trimmed`).
+        Reply::with(|r| write!(r, "ok stream on {} Hz", Fixed::trimmed(hz, 6)))
     }
 
     pub(super) fn fault_latched(f: Option<Fault>) -> Reply {
@@ -282,18 +287,23 @@ fn write_param(r: &mut impl Write, p: &Param, v: f32) -> fmt::Result {
     } else if p.integer {
         write!(r, "{}", libm::roundf(v) as i32)
     } else {
-        write!(r, "{v:.3}")
+        write!(r, "{}", Fixed::new(v, 3))
     }
 }
 
 /// The bend estimate's fields: ` bend_deg=… bend_sd_deg=…`.
 fn write_bend(r: &mut impl Write, b: &crate::posture::Bend) -> fmt::Result {
-    write!(r, " bend_deg={:.2} bend_sd_deg={:.2}", b.deg, b.sd_deg)
+    write!(
+        r,
+        " bend_deg={} bend_sd_deg={}",
+        Fixed::new(b.deg, 2),
+        Fixed::new(b.sd_deg, 2)
+    )
 }
 
 fn write_k(r: &mut impl Write, name: &str, v: f32) -> fmt::Result {
     if v.is_finite() {
-        write!(r, " {name}={v:.2}")
+        write!(r, " {name}={}", Fixed::new(v, 2))
     } else {
         write!(r, " {name}=-")
     }
@@ -305,7 +315,8 @@ fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
         EventKind::Fault(f) => write!(r, "fault {} ({})", f.code(), f.reason()),
         EventKind::Cleared(f) => write!(r, "cleared {}", f.code()),
         EventKind::Tuned { ku_per_k, tu_s } => {
-            write!(r, "autotune done ku={ku_per_k:.4}/K tu={tu_s:.1} s")
+            let (ku, tu) = (Fixed::new(*ku_per_k, 4), Fixed::new(*tu_s, 1));
+            write!(r, "autotune done ku={ku}/K tu={tu} s")
         }
         EventKind::TuneAborted(why) => write!(r, "autotune aborted ({why})"),
         EventKind::SteppingDone => r.write_str("stepping done"),
@@ -313,7 +324,11 @@ fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
         EventKind::SpringsResting => r.write_str("springs warm: stepping waits for them to rest"),
         EventKind::Warning(w) => write!(r, "warning: {w}"),
         EventKind::TimedOut { what, tc_k } => {
-            write!(r, "{what} timed out at tc={tc_k:.2} K, standby")
+            write!(
+                r,
+                "{what} timed out at tc={} K, standby",
+                Fixed::new(*tc_k, 2)
+            )
         }
     }
 }
@@ -406,8 +421,8 @@ pub const TELEMETRY_FIELDS: [&str; LOOP_FIELDS.len() + ESTIMATE_FIELDS.len()] = 
 pub fn telemetry(s: &Supervisor, now: Millis, out: &mut impl Write) -> fmt::Result {
     write!(
         out,
-        "# t_s={:.3} mode={} phase={}",
-        now.ms() as f64 * 1e-3,
+        "# t_s={} mode={} phase={}",
+        Thousandths(now.ms()),
         s.mode.name(),
         s.mode.phase_name()
     )?;
@@ -421,9 +436,9 @@ pub fn telemetry(s: &Supervisor, now: Millis, out: &mut impl Write) -> fmt::Resu
     write_k(out, "target_k", s.target_k())?;
     write!(
         out,
-        " heater_pct={:.1} fan_pct={:.1} springs={} quality={} fault={}",
-        s.outputs.heater.pct(),
-        s.outputs.fan.pct(),
+        " heater_pct={} fan_pct={} springs={} quality={} fault={}",
+        Fixed::new(s.outputs.heater.pct(), 1),
+        Fixed::new(s.outputs.fan.pct(), 1),
         s.outputs.springs,
         s.last.map_or("-", |m| m.quality.name()),
         s.fault.map_or("none", |f| f.code())

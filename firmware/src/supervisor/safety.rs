@@ -16,6 +16,7 @@
 use core::fmt;
 
 use crate::control::OnTimer;
+use crate::decimal::Fixed;
 use crate::measurement::{Measurement, Quality};
 use crate::observer::Springs;
 use crate::outputs::{SPRING_NAMES, SPRINGS, SpringMask};
@@ -165,30 +166,48 @@ impl fmt::Display for Reason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let name = |i: u8| SPRING_NAMES[i as usize % SPRINGS];
         match self.0 {
-            Fault::OverTemperature { reached_k } => write!(f, "a region reached {reached_k:.1} K"),
+            Fault::OverTemperature { reached_k } => {
+                write!(f, "a region reached {} K", Fixed::new(reached_k, 1))
+            }
             Fault::SpringOnTime { spring, on_s } => {
-                write!(f, "spring {} on for {on_s:.1} s", name(spring))
+                write!(
+                    f,
+                    "spring {} on for {} s",
+                    name(spring),
+                    Fixed::new(on_s, 1)
+                )
             }
             Fault::SpringDuty { spring, duty } => write!(
                 f,
-                "spring {} duty {:.0} % over its window",
+                "spring {} duty {} % over its window",
                 name(spring),
-                duty * 100.0
+                Fixed::new(duty * 100.0, 0)
             ),
-            Fault::SpringOverTemperature { spring, estimate_k } => {
-                write!(f, "spring {} estimated at {estimate_k:.1} K", name(spring))
+            Fault::SpringOverTemperature { spring, estimate_k } => write!(
+                f,
+                "spring {} estimated at {} K",
+                name(spring),
+                Fixed::new(estimate_k, 1)
+            ),
+            Fault::SensorLoss { for_s } => {
+                write!(f, "no valid measurement for {} s", Fixed::new(for_s, 2))
             }
-            Fault::SensorLoss { for_s } => write!(f, "no valid measurement for {for_s:.2} s"),
             Fault::RunawayHeating { rise_k } => write!(
                 f,
-                "heater at high duty but the film rose only {rise_k:.2} K in the window"
+                "heater at high duty but the film rose only {} K in the window",
+                Fixed::new(rise_k, 2)
             ),
             Fault::RunawayHolding { error_k_s } => {
-                write!(f, "Tc away from target for {error_k_s:.0} K*s")
+                write!(
+                    f,
+                    "Tc away from target for {} K*s",
+                    Fixed::new(error_k_s, 0)
+                )
             }
             Fault::NoResponse { change_k } => write!(
                 f,
-                "heater at high duty for no_response_s but the film changed by {change_k:+.2} K"
+                "heater at high duty for no_response_s but the film changed by {:+} K",
+                Fixed::new(change_k, 2)
             ),
             Fault::EStop => f.write_str("emergency stop"),
         }
