@@ -67,8 +67,8 @@
 //! `bash scripts/work-precision`). The thesis's block keeps five (`model_for`).
 //!
 //! A candidate's products cost the model's length, not its square: per spread, the Gram
-//! matrix's harmonics' block is folded once into sums over cos πnh ([`Spread`]), so each
-//! candidate is three dot products with its h's sines and cosines ([`Trig`]); and a surface-hot
+//! matrix's harmonics' block is folded once into sums over cos πnh (`Spread`), so each
+//! candidate is three dot products with its h's sines and cosines (`Trig`); and a surface-hot
 //! candidate 1 − h, the heater-hot candidate h's mirror, takes the same terms split by parity.
 //! A model of ten costs a thin-stripe design's first frame fewer instructions than the
 //! quadratic form of seven did (`bash scripts/bench-m4`).
