@@ -8,6 +8,7 @@
 //! board on its flash, the simulator in a file), and hands the outcome to
 //! [`Controller::finish_store`], which gives the command's reply.
 
+use crate::channels::SpringSense;
 use crate::command::{self, ParseError};
 use crate::console::ConsoleError;
 use crate::measurement::{Measurement, SensingHint};
@@ -49,6 +50,10 @@ pub struct Period {
     pub alive: bool,
     /// A `save` or `load` to carry out before the reply.
     pub store: Option<StoreRequest>,
+    /// `reset` asks for the spring channels to be probed before its reply: apply `outputs`
+    /// (spring power on, every gate off), read the channels once settled and hand the reading
+    /// to [`Controller::finish_probe`].
+    pub probe: bool,
 }
 
 /// The supervisor with the order of a control period around it.
@@ -69,17 +74,22 @@ impl Controller {
     }
 
     /// One control period at `now`: the button's level (`None`: no button, as in a simulator
-    /// without one), the newest measurement (if a new one came), then the line (if one came).
-    /// A line that does not parse gets its error reply and still costs one step, as any line.
+    /// without one), the spring channels' readings (`None`: none new this period, or no
+    /// sensing), the newest measurement (if a new one came), then the line (if one came). A
+    /// line that does not parse gets its error reply and still costs one step, as any line.
     pub fn period(
         &mut self,
         now: Millis,
         button: Option<bool>,
+        springs: Option<&SpringSense>,
         frame: Option<&Measurement>,
         line: Option<Line<'_>>,
     ) -> Period {
         if let Some(pressed) = button {
             self.sup.button(now, pressed);
+        }
+        if let Some(sense) = springs {
+            self.sup.sense_springs(sense);
         }
         let mut d = self.sup.step(now, frame, None);
         let alive = d.alive;
@@ -107,6 +117,7 @@ impl Controller {
             telemetry,
             alive,
             store: d.store,
+            probe: d.probe,
         }
     }
 
@@ -121,6 +132,12 @@ impl Controller {
     /// ended); return the command's reply.
     pub fn finish_store(&mut self, now: Millis, outcome: StoreOutcome<'_>) -> Reply {
         self.sup.finish_store(now, outcome)
+    }
+
+    /// Finish the period's probe with the channels' reading `sense` taken at `now`; return
+    /// `reset`'s reply.
+    pub fn finish_probe(&mut self, now: Millis, sense: &SpringSense) -> Reply {
+        self.sup.finish_probe(now, sense)
     }
 
     /// Write the telemetry line (with its `#` and CR LF).
@@ -156,12 +173,13 @@ mod tests {
     #[test]
     fn a_period_orders_button_frame_and_line_and_replies_once() {
         let mut c = controller();
-        let p = c.period(Millis(10), Some(false), None, Some(Line::Text("version")));
+        let p = c.period(Millis(10), Some(false), None, None, Some(Line::Text("version")));
         assert!(p.reply.unwrap().as_str().starts_with("ok "));
-        let p = c.period(Millis(20), Some(false), None, Some(Line::Text("fly")));
+        let p = c.period(Millis(20), Some(false), None, None, Some(Line::Text("fly")));
         assert!(p.reply.unwrap().as_str().starts_with("err unknown-command"));
         let p = c.period(
             Millis(30),
+            None,
             None,
             None,
             Some(Line::Refused(ConsoleError::LineTooLong)),
@@ -172,6 +190,7 @@ mod tests {
             Millis(40),
             Some(true),
             None,
+            None,
             Some(Line::Text("mode standby")),
         );
         assert!(p.reply.unwrap().as_str().starts_with("err fault-latched"));
@@ -181,7 +200,7 @@ mod tests {
     #[test]
     fn a_store_comes_with_the_heater_off_and_its_reply_after() {
         let mut c = controller();
-        let p = c.period(Millis(10), None, None, Some(Line::Text("save")));
+        let p = c.period(Millis(10), None, None, None, Some(Line::Text("save")));
         assert!(p.reply.is_none());
         let Some(StoreRequest::Save(_)) = p.store else {
             panic!("{p:?}")

@@ -15,6 +15,7 @@
 //! - [`posture`]: the column's bend from the camera's axis tilt and a model of the springs.
 //! - [`outputs`]: heater and fan duty and the spring gates, the only things a decision drives.
 //! - [`block`]: the block's geometry.
+//! - [`channels`]: the spring channels' currents and supplies as measured, and their checks.
 //! - [`console`]: the line-based serial console protocol: assembling bytes into lines.
 //! - [`command`]: the command table and the parser of console lines.
 //! - [`settings`]: every tunable parameter (targets, gains, weights, durations, limits).
@@ -29,6 +30,7 @@
 
 pub mod app;
 pub mod block;
+pub mod channels;
 pub mod command;
 pub mod console;
 pub mod control;

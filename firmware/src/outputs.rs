@@ -1,4 +1,4 @@
-//! What a `Decision` drives: heater and fan duty and the spring gates.
+//! What a `Decision` drives: heater and fan duty, the spring gates and the spring power enable.
 //!
 //! This module owns the output types and the spring names. The board applies [`Outputs`] to its
 //! pins and host-sim to its plant; nothing else drives an output.
@@ -114,8 +114,12 @@ pub struct Outputs {
     pub heater: Duty,
     /// Fan duty.
     pub fan: Duty,
-    /// Springs switched on.
+    /// Springs switched on (their MOSFET gates).
     pub springs: SpringMask,
+    /// The spring power enable: the high-side switch ahead of every spring channel, on only
+    /// while a mode wants the springs available and no fault is latched, so a MOSFET failed
+    /// short can still be cut.
+    pub spring_power: bool,
 }
 
 impl Outputs {
@@ -124,6 +128,7 @@ impl Outputs {
         heater: Duty::OFF,
         fan: Duty::OFF,
         springs: SpringMask::NONE,
+        spring_power: false,
     };
 }
 

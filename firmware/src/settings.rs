@@ -199,6 +199,24 @@ pub struct Settings {
     /// product's mount) sees spring A's plane across the view; 90 sees it along the line of
     /// sight (docs/posture.md).
     pub cam_azimuth_deg: f32,
+    /// What a power-up starts in: 0 `stopped` (every output off until a `mode` command, as
+    /// Marlin and Klipper never heat at boot), 1 `standby`. Any other reset starts stopped.
+    pub boot_mode: u8,
+    /// A spring channel conducting at least this with its gate off, two samples running, has a
+    /// MOSFET failed short (`spring-stuck-on`), A.
+    pub spring_leak_a: f32,
+    /// A spring channel carrying less than this with its gate on, two samples running, is open
+    /// (`spring-open`), A.
+    pub spring_open_a: f32,
+    /// A spring channel carrying more than this in any sample is shorted (`spring-short`), A.
+    pub spring_short_a: f32,
+    /// A spring supply reading below this under load, short of its current limit, sags (a `#
+    /// warning`), V.
+    pub spring_supply_min_v: f32,
+    /// Gain trims of the spring current channels A, B, C (a fraction, 1 = nominal).
+    pub i_trim: [f32; 3],
+    /// Gain trims of the spring supply channels A, B, C (a fraction, 1 = nominal).
+    pub v_trim: [f32; 3],
 }
 
 impl Settings {
@@ -276,6 +294,13 @@ impl Settings {
         smp_frozen_width_k: ObserverParams::DEFAULT.frozen_width_k,
         pose_tol_deg: 2.0,
         cam_azimuth_deg: 0.0,
+        boot_mode: 0,
+        spring_leak_a: 0.5,
+        spring_open_a: 2.0,
+        spring_short_a: 20.0,
+        spring_supply_min_v: 4.5,
+        i_trim: [1.0; 3],
+        v_trim: [1.0; 3],
     };
 
     /// The springs' pre-warm target at an estimated ambient, K: `spring_prewarm_k`, raised by
@@ -404,6 +429,17 @@ impl Settings {
     }
 }
 
+impl Settings {
+    /// Return the first safety limit (its name) that `next` relaxes against these settings
+    /// ([`Param::relax`]), if any.
+    pub fn relaxed_by(&self, next: &Settings) -> Option<&'static str> {
+        PARAMS
+            .iter()
+            .find(|p| p.relaxes((p.get)(self), (p.get)(next)))
+            .map(|p| p.name)
+    }
+}
+
 /// The highest relay duty autotune may ask for, fraction (`tune_base + tune_amplitude`).
 pub const TUNE_DUTY_MAX: f32 = 0.9;
 
@@ -446,6 +482,31 @@ pub struct Param {
     pub set: fn(&mut Settings, f32),
     /// The value is a whole number.
     pub integer: bool,
+    /// Whether the parameter is a safety limit, and which way relaxes it: while a fault is
+    /// latched `set` and `load` may tighten a limit but never relax one (SPEC section 5).
+    pub relax: Relax,
+}
+
+/// Which way a safety limit is relaxed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Relax {
+    /// Not a limit.
+    No,
+    /// A higher value relaxes it (a ceiling, a window, a timeout).
+    Up,
+    /// A lower value relaxes it (a floor: a rise required, a current required).
+    Down,
+}
+
+impl Param {
+    /// Return whether going from `old` to `new` relaxes this limit.
+    pub fn relaxes(&self, old: f32, new: f32) -> bool {
+        match self.relax {
+            Relax::No => false,
+            Relax::Up => new > old,
+            Relax::Down => new < old,
+        }
+    }
 }
 
 macro_rules! param {
@@ -459,6 +520,7 @@ macro_rules! param {
             get: |$s: &Settings| $field,
             set: |$s: &mut Settings, v: f32| $field = v,
             integer: false,
+            relax: Relax::No,
         }
     };
 }
@@ -476,6 +538,7 @@ macro_rules! count {
             get: |$s: &Settings| $field as f32,
             set: |$s: &mut Settings, v: f32| $field = v as _,
             integer: true,
+            relax: Relax::No,
         }
     };
 }
@@ -492,6 +555,7 @@ macro_rules! pct {
             get: |$s: &Settings| $field * 100.0,
             set: |$s: &mut Settings, v: f32| $field = v / 100.0,
             integer: false,
+            relax: Relax::No,
         }
     };
 }
@@ -595,22 +659,28 @@ pub const PARAMS: &[Param] = &[
         "weight of T1 (the colder) in Tc in forming",
         |s| s.w1_form
     ),
-    param!(
-        "heater_cap_k",
-        "K",
-        343.0,
-        400.0,
-        "heater duty cut as the hotter region nears this",
-        |s| s.heater_cap_k
-    ),
-    param!(
-        "heater_cap_band_k",
-        "K",
-        0.5,
-        20.0,
-        "width of the heater cap",
-        |s| s.heater_cap_band_k
-    ),
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "heater_cap_k",
+            "K",
+            343.0,
+            400.0,
+            "heater duty cut as the hotter region nears this",
+            |s| s.heater_cap_k
+        )
+    },
+    Param {
+        relax: Relax::Down,
+        ..param!(
+            "heater_cap_band_k",
+            "K",
+            0.5,
+            20.0,
+            "width of the heater cap",
+            |s| s.heater_cap_band_k
+        )
+    },
     param!(
         "soak_timeout_s",
         "s",
@@ -707,92 +777,125 @@ pub const PARAMS: &[Param] = &[
         "split-range dead band",
         |s| s.fan_deadband
     ),
-    param!(
-        "t_max_k",
-        "K",
-        330.0,
-        383.0,
-        "SMP over-temperature limit",
-        |s| s.t_max_k
-    ),
-    param!(
-        "t_heater_max_k",
-        "K",
-        340.0,
-        413.0,
-        "heater-film over-temperature limit",
-        |s| s.t_heater_max_k
-    ),
-    param!(
-        "spring_on_max_s",
-        "s",
-        1.0,
-        15.0,
-        "longest continuous spring on-time",
-        |s| s.spring_on_max_s
-    ),
-    pct!(
-        "spring_duty_max_pct",
-        10.0,
-        80.0,
-        "spring duty limit",
-        |s| s.spring_duty_max
-    ),
-    param!(
-        "spring_window_s",
-        "s",
-        10.0,
-        600.0,
-        "spring duty window",
-        |s| s.spring_window_s
-    ),
-    param!(
-        "sensor_timeout_s",
-        "s",
-        0.5,
-        2.0,
-        "sensor loss after this without a frame",
-        |s| s.sensor_timeout_s
-    ),
-    param!(
-        "runaway_gain_k",
-        "K",
-        0.5,
-        20.0,
-        "least rise while heating hard",
-        |s| s.runaway_gain_k
-    ),
-    param!(
-        "runaway_window_s",
-        "s",
-        5.0,
-        120.0,
-        "...within this window",
-        |s| s.runaway_window_s
-    ),
-    pct!(
-        "runaway_duty_pct",
-        30.0,
-        100.0,
-        "...while the heater is at least this",
-        |s| s.runaway_duty
-    ),
-    param!(
-        "hold_band_k",
-        "K",
-        1.0,
-        20.0,
-        "holding: errors within this are fine",
-        |s| s.hold_band_k
-    ),
-    param!(
-        "hold_max_error_ks",
-        "K*s",
-        10.0,
-        2000.0,
-        "holding: largest error beyond the band",
-        |s| s.hold_max_error_ks
-    ),
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "t_max_k",
+            "K",
+            330.0,
+            383.0,
+            "SMP over-temperature limit",
+            |s| s.t_max_k
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "t_heater_max_k",
+            "K",
+            340.0,
+            413.0,
+            "heater-film over-temperature limit",
+            |s| s.t_heater_max_k
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "spring_on_max_s",
+            "s",
+            1.0,
+            15.0,
+            "longest continuous spring on-time",
+            |s| s.spring_on_max_s
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..pct!(
+            "spring_duty_max_pct",
+            10.0,
+            80.0,
+            "spring duty limit",
+            |s| s.spring_duty_max
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "spring_window_s",
+            "s",
+            10.0,
+            600.0,
+            "spring duty window",
+            |s| s.spring_window_s
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "sensor_timeout_s",
+            "s",
+            0.5,
+            2.0,
+            "sensor loss after this without a frame",
+            |s| s.sensor_timeout_s
+        )
+    },
+    Param {
+        relax: Relax::Down,
+        ..param!(
+            "runaway_gain_k",
+            "K",
+            0.5,
+            20.0,
+            "least rise while heating hard",
+            |s| s.runaway_gain_k
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "runaway_window_s",
+            "s",
+            5.0,
+            120.0,
+            "...within this window",
+            |s| s.runaway_window_s
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..pct!(
+            "runaway_duty_pct",
+            30.0,
+            100.0,
+            "...while the heater is at least this",
+            |s| s.runaway_duty
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "hold_band_k",
+            "K",
+            1.0,
+            20.0,
+            "holding: errors within this are fine",
+            |s| s.hold_band_k
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "hold_max_error_ks",
+            "K*s",
+            10.0,
+            2000.0,
+            "holding: largest error beyond the band",
+            |s| s.hold_max_error_ks
+        )
+    },
     param!("tune_k", "K", 303.0, 368.0, "autotune target", |s| s.tune_k),
     pct!(
         "tune_base_pct",
@@ -816,14 +919,17 @@ pub const PARAMS: &[Param] = &[
         "autotune time limit",
         |s| s.tune_timeout_s
     ),
-    param!(
-        "no_response_s",
-        "s",
-        20.0,
-        600.0,
-        "fault if the heater runs hard this long and the film does not rise",
-        |s| s.no_response_s
-    ),
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "no_response_s",
+            "s",
+            20.0,
+            600.0,
+            "fault if the heater runs hard this long and the film does not rise",
+            |s| s.no_response_s
+        )
+    },
     param!(
         "unresolved_s",
         "s",
@@ -855,14 +961,17 @@ pub const PARAMS: &[Param] = &[
         "warn if the wall is not soft after",
         |s| s.soft_warn_s
     ),
-    param!(
-        "spring_hot_k",
-        "K",
-        345.0,
-        393.0,
-        "springs driven up to this estimate",
-        |s| s.spring_hot_k
-    ),
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "spring_hot_k",
+            "K",
+            345.0,
+            393.0,
+            "springs driven up to this estimate",
+            |s| s.spring_hot_k
+        )
+    },
     param!(
         "spring_band_k",
         "K",
@@ -887,14 +996,17 @@ pub const PARAMS: &[Param] = &[
         "pre-warm raised per K of ambient below 298.15 K",
         |s| s.spring_prewarm_cold_k_per_k
     ),
-    param!(
-        "spring_max_k",
-        "K",
-        360.0,
-        403.0,
-        "spring over-temperature limit (estimate)",
-        |s| s.spring_max_k
-    ),
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "spring_max_k",
+            "K",
+            360.0,
+            403.0,
+            "spring over-temperature limit (estimate)",
+            |s| s.spring_max_k
+        )
+    },
     param!(
         "obs_heater_w",
         "W",
@@ -911,14 +1023,17 @@ pub const PARAMS: &[Param] = &[
         "observer: wall heat capacity",
         |s| s.obs_wall_j_per_k
     ),
-    param!(
-        "obs_spring_w",
-        "W",
-        5.0,
-        150.0,
-        "observer: spring power at full current",
-        |s| s.obs_spring_w
-    ),
+    Param {
+        relax: Relax::Down,
+        ..param!(
+            "obs_spring_w",
+            "W",
+            5.0,
+            150.0,
+            "observer: spring power at full current",
+            |s| s.obs_spring_w
+        )
+    },
     param!(
         "obs_spring_j_per_k",
         "J/K",
@@ -935,14 +1050,17 @@ pub const PARAMS: &[Param] = &[
         "observer: spring latent heat",
         |s| s.obs_spring_latent_j
     ),
-    param!(
-        "obs_spring_loss_w_per_k",
-        "W/K",
-        0.01,
-        2.0,
-        "observer: spring loss to still air",
-        |s| s.obs_spring_loss_w_per_k
-    ),
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "obs_spring_loss_w_per_k",
+            "W/K",
+            0.01,
+            2.0,
+            "observer: spring loss to still air",
+            |s| s.obs_spring_loss_w_per_k
+        )
+    },
     param!(
         "sma_as_k",
         "K",
@@ -1006,6 +1124,96 @@ pub const PARAMS: &[Param] = &[
         180.0,
         "camera's image rows from spring A, towards B",
         |s| s.cam_azimuth_deg
+    ),
+    count!(
+        "boot_mode",
+        0.0,
+        1.0,
+        "what a power-up starts in: 0 stopped, 1 standby",
+        |s| s.boot_mode
+    ),
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "spring_leak_a",
+            "A",
+            0.1,
+            2.0,
+            "a spring conducting this with its gate off is stuck on",
+            |s| s.spring_leak_a
+        )
+    },
+    Param {
+        relax: Relax::Down,
+        ..param!(
+            "spring_open_a",
+            "A",
+            0.5,
+            8.0,
+            "a spring carrying less with its gate on is open",
+            |s| s.spring_open_a
+        )
+    },
+    Param {
+        relax: Relax::Up,
+        ..param!(
+            "spring_short_a",
+            "A",
+            16.0,
+            30.0,
+            "a spring carrying more is shorted",
+            |s| s.spring_short_a
+        )
+    },
+    param!(
+        "spring_supply_min_v",
+        "V",
+        3.0,
+        5.0,
+        "a spring supply under this under load sags (warning)",
+        |s| s.spring_supply_min_v
+    ),
+    pct!(
+        "trim_ia_pct",
+        80.0,
+        120.0,
+        "gain trim of spring A's current",
+        |s| s.i_trim[0]
+    ),
+    pct!(
+        "trim_ib_pct",
+        80.0,
+        120.0,
+        "gain trim of spring B's current",
+        |s| s.i_trim[1]
+    ),
+    pct!(
+        "trim_ic_pct",
+        80.0,
+        120.0,
+        "gain trim of spring C's current",
+        |s| s.i_trim[2]
+    ),
+    pct!(
+        "trim_va_pct",
+        80.0,
+        120.0,
+        "gain trim of spring A's supply",
+        |s| s.v_trim[0]
+    ),
+    pct!(
+        "trim_vb_pct",
+        80.0,
+        120.0,
+        "gain trim of spring B's supply",
+        |s| s.v_trim[1]
+    ),
+    pct!(
+        "trim_vc_pct",
+        80.0,
+        120.0,
+        "gain trim of spring C's supply",
+        |s| s.v_trim[2]
     ),
 ];
 

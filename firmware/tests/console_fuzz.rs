@@ -211,7 +211,7 @@ impl Console {
                 Ok(text) => Line::Text(text),
                 Err(e) => Line::Refused(e),
             };
-            let p = self.sup.period(now, None, None, Some(line));
+            let p = self.sup.period(now, None, None, None, Some(line));
             let reply = match (p.reply, p.store) {
                 (Some(r), None) => r,
                 (None, Some(StoreRequest::Save(rec))) => {
@@ -242,7 +242,7 @@ impl Console {
             quality: Quality::Resolved,
             tilt: None,
         };
-        self.sup.period(Millis(self.now_ms), None, Some(&m), None);
+        self.sup.period(Millis(self.now_ms), None, None, Some(&m), None);
     }
 }
 

@@ -162,6 +162,18 @@ pub enum Warning {
         /// The estimated ambient, K.
         ambient_k: f32,
     },
+    /// A spring's supply sagged under load: short of its current limit and below
+    /// `spring_supply_min_v` (the power it delivers is measured, not assumed).
+    SupplySag {
+        /// Spring index, 0 = A.
+        spring: u8,
+        /// The supply's voltage under load, V.
+        supply_v: f32,
+        /// The current it gave, A.
+        current_a: f32,
+    },
+    /// The board started after a reset that was not a power-up: every output off.
+    Reset(super::boot::ResetCause),
     /// The wall cannot soften: even with the film held at its ceiling the model's steady
     /// state stays above `soft_frozen_max`. The soak ends.
     CannotSoften {
@@ -179,6 +191,22 @@ pub enum Warning {
 impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
+            Warning::SupplySag {
+                spring,
+                supply_v,
+                current_a,
+            } => write!(
+                f,
+                "spring {} supply sags: {} V at {} A under load; its power is measured",
+                crate::outputs::SPRING_NAMES[spring as usize % crate::outputs::SPRINGS],
+                Fixed::new(supply_v, 2),
+                Fixed::new(current_a, 1)
+            ),
+            Warning::Reset(cause) => write!(
+                f,
+                "reset by {}; every output off until a `mode` command",
+                cause.name()
+            ),
             Warning::Unresolved => f.write_str(
                 "frames unresolved for unresolved_s while heating: the loop holds the film region",
             ),

@@ -92,6 +92,8 @@
 //! rest.
 
 pub mod autotune;
+pub mod boot;
+mod channels;
 pub mod events;
 pub mod forming;
 pub mod memory;
@@ -104,6 +106,7 @@ mod standby;
 pub mod stepping;
 pub mod store;
 
+use crate::channels::{Channels, SpringSense};
 use crate::command::Command;
 use crate::control::{Pid, PidConfig, SplitRange};
 use crate::measurement::{Measurement, Quality, SensingHint, controlled_temperature};
@@ -117,6 +120,7 @@ use report::Reply;
 use safety::{Fault, FaultKind, LoopState, Safety};
 
 pub use autotune::Tuning;
+pub use boot::ResetCause;
 pub use events::{Notice, Warning};
 pub use forming::Forming;
 pub use memory::{SpringMemory, SpringRecord};
@@ -182,6 +186,11 @@ pub struct Decision {
     /// A line to print on the console as `# {notice}` after the reply: a warning (also in the
     /// `log`) or an announcement (`# autotune done: …`).
     pub notice: Option<Notice>,
+    /// `reset` asks for the spring channels to be probed: then `reply` is `None`, `outputs`
+    /// have the spring power on with every gate and the heater off; the caller applies them,
+    /// reads one [`SpringSense`] once the channels have settled, and gives it to
+    /// [`Supervisor::finish_probe`] for the command's reply.
+    pub probe: bool,
 }
 
 /// The supervisor.
@@ -226,6 +235,18 @@ pub struct Supervisor {
     /// The last decision's heater duty was cut by a cap (the film's or the estimated inner
     /// layer's), below what the loop or the relay asked.
     heater_capped: bool,
+    /// The spring channels as measured, and their checks' state.
+    channels: Channels,
+    /// The spring channels' readings of this period, for the next step.
+    sense: Option<SpringSense>,
+    /// `reset` asked for a probe of the spring channels: the next decision carries it.
+    probe: bool,
+    /// The last decision asked for a probe ([`Decision::probe`]) and it is not finished.
+    probe_pending: bool,
+    /// A notice for the next decision (the boot's warning).
+    carried: Option<Notice>,
+    /// When a sagging supply was last reported.
+    sag_warned: Option<Millis>,
 }
 
 /// The observer for `settings`, with the springs of `memory` (or at the first measured
@@ -309,6 +330,12 @@ impl Supervisor {
             quiet: false,
             notice: None,
             heater_capped: false,
+            channels: Channels::default(),
+            sense: None,
+            probe: false,
+            probe_pending: false,
+            carried: None,
+            sag_warned: None,
         }
     }
 
@@ -433,7 +460,9 @@ impl Supervisor {
         let now = now.max(self.last_step);
         let elapsed_ms = now.0.saturating_sub(self.last_step.0).min(u32::MAX as u64) as u32;
         self.last_step = now;
-        self.notice = None;
+        self.notice = self.carried.take();
+        // A probe the caller did not carry out before this step is void.
+        self.probe_pending = false;
         // The interval since the last step ran with the last decision's outputs: the
         // observer predicts over it, and the springs that were on are credited (on-time, duty).
         let ran = self.outputs;
@@ -449,6 +478,10 @@ impl Supervisor {
             .or_else(|| Safety::spring_temperature_fault(self.observer.springs(), &self.settings))
         {
             self.latch(now, f);
+        }
+        // The spring channels, read while `ran` was applied.
+        if let Some(sense) = self.sense.take() {
+            self.check_channels(now, &sense, ran);
         }
 
         // 1. The measurement: only a valid, newer one is used. A newer, finite frame above the
@@ -524,6 +557,7 @@ impl Supervisor {
 
         // 4. The mode.
         let mut outputs = self.run_mode(now, elapsed_ms, fresh.as_ref(), dt);
+        outputs.spring_power = self.mode.id().uses_springs();
 
         // 5. Spring limits on what would be applied: a spring past its limit is never on.
         if let Some(f) = self.safety.spring_fault(outputs.springs, &self.settings) {
@@ -532,10 +566,14 @@ impl Supervisor {
         if self.fault.is_some() {
             outputs = self.safe_outputs();
         }
-        // A flash operation follows this decision: heater and springs off through it.
-        if self.store.is_some() {
+        // A flash operation follows this decision: heater and springs off through it. A probe
+        // of the spring channels: their power on, every gate and the heater off.
+        let probe = core::mem::take(&mut self.probe);
+        self.probe_pending = probe;
+        if self.store.is_some() || probe {
             outputs.heater = Duty::OFF;
             outputs.springs = SpringMask::NONE;
+            outputs.spring_power = probe;
         }
         self.outputs = outputs;
 
@@ -552,8 +590,9 @@ impl Supervisor {
         Decision {
             outputs,
             sensing: self.sensing_hint(),
-            reply: if store.is_some() { None } else { reply },
+            reply: if store.is_some() || probe { None } else { reply },
             store,
+            probe,
             telemetry,
             // A stale measurement always latches sensor loss in this same step unless another
             // fault already holds the outputs safe: either way the loop is alive.
@@ -618,6 +657,7 @@ impl Supervisor {
             heater: Duty::OFF,
             fan,
             springs: SpringMask::NONE,
+            spring_power: false,
         }
     }
 
@@ -749,6 +789,7 @@ impl Supervisor {
                     heater: Duty::OFF,
                     fan: Duty::from_fraction(s.form_fan),
                     springs: step.springs,
+                    spring_power: false,
                 };
             }
             Drive::Relay(d) => {
@@ -757,6 +798,7 @@ impl Supervisor {
                     heater: capped(d),
                     fan: Duty::OFF,
                     springs: step.springs,
+                    spring_power: false,
                 };
             }
             Drive::Hold(target_k) => target_k,
@@ -780,6 +822,7 @@ impl Supervisor {
             heater: capped(hc.heater),
             fan: hc.fan,
             springs: step.springs,
+            spring_power: false,
         }
     }
 
@@ -796,6 +839,12 @@ impl Supervisor {
                 let Some(p) = PARAMS.get(i as usize) else {
                     return Reply::err("unknown-name", "no such parameter");
                 };
+                if self.fault.is_some() && p.relaxes((p.get)(&self.settings), v) {
+                    return Reply::err(
+                        "bad-state",
+                        "a fault is latched: a limit may be tightened, not relaxed (`reset` first)",
+                    );
+                }
                 let mut next = self.settings;
                 match next.set(p.name, v) {
                     Ok(()) => {
@@ -935,10 +984,29 @@ impl Supervisor {
             }
             FaultKind::RunawayHeating | FaultKind::RunawayHolding | FaultKind::NoResponse => fresh,
             FaultKind::EStop => !self.button_pressed,
+            // The probe decides whether a channel still conducts; an open spring is named again
+            // the next time a mode drives it.
+            FaultKind::SpringStuckOn(_)
+            | FaultKind::SpringOpen(_)
+            | FaultKind::SpringShort(_)
+            | FaultKind::SpringSensing(_) => true,
         };
         if !gone {
             return Reply::cause_present(f);
         }
+        if self.needs_probe() {
+            // The reply comes from the probe ([`Supervisor::finish_probe`]).
+            self.probe = true;
+            return Reply::ok("probing the spring channels");
+        }
+        self.clear_fault(now)
+    }
+
+    /// Clear the latched fault and go to `stopped`.
+    fn clear_fault(&mut self, now: Millis) -> Reply {
+        let Some(f) = self.fault else {
+            return Reply::ok("no fault latched");
+        };
         self.fault = None;
         self.quiet = false;
         self.events.push(now, EventKind::Cleared(f));

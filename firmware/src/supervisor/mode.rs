@@ -102,6 +102,20 @@ impl ModeId {
         }
     }
 
+    /// Whether the mode wants the springs available: the spring power enable is on only then
+    /// (and with no fault latched), so a MOSFET failed short cannot heat a spring in any
+    /// other mode, and is caught with its gate off as soon as a mode turns the power on.
+    pub const fn uses_springs(self) -> bool {
+        match self {
+            ModeId::StepSmall | ModeId::StepLarge | ModeId::Recover | ModeId::Pose => true,
+            ModeId::Standby
+            | ModeId::Form
+            | ModeId::Autotune
+            | ModeId::Stopped
+            | ModeId::Faulted => false,
+        }
+    }
+
     /// Whether the mode drives the block (heater loop, springs or fan on purpose): no flash
     /// operation then, since it stalls the core.
     pub const fn drives_block(self) -> bool {

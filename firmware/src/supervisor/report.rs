@@ -86,6 +86,17 @@ impl Reply {
         Reply::with(|r| write!(r, "err {code}: {message}"))
     }
 
+    /// `reset` refused: spring `spring` conducts `amps` with its gate off.
+    pub(super) fn conducting(spring: char, amps: f32) -> Reply {
+        Reply::with(|r| {
+            write!(
+                r,
+                "err cause-present: spring {spring} conducts {} A with its gate off",
+                Fixed::new(amps, 1)
+            )
+        })
+    }
+
     /// `mode pose`'s reply: the target, the springs and what they can reach (or why not): a
     /// target beyond `limit_deg` (the reach, or with `form` the reach the formed column rests
     /// at plus the tolerance) is refused.
@@ -184,6 +195,7 @@ impl Reply {
                 s.outputs.springs
             )?;
             write!(r, " select={}", s.springs)?;
+            write_channels(r, s)?;
             write_bend(r, &s.posture.bend())?;
             write_estimate(r, &s.observer.estimate())?;
             match s.fault {
@@ -292,6 +304,33 @@ fn write_param(r: &mut impl Write, p: &Param, v: f32) -> fmt::Result {
 }
 
 /// The bend estimate's fields: ` bend_deg=… bend_sd_deg=…`.
+/// The spring power enable and, on a board that senses its springs, each channel's current
+/// and supply (`-` where unknown).
+fn write_channels(r: &mut impl Write, s: &Supervisor) -> fmt::Result {
+    let on = if s.outputs.spring_power { "on" } else { "off" };
+    write!(r, " spring_power={on}")?;
+    if !s.channels.present() {
+        return Ok(());
+    }
+    let st = s.channels.state();
+    for (name, f) in [
+        ("spring_a", (|c: &crate::channels::ChannelState| c.current_a) as fn(&_) -> f32),
+        ("supply_v", |c| c.supply_v),
+    ] {
+        write!(r, " {name}=")?;
+        for (i, c) in st.iter().enumerate() {
+            let sep = if i == 0 { "" } else { "," };
+            let v = f(c);
+            if v.is_finite() {
+                write!(r, "{sep}{}", Fixed::new(v, 2))?;
+            } else {
+                write!(r, "{sep}-")?;
+            }
+        }
+    }
+    Ok(())
+}
+
 fn write_bend(r: &mut impl Write, b: &crate::posture::Bend) -> fmt::Result {
     write!(
         r,

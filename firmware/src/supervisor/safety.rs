@@ -15,6 +15,7 @@
 
 use core::fmt;
 
+use crate::channels::{ChannelFault, SenseFault};
 use crate::control::OnTimer;
 use crate::decimal::Fixed;
 use crate::measurement::{Measurement, Quality};
@@ -54,6 +55,14 @@ pub enum FaultKind {
     NoResponse,
     /// The emergency stop (button or console).
     EStop,
+    /// A spring channel conducted with its gate off: its MOSFET failed short (index 0 = A).
+    SpringStuckOn(u8),
+    /// A spring channel carried no current with its gate on (index 0 = A).
+    SpringOpen(u8),
+    /// A spring channel carried too much current, or its wire reads bypassed (index 0 = A).
+    SpringShort(u8),
+    /// A spring channel's sensing reads garbage (index 0 = A).
+    SpringSensing(u8),
 }
 
 /// A latched fault, with what tripped it in that check's own unit.
@@ -107,6 +116,8 @@ pub enum Fault {
     },
     /// The emergency stop (button or console).
     EStop,
+    /// A spring channel's measurement tripped a check ([`crate::channels`]).
+    Channel(ChannelFault),
 }
 
 impl FaultKind {
@@ -122,6 +133,10 @@ impl FaultKind {
             FaultKind::RunawayHolding => "runaway-holding",
             FaultKind::NoResponse => "no-response",
             FaultKind::EStop => "estop",
+            FaultKind::SpringStuckOn(_) => "spring-stuck-on",
+            FaultKind::SpringOpen(_) => "spring-open",
+            FaultKind::SpringShort(_) => "spring-short",
+            FaultKind::SpringSensing(_) => "spring-sensing",
         }
     }
 }
@@ -139,6 +154,12 @@ impl Fault {
             Fault::RunawayHolding { .. } => FaultKind::RunawayHolding,
             Fault::NoResponse { .. } => FaultKind::NoResponse,
             Fault::EStop => FaultKind::EStop,
+            Fault::Channel(c) => match c {
+                ChannelFault::StuckOn { spring, .. } => FaultKind::SpringStuckOn(spring),
+                ChannelFault::Open { spring, .. } => FaultKind::SpringOpen(spring),
+                ChannelFault::Short { spring, .. } => FaultKind::SpringShort(spring),
+                ChannelFault::Sensing { spring, .. } => FaultKind::SpringSensing(spring),
+            },
         }
     }
 
@@ -210,6 +231,53 @@ impl fmt::Display for Reason {
                 Fixed::new(change_k, 2)
             ),
             Fault::EStop => f.write_str("emergency stop"),
+            Fault::Channel(c) => channel_reason(f, c),
+        }
+    }
+}
+
+/// The reason of a spring channel's fault, naming the spring.
+fn channel_reason(f: &mut fmt::Formatter<'_>, c: ChannelFault) -> fmt::Result {
+    let name = SPRING_NAMES[c.spring() as usize % SPRINGS];
+    let a = |x: f32| Fixed::new(x, 1);
+    match c {
+        ChannelFault::StuckOn { current_a, .. } => write!(
+            f,
+            "spring {name} stuck on: {} A with its gate off; spring power cut",
+            a(current_a)
+        ),
+        ChannelFault::Open {
+            current_a,
+            supply_v,
+            ..
+        } => write!(
+            f,
+            "spring {name} open: {} A with its gate on (supply {} V)",
+            a(current_a),
+            a(supply_v)
+        ),
+        ChannelFault::Short {
+            current_a,
+            wire_ohm,
+            ..
+        } if wire_ohm.is_finite() => write!(
+            f,
+            "spring {name} short: its wire reads {} ohm at {} A; spring power cut",
+            Fixed::new(wire_ohm, 3),
+            a(current_a)
+        ),
+        ChannelFault::Short { current_a, .. } => write!(
+            f,
+            "spring {name} short: {} A; spring power cut",
+            a(current_a)
+        ),
+        ChannelFault::Sensing { what, .. } => {
+            let why = match what {
+                SenseFault::OutOfRange => "a reading beyond the ADC's 12 bits",
+                SenseFault::DividerRail => "its supply divider at its rail",
+                SenseFault::NoSupplyReading => "current with no supply reading (a broken divider)",
+            };
+            write!(f, "spring {name} sensing: {why}")
         }
     }
 }

@@ -85,10 +85,31 @@ impl Supervisor {
         Reply::ok("storing")
     }
 
-    /// `defaults`: every parameter back to its default, in RAM.
+    /// `defaults`: every parameter back to its default, in RAM (refused where that would
+    /// relax a limit while a fault is latched).
     pub(super) fn defaults(&mut self) -> Reply {
-        self.configure(Settings::DEFAULT);
+        if let Err(r) = self.take_settings(Settings::DEFAULT) {
+            return r;
+        }
         Reply::ok("defaults in use (`save` keeps them)")
+    }
+
+    /// Put `s` in use, unless a fault is latched and `s` relaxes one of the limits in use (SPEC
+    /// section 5: while a fault is latched no limit can be relaxed); then nothing changes and
+    /// the error reply names the limit.
+    fn take_settings(&mut self, s: Settings) -> Result<(), Reply> {
+        if self.fault.is_some()
+            && let Some(name) = self.settings.relaxed_by(&s)
+        {
+            let mut r = Reply::err("bad-state", "");
+            let _ = write!(
+                r,
+                "a fault is latched: {name} would be relaxed; nothing changed (`reset` first)"
+            );
+            return Err(r);
+        }
+        self.configure(s);
+        Ok(())
     }
 
     /// Finish a `save` or `load` the last step asked for ([`Decision::store`](super::Decision))
@@ -107,21 +128,31 @@ impl Supervisor {
                 );
                 r
             }
-            StoreOutcome::Loaded(None) => {
-                self.configure(Settings::DEFAULT);
-                Reply::ok("nothing stored, defaults in use")
-            }
+            StoreOutcome::Loaded(None) => match self.take_settings(Settings::DEFAULT) {
+                Ok(()) => Reply::ok("nothing stored, defaults in use"),
+                Err(r) => r,
+            },
             StoreOutcome::Loaded(Some(bytes)) => match Settings::decode(bytes) {
-                Ok(s) => {
-                    self.configure(s);
-                    let mut r = Reply::ok("");
-                    let _ = write!(r, "loaded {} parameters", PARAMS.len());
-                    r
-                }
+                Ok(s) => match self.take_settings(s) {
+                    Ok(()) => {
+                        let mut r = Reply::ok("");
+                        let _ = write!(r, "loaded {} parameters", PARAMS.len());
+                        r
+                    }
+                    Err(r) => r,
+                },
                 Err(e) => {
-                    self.configure(Settings::DEFAULT);
+                    let used = self.take_settings(Settings::DEFAULT).is_ok();
                     let mut r = Reply::err("bad-record", "");
-                    let _ = write!(r, "{e}; defaults in use");
+                    let _ = write!(
+                        r,
+                        "{e}; {}",
+                        if used {
+                            "defaults in use"
+                        } else {
+                            "settings unchanged (the defaults would relax a limit while a fault is latched)"
+                        }
+                    );
                     r
                 }
             },
