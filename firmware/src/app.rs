@@ -135,9 +135,11 @@ impl Controller {
     }
 
     /// Finish the period's probe with the channels' reading `sense` taken at `now`; return
-    /// `reset`'s reply.
-    pub fn finish_probe(&mut self, now: Millis, sense: &SpringSense) -> Reply {
-        self.sup.finish_probe(now, sense)
+    /// `reset`'s reply and the outputs to apply from now on (the probe's spring power off
+    /// again: every output as the latched fault, or `stopped`, wants).
+    pub fn finish_probe(&mut self, now: Millis, sense: &SpringSense) -> (Reply, Outputs) {
+        let reply = self.sup.finish_probe(now, sense);
+        (reply, self.sup.outputs())
     }
 
     /// Write the telemetry line (with its `#` and CR LF).
@@ -173,7 +175,13 @@ mod tests {
     #[test]
     fn a_period_orders_button_frame_and_line_and_replies_once() {
         let mut c = controller();
-        let p = c.period(Millis(10), Some(false), None, None, Some(Line::Text("version")));
+        let p = c.period(
+            Millis(10),
+            Some(false),
+            None,
+            None,
+            Some(Line::Text("version")),
+        );
         assert!(p.reply.unwrap().as_str().starts_with("ok "));
         let p = c.period(Millis(20), Some(false), None, None, Some(Line::Text("fly")));
         assert!(p.reply.unwrap().as_str().starts_with("err unknown-command"));

@@ -89,8 +89,9 @@ impl FrontEnd {
 /// (martensite) to 0.31 Ω (austenite); under a third of that the wire is bypassed.
 pub const SHORT_WIRE_OHM: f32 = 0.1;
 
-/// Below this supply reading a channel that carries current has a broken divider, V.
-pub const NO_SUPPLY_V: f32 = 0.5;
+/// Below this supply reading a channel that carries current has a broken divider, V: even a
+/// wire bypassed at its terminals leaves the series resistance (20 mΩ × 15 A = 0.3 V).
+pub const NO_SUPPLY_V: f32 = 0.1;
 
 /// A divider count at or above this is at its rail (≈ 9.8 V: no 5 V supply reads it), counts.
 pub const DIVIDER_RAIL_COUNT: u16 = 4050;
@@ -247,6 +248,17 @@ impl ChannelFault {
     }
 }
 
+/// What a probe of the channels found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Probe {
+    /// No channel conducts with its gate off.
+    Clear,
+    /// This channel (0 = A) conducts this current, A, with its gate off.
+    Conducts(u8, f32),
+    /// This channel's readings are garbage (beyond the ADC's 12 bits: an ADC that stopped).
+    Garbage(u8),
+}
+
 /// A supply that sags under load: the channel and its reading.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sag {
@@ -345,6 +357,7 @@ impl Channels {
         let sensing = |what| Some(ChannelFault::Sensing { spring, what });
         let mut sum = (0.0, 0.0);
         let mut fault = None;
+        let (mut stuck, mut open) = (false, false);
         for c in &sense.samples {
             if c.current[i] > ADC_MAX_COUNT || c.supply[i] > ADC_MAX_COUNT {
                 self.state[i] = ChannelState::UNKNOWN;
@@ -369,9 +382,19 @@ impl Channels {
             // Two samples running: a count across periods, so a fault that starts mid-period
             // is caught at the next period's first sample.
             let leak = power && !on && amps >= s.spring_leak_a;
-            self.leaking[i] = if leak { self.leaking[i].saturating_add(1) } else { 0 };
+            self.leaking[i] = if leak {
+                self.leaking[i].saturating_add(1)
+            } else {
+                0
+            };
             let dead = on && amps < s.spring_open_a;
-            self.dead[i] = if dead { self.dead[i].saturating_add(1) } else { 0 };
+            self.dead[i] = if dead {
+                self.dead[i].saturating_add(1)
+            } else {
+                0
+            };
+            stuck |= self.leaking[i] >= 2;
+            open |= self.dead[i] >= 2;
         }
         let n = sense.samples.len() as f32;
         let (current_a, supply_v) = (sum.0 / n, sum.1 / n);
@@ -382,7 +405,10 @@ impl Channels {
             f32::NAN
         };
         let power_w = if flowing {
-            fmath::max(current_a * supply_v - current_a * current_a * FRONT_END.series_ohm, 0.0)
+            fmath::max(
+                current_a * supply_v - current_a * current_a * FRONT_END.series_ohm,
+                0.0,
+            )
         } else {
             0.0
         };
@@ -399,10 +425,10 @@ impl Channels {
                 wire_ohm,
             });
         }
-        if fault.is_none() && self.leaking[i] >= 2 {
+        if fault.is_none() && stuck {
             fault = Some(ChannelFault::StuckOn { spring, current_a });
         }
-        if fault.is_none() && self.dead[i] >= 2 {
+        if fault.is_none() && open {
             fault = Some(ChannelFault::Open {
                 spring,
                 current_a,
@@ -418,9 +444,27 @@ impl Channels {
         (fault, sag)
     }
 
-    /// Return the channels that conduct with their gates off in a probe's readings (spring
-    /// power on, every gate off), as a mask, with the first one's current.
-    pub fn probe(&self, sense: &SpringSense, s: &Settings) -> (SpringMask, f32) {
+    /// Judge a probe's readings (spring power on, every gate off): the first channel that
+    /// reads garbage, else the first that conducts (with its current), else none.
+    pub fn probe(&self, sense: &SpringSense, s: &Settings) -> Probe {
+        for i in 0..SPRINGS {
+            let garbage = sense
+                .samples
+                .iter()
+                .any(|c| c.current[i] > ADC_MAX_COUNT || c.supply[i] > ADC_MAX_COUNT);
+            if garbage {
+                return Probe::Garbage(i as u8);
+            }
+        }
+        let (conducting, amps) = self.conducting(sense, s);
+        match (0..SPRINGS).find(|&i| conducting.contains(i)) {
+            Some(i) => Probe::Conducts(i as u8, amps),
+            None => Probe::Clear,
+        }
+    }
+
+    /// The channels that conduct with their gates off, as a mask, with the first one's current.
+    fn conducting(&self, sense: &SpringSense, s: &Settings) -> (SpringMask, f32) {
         let mut bits = 0u8;
         let mut first_a = 0.0;
         for i in 0..SPRINGS {
@@ -429,11 +473,7 @@ impl Channels {
                 .iter()
                 .map(|c| convert(c, i, &self.calibration, s).0)
                 .fold(0.0, fmath::max);
-            let garbage = sense
-                .samples
-                .iter()
-                .any(|c| c.current[i] > ADC_MAX_COUNT || c.supply[i] > ADC_MAX_COUNT);
-            if amps >= s.spring_leak_a || garbage {
+            if amps >= s.spring_leak_a {
                 if bits == 0 {
                     first_a = amps;
                 }
@@ -453,5 +493,103 @@ impl Channels {
             to(current_a / fe.amps_per_count()),
             to(supply_v / fe.volts_per_count()),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(current: u16, supply: u16) -> Counts {
+        Counts {
+            current: [current; SPRINGS],
+            supply: [supply; SPRINGS],
+        }
+    }
+
+    #[test]
+    fn the_front_end_scales_are_the_hardware_s() {
+        // 2 mΩ × 50 into 3.3 V / 4096: ≈ 8.06 mA a count; the divider ≈ 2.42 mV a count.
+        assert!((FRONT_END.amps_per_count() - 0.008_057).abs() < 1e-6);
+        assert!((FRONT_END.volts_per_count() - 0.002_417).abs() < 1e-6);
+        assert_eq!(Channels::ideal_counts(15.0, 5.0), (1862, 2069));
+        assert_eq!(Channels::ideal_counts(99.0, -1.0), (ADC_MAX_COUNT, 0));
+    }
+
+    #[test]
+    fn calibration_takes_the_offsets_and_refuses_a_stuck_amplifier() {
+        let scans = [scan(8, 2069), scan(10, 2069)];
+        let cal = Calibration::from_scans(&scans).unwrap();
+        assert_eq!(cal.offset_counts, [9.0; SPRINGS]);
+        let mut stuck = scans;
+        stuck[1].current[2] = 900;
+        let e = Calibration::from_scans(&stuck).unwrap_err();
+        assert_eq!(e.spring, 2);
+        assert_eq!(Calibration::from_scans(&[]), Ok(Calibration::NOMINAL));
+        // With the offset taken, a channel at rest reads 0 A, and 15 A reads 15 A.
+        let mut ch = Channels::new(cal);
+        let s = Settings::DEFAULT;
+        let (i15, v) = Channels::ideal_counts(15.0, 4.35);
+        let sense = SpringSense {
+            samples: [Counts {
+                current: [i15 + 9, 9, 9],
+                supply: [v, 2069, 2069],
+            }; 2],
+        };
+        assert_eq!(
+            ch.update(&sense, SpringMask::from_bits(1), true, &s),
+            (None, None)
+        );
+        let st = ch.state();
+        assert!((st[0].current_a - 15.0).abs() < 0.01, "{st:?}");
+        assert!((st[0].wire_ohm - 0.27).abs() < 0.002, "{st:?}");
+        assert!((st[0].power_w - 15.0 * 15.0 * 0.27).abs() < 1.0, "{st:?}");
+        assert_eq!(st[1].current_a, 0.0);
+        assert!(st[1].wire_ohm.is_nan() && st[1].power_w == 0.0);
+    }
+
+    /// A reading the ADC cannot give, a divider at its rail or current with no supply reading
+    /// is a sensing fault of that channel, never a value.
+    #[test]
+    fn garbage_readings_are_a_sensing_fault() {
+        let s = Settings::DEFAULT;
+        let cases = [
+            (scan(5000, 2069), SpringMask::NONE, SenseFault::OutOfRange),
+            (scan(0, 4095), SpringMask::NONE, SenseFault::DividerRail),
+            (scan(1862, 0), SpringMask::ALL, SenseFault::NoSupplyReading),
+        ];
+        for (c, gates, what) in cases {
+            let mut ch = Channels::default();
+            let sense = SpringSense { samples: [c; 2] };
+            let (f, _) = ch.update(&sense, gates, true, &s);
+            assert_eq!(f, Some(ChannelFault::Sensing { spring: 0, what }));
+        }
+    }
+
+    /// One sample over the leak threshold is not enough; two running (across periods) are.
+    #[test]
+    fn stuck_on_needs_two_samples_running() {
+        let s = Settings::DEFAULT;
+        let mut ch = Channels::default();
+        let (leak, v) = Channels::ideal_counts(3.0, 5.0);
+        let quiet = scan(0, v);
+        let mut one = quiet;
+        one.current[0] = leak;
+        let period = |a: Counts, b: Counts| SpringSense { samples: [a, b] };
+        assert_eq!(
+            ch.update(&period(quiet, one), SpringMask::NONE, true, &s).0,
+            None
+        );
+        let (f, _) = ch.update(&period(one, quiet), SpringMask::NONE, true, &s);
+        assert!(
+            matches!(f, Some(ChannelFault::StuckOn { spring: 0, .. })),
+            "{f:?}"
+        );
+        // The spring power off: nothing can flow, nothing is judged stuck.
+        let mut ch = Channels::default();
+        assert_eq!(
+            ch.update(&period(one, one), SpringMask::NONE, false, &s).0,
+            None
+        );
     }
 }

@@ -242,7 +242,8 @@ impl Console {
             quality: Quality::Resolved,
             tilt: None,
         };
-        self.sup.period(Millis(self.now_ms), None, None, Some(&m), None);
+        self.sup
+            .period(Millis(self.now_ms), None, None, Some(&m), None);
     }
 }
 

@@ -11,11 +11,18 @@
 //! - the heater duty is never above the heater cap's for the last valid frame's film;
 //! - a step that asks for a flash operation has heater and springs off;
 //! - the e-stop always wins: once pressed (console or button) the fault is `estop` until a
-//!   `reset` with the button released, and every output (the fan too) is off while it is.
+//!   `reset` with the button released, and every output (the fan too) is off while it is;
+//! - with random spring channel readings (healthy, a MOSFET conducting with its gate off, an
+//!   open channel, noise, a saturated amplifier, counts beyond 12 bits, a broken divider): the
+//!   spring power is never on with a fault latched (but for `reset`'s probe, with every gate
+//!   and the heater off), a channel that conducts with its gate off and the power on in both
+//!   samples of a period is latched in that period, and nothing panics;
+//! - while a fault is latched no `set`, `load` or `defaults` relaxes a limit.
 //!
 //! `THERMORPH_PROPTEST_CASES` sets the number of sequences (default 256, of 600 steps each).
 
 use proptest::prelude::*;
+use thermorph::channels::{Channels, Counts, SpringSense};
 use thermorph::command::parse;
 use thermorph::measurement::{Measurement, Quality};
 use thermorph::outputs::{Outputs, SPRINGS};
@@ -36,6 +43,27 @@ enum Event {
     Frame(FrameKind),
     /// No frame this period (the sensor is silent).
     Silent,
+    /// The spring channels read this way this period (then a frame, as `Frame`).
+    Channels(ChannelKind, FrameKind),
+}
+
+/// How the spring channels read in a period.
+#[derive(Clone, Copy, Debug)]
+enum ChannelKind {
+    /// As the applied outputs drive them: 15 A where a gate and the power are on.
+    Healthy,
+    /// Channel i conducts whatever its gate (the power still gates it).
+    Stuck(usize),
+    /// Channel i carries nothing.
+    Open(usize),
+    /// Healthy with noise of this many counts on every input.
+    Noisy(u16),
+    /// Channel i's amplifier at full scale.
+    Saturated(usize),
+    /// Channel i reads beyond 12 bits.
+    Garbage(usize, u16),
+    /// Channel i's supply reads nothing.
+    BrokenDivider(usize),
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -138,9 +166,77 @@ fn frame_kind() -> impl Strategy<Value = FrameKind> {
     ]
 }
 
+fn channel_kind() -> impl Strategy<Value = ChannelKind> {
+    prop_oneof![
+        12 => Just(ChannelKind::Healthy),
+        2 => (0usize..SPRINGS).prop_map(ChannelKind::Stuck),
+        2 => (0usize..SPRINGS).prop_map(ChannelKind::Open),
+        2 => (0u16..40).prop_map(ChannelKind::Noisy),
+        1 => (0usize..SPRINGS).prop_map(ChannelKind::Saturated),
+        1 => ((0usize..SPRINGS), 4096u16..=u16::MAX).prop_map(|(i, c)| ChannelKind::Garbage(i, c)),
+        1 => (0usize..SPRINGS).prop_map(ChannelKind::BrokenDivider),
+    ]
+}
+
+/// The readings of `kind` under the applied outputs `o`, with `seed` for the noise.
+fn sense(kind: ChannelKind, o: &Outputs, seed: u32) -> SpringSense {
+    let mut n = seed;
+    let mut noise = |amp: u16| {
+        n = n.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+        if amp == 0 {
+            0i32
+        } else {
+            (n >> 16) as i32 % (2 * amp as i32 + 1) - amp as i32
+        }
+    };
+    let mut sample = || {
+        let mut c = Counts::default();
+        for i in 0..SPRINGS {
+            let gate = match kind {
+                ChannelKind::Stuck(j) if j == i => true,
+                ChannelKind::Open(j) if j == i => false,
+                _ => o.springs.contains(i),
+            };
+            let on = o.spring_power && gate;
+            let (a, v) = if on {
+                Channels::ideal_counts(15.0, 4.35)
+            } else {
+                Channels::ideal_counts(0.0, 5.0)
+            };
+            let amp = if let ChannelKind::Noisy(x) = kind {
+                x
+            } else {
+                0
+            };
+            c.current[i] = (a as i32 + noise(amp)).clamp(0, 4095) as u16;
+            c.supply[i] = (v as i32 + noise(amp)).clamp(0, 4095) as u16;
+            match kind {
+                ChannelKind::Saturated(j) if j == i => c.current[i] = 4095,
+                ChannelKind::Garbage(j, x) if j == i => c.current[i] = x,
+                ChannelKind::BrokenDivider(j) if j == i => c.supply[i] = 0,
+                _ => {}
+            }
+        }
+        c
+    };
+    SpringSense {
+        samples: [sample(), sample()],
+    }
+}
+
+/// Whether `sense` shows a channel conducting clearly (≥ 2 A, four times `spring_leak_a`'s
+/// default) in both samples with its gate off and the power on, under `o`.
+fn conducts_with_gate_off(sense: &SpringSense, o: &Outputs) -> bool {
+    let (two_a, _) = Channels::ideal_counts(2.0, 0.0);
+    o.spring_power
+        && (0..SPRINGS)
+            .any(|i| !o.springs.contains(i) && sense.samples.iter().all(|c| c.current[i] >= two_a))
+}
+
 fn event() -> impl Strategy<Value = Event> {
     prop_oneof![
         30 => frame_kind().prop_map(Event::Frame),
+        8 => (channel_kind(), frame_kind()).prop_map(|(c, f)| Event::Channels(c, f)),
         3 => Just(Event::Silent),
         4 => line().prop_map(Event::Line),
         1 => any::<bool>().prop_map(Event::Button),
@@ -275,6 +371,9 @@ fn check(
     if fault.is_some() && !o.springs.is_empty() {
         return Err(format!("springs on with a fault latched: {}", ctx()));
     }
+    if fault.is_some() && o.spring_power && !(d.probe && o.springs.is_empty()) {
+        return Err(format!("spring power on with a fault latched: {}", ctx()));
+    }
     if d.store.is_some() && (o.heater.fraction() > 0.0 || !o.springs.is_empty()) {
         return Err(format!("outputs live through a flash operation: {}", ctx()));
     }
@@ -282,7 +381,13 @@ fn check(
         if fault.map(|f| f.code()) != Some("estop") {
             return Err(format!("e-stop lost: {}", ctx()));
         }
-        if o != Outputs::OFF {
+        // `reset`'s probe of the spring channels (the button released) powers them with
+        // every gate off for one reading.
+        let probe = Outputs {
+            spring_power: true,
+            ..Outputs::OFF
+        };
+        if o != Outputs::OFF && !(d.probe && o == probe) {
             return Err(format!("an output on under the e-stop: {}", ctx()));
         }
     }
@@ -337,10 +442,19 @@ fn run(events: &[(Event, u16)]) -> Result<(), TestCaseError> {
         let s_before = *sup.settings();
         w.credit(&applied, dt_ms, &s_before)
             .map_err(TestCaseError::fail)?;
+        let latched_before = sup.fault().is_some();
+        let mut leak = false;
         let (m, c) = match e {
             Event::Frame(kind) => {
                 seq += 1;
                 (Some(block.frame(*kind, now, seq)), None)
+            }
+            Event::Channels(kind, frame) => {
+                let r = sense(*kind, &applied, seq.wrapping_add(k as u32));
+                leak = conducts_with_gate_off(&r, &applied);
+                sup.sense_springs(&r);
+                seq += 1;
+                (Some(block.frame(*frame, now, seq)), None)
             }
             Event::Silent => (None, None),
             Event::Line(l) => (None, parse(l).ok()),
@@ -378,6 +492,22 @@ fn run(events: &[(Event, u16)]) -> Result<(), TestCaseError> {
             }
         }
         check(&sup, &d, &w, &s_before, k).map_err(TestCaseError::fail)?;
+        if leak {
+            prop_assert!(
+                sup.fault().is_some(),
+                "step {}: a channel conducted with its gate off and nothing latched",
+                k
+            );
+        }
+        let limits_kept = |after: &Settings| {
+            PARAMS
+                .iter()
+                .find(|p| p.relaxes((p.get)(&s_before), (p.get)(after)))
+                .map(|p| p.name)
+        };
+        if latched_before && let Some(name) = limits_kept(sup.settings()) {
+            prop_assert!(false, "step {}: {} relaxed under a latched fault", k, name);
+        }
         if let Some(req) = d.store.take() {
             let r = match req {
                 StoreRequest::Save(rec) => {
@@ -388,11 +518,33 @@ fn run(events: &[(Event, u16)]) -> Result<(), TestCaseError> {
             };
             d.reply = Some(r);
         }
+        if latched_before && let Some(name) = limits_kept(sup.settings()) {
+            prop_assert!(false, "step {}: {} relaxed by a load", k, name);
+        }
         if w.estop {
             prop_assert_eq!(sup.fault().map(|f| f.code()), Some("estop"));
         }
         applied = sup.outputs();
         prop_assert_eq!(applied, d.outputs);
+        if d.probe {
+            // `reset`'s probe: a healthy channel set, or the stuck one again.
+            let kind = if k.is_multiple_of(2) {
+                ChannelKind::Healthy
+            } else {
+                ChannelKind::Stuck(k % SPRINGS)
+            };
+            let r = sup.finish_probe(now, &sense(kind, &d.outputs, k as u32));
+            let after = sup.outputs();
+            prop_assert!(
+                r.as_str().starts_with("ok") || r.as_str().starts_with("err cause-present")
+            );
+            prop_assert!(!after.spring_power && after.heater.fraction() == 0.0);
+            if w.estop && r.as_str().starts_with("ok fault cleared") {
+                prop_assert!(!w.button);
+                w.estop = false;
+            }
+            applied = after;
+        }
     }
     Ok(())
 }

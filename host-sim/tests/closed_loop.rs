@@ -247,15 +247,16 @@ fn frozen_frames_trip_sensor_loss() {
 }
 
 #[test]
-fn stuck_on_spring_is_seen_hot_by_the_camera_and_trips_over_temperature() {
-    // Nothing in the pin map senses a spring's current: the supervisor never commands C, and
-    // the camera sees the wire heating (the radiation zone's temperature) until it is above
-    // t_max_k: over-temperature latches (heater and springs off; the stuck MOSFET is hardware).
+fn stuck_on_spring_heats_nothing_without_power_and_is_cut_once_a_mode_powers_the_springs() {
+    // Spring C's MOSFET fails short in standby: the spring power enable is off there, so
+    // nothing flows. A stepping turns the power on: the current with C's gate off latches
+    // `spring-stuck-on` within one control period and cuts the power again.
     let sc = scene(
         "stuck",
-        150.0,
+        90.0,
         true,
         "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+         [[command]]\nat = \"60 s\"\nline = \"mode step-large AB\"\n\
          [[fault]]\nat = \"30 s\"\nkind = \"stuck-spring\"\nspring = \"C\"\nstuck = \"on\"\n",
     );
     let r = run(&sc, &mut |_| {}).unwrap();
@@ -266,22 +267,29 @@ fn stuck_on_spring_is_seen_hot_by_the_camera_and_trips_over_temperature() {
     );
     assert!(
         rows.iter()
-            .filter(|r| r.obs.time_s > 30.0)
-            .all(|r| r.inputs.springs_on[2])
+            .filter(|r| r.obs.time_s < 60.0)
+            .all(|r| r.obs.spring_current_a[2] == 0.0)
     );
-    let at = rows
-        .iter()
-        .find(|r| fault(r).is_some())
-        .expect("the hot spring trips");
-    let t = latched(&r, "over-temperature").expect("latched");
+    let t = latched(&r, "spring-stuck-on").expect("latched");
+    let hottest = rows.iter().map(|r| r.obs.springs_k[2]).fold(0.0, f64::max);
     println!(
-        "spring C stuck on from 30 s: {} latched at {t:.2} s ({:.1} s after), spring C at {:.0} K",
-        fault(at).unwrap_or("-"),
-        t - 30.0,
-        at.obs.springs_k[2]
+        "spring C stuck on from 30 s, the power on at 60 s: spring-stuck-on at {t:.2} s \
+         ({:.2} s after), spring C at most {hottest:.1} K",
+        t - 60.0
     );
-    assert_eq!(fault(at), Some("over-temperature"));
-    assert!(t - 30.0 <= 100.0, "{t}");
+    assert!(t - 60.0 <= 0.1, "{t}");
+    assert!(hottest < 300.0, "{hottest}");
+    // A row's inputs are those at its period's start (0.25 s).
+    for r in rows.iter().filter(|r| r.obs.time_s > t + 0.25) {
+        assert!(
+            r.obs.spring_current_a.iter().all(|a| *a == 0.0) && safe(r),
+            "{:.2} s: {:?} {:?} {:?}",
+            r.obs.time_s,
+            r.obs.spring_current_a,
+            r.inputs,
+            r.springs_cmd
+        );
+    }
 }
 
 #[test]

@@ -202,7 +202,8 @@ fn garbage_then_commands_and_telemetry_over_a_pty() {
     for r in &replies[..garbage_replies - 1] {
         assert!(r.starts_with("err "), "{r}");
     }
-    assert!(replies[garbage_replies - 1].starts_with("ok mode=standby"));
+    // `host-sim console` starts as a power-up: stopped until a `mode` command.
+    assert!(replies[garbage_replies - 1].starts_with("ok mode=stopped"));
     assert_eq!(replies[garbage_replies], "ok mode standby");
     assert_eq!(replies[garbage_replies + 1], "ok stream on 10 Hz");
 

@@ -125,7 +125,7 @@ fn program(t_s: f64) -> Inputs {
             (150.0..180.0).contains(&phase),
             false,
         ],
-        heater_open: false,
+        ..Inputs::default()
     }
 }
 

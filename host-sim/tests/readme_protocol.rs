@@ -254,6 +254,10 @@ fn fault_codes() -> Vec<&'static str> {
         FaultKind::RunawayHolding,
         FaultKind::NoResponse,
         FaultKind::EStop,
+        FaultKind::SpringStuckOn(0),
+        FaultKind::SpringOpen(0),
+        FaultKind::SpringShort(0),
+        FaultKind::SpringSensing(0),
     ];
     kinds
         .iter()
@@ -268,7 +272,11 @@ fn fault_codes() -> Vec<&'static str> {
                 | FaultKind::RunawayHeating
                 | FaultKind::RunawayHolding
                 | FaultKind::NoResponse
-                | FaultKind::EStop => kind.code(),
+                | FaultKind::EStop
+                | FaultKind::SpringStuckOn(_)
+                | FaultKind::SpringOpen(_)
+                | FaultKind::SpringShort(_)
+                | FaultKind::SpringSensing(_) => kind.code(),
             }
         })
         .collect()

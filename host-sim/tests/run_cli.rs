@@ -71,15 +71,18 @@ fn default_scene_writes_csv_json_and_png() {
                 continue;
             }
             let x: f64 = v.parse().unwrap();
-            // Tc is NaN until the first frame and the target while no loop runs (forming and
-            // recovery's cooling); nothing else may be.
+            // Tc is NaN until the first frame, the target while no loop runs (forming and
+            // recovery's cooling) and the measured spring currents before the first control
+            // tick's reading; nothing else may be.
             let mode = r[header.iter().position(|h| *h == "mode").unwrap()];
             let phase = r[header.iter().position(|h| *h == "phase").unwrap()];
             let forming = mode == "form" || (mode == "recover" && phase == "cool");
             assert!(
                 x.is_finite()
                     || (*h == "tc_k" && r[0].parse::<f64>().unwrap() < 1.0)
-                    || (*h == "target_k" && forming),
+                    || (*h == "target_k" && forming)
+                    || (h.starts_with("meas_spring_")
+                        && r[0].parse::<f64>().unwrap() <= scene.period_s + 1e-9),
                 "{h}={v}"
             );
         }
@@ -197,7 +200,7 @@ fn faults_scene_trips_resets_and_logs() {
     let codes: Vec<&str> = r.summary.faults.iter().map(|f| f.code.as_str()).collect();
     assert_eq!(
         codes,
-        ["runaway-heating", "sensor-loss"],
+        ["runaway-heating", "spring-stuck-on"],
         "{:?}",
         r.summary.faults
     );
@@ -212,18 +215,27 @@ fn faults_scene_trips_resets_and_logs() {
         "ok fault cleared, stopped: every output off until a `mode` command"
     );
     assert!(replies[2].starts_with("ok mode standby"), "{}", replies[2]);
-    // Spring C stuck on 2:00–3:00 though never commanded.
-    assert!(at(150.0).inputs.springs_on[2] && !at(150.0).springs_cmd[2]);
-    // Sensor NACKs from 4:00: sensor loss within the 1 s window (plus one frame interval).
+    // Spring C's MOSFET fails short at 2:00 in the stepping (the spring power on, C's gate
+    // off): `spring-stuck-on` at the next control tick, the power cut; C carries nothing after.
     let f1 = &r.summary.faults[1];
-    assert!(f1.at_s > 240.0 && f1.at_s <= 241.25, "{f1:?}");
+    assert!(f1.at_s >= 120.0 && f1.at_s <= 120.1, "{f1:?}");
+    assert!(f1.reason.starts_with("spring C stuck on: "), "{f1:?}");
+    assert!(at(150.0).inputs.springs_on[2] && !at(150.0).springs_cmd[2]);
+    assert!(at(150.0).inputs.spring_power_off && at(150.0).obs.spring_current_a[2] == 0.0);
+    // Sensor NACKs from 4:00 under the latched fault: no new latch (the first stays), outputs
+    // safe.
     assert!(at(245.0).inputs.heater_duty == 0.0 && !at(245.0).springs_cmd.iter().any(|s| *s));
     assert!(
         replies[4].starts_with("ok fault cleared, stopped"),
         "{}",
         replies[4]
     );
-    assert!(replies[5].contains("fault sensor-loss") && replies[5].contains("cleared sensor-loss"));
+    assert!(
+        replies[5].contains("fault spring-stuck-on")
+            && replies[5].contains("cleared spring-stuck-on"),
+        "{}",
+        replies[5]
+    );
     // The summary prints the replies, warnings and faults in time order.
     let mut text = Vec::new();
     host_sim::runs::run::print_summary(&r.summary, &mut text).unwrap();

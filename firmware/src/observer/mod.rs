@@ -69,7 +69,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::units::{Kelvin, Seconds};
-pub use springs::{SpringParams, SpringState, Springs};
+pub use springs::{SpringFusion, SpringParams, SpringReading, SpringState, Springs};
 
 /// Number of wall layers through the lattice's thickness (inner = 0, outer = `LAYERS − 1`).
 pub const LAYERS: usize = 2;
@@ -607,6 +607,8 @@ pub struct ObserverN<const L: usize, const S: usize, const A: usize> {
     fresh: bool,
     /// The first measurement places the springs at the ambient, martensite.
     springs_at_ambient: bool,
+    /// What the spring channels measured of each spring ([`SpringFusion`]).
+    fusion: [SpringFusion; SPRINGS],
 }
 
 impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
@@ -640,7 +642,21 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             springs: [SpringState::at(&params.springs, t0, var); SPRINGS],
             fresh: true,
             springs_at_ambient: false,
+            fusion: [SpringFusion::NEW; SPRINGS],
         }
+    }
+
+    /// The spring channels' readings of the period that just ended: each driven spring's
+    /// measured power ([`SpringFusion`]).
+    pub fn measure_springs(&mut self, readings: &[SpringReading; SPRINGS]) {
+        for (f, r) in self.fusion.iter_mut().zip(readings) {
+            f.fuse(r);
+        }
+    }
+
+    /// What the spring channels measured of each spring.
+    pub fn fusion(&self) -> &[SpringFusion; SPRINGS] {
+        &self.fusion
     }
 
     /// Let the first measurement place the springs at the ambient it shows (T5), martensite:
@@ -713,14 +729,10 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         // The springs, from the start-of-step ambient and outer wall (their coupling to the
         // wall is ≈ 0.017 W/K against the wall's ≈ 2 W/K: one-way).
         let outer = ambient + dev[Self::OUTER];
+        let p = &self.params.springs;
         for (i, sp) in self.springs.iter_mut().enumerate() {
-            sp.predict(
-                &self.params.springs,
-                springs.contains(i),
-                ambient,
-                outer,
-                dt_s,
-            );
+            let power = self.fusion[i].power_w(p, sp, springs.contains(i));
+            sp.predict_powered(p, power, ambient, outer, dt_s);
         }
     }
 

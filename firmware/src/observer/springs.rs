@@ -18,7 +18,8 @@
 //! are linear, so the settling is solved in closed form, and the latent heat is never skipped
 //! however long the step. The Joule power follows the phase (NiTi's resistivity rises
 //! ≈ 12.5 % from martensite to austenite, Dynalloy: 80 → 90 µΩ·cm) at the channel's current
-//! limit.
+//! limit, or is the spring channel's measured power where that differs by more than
+//! [`MEASURED_POWER_SHARE`] ([`SpringFusion`]).
 
 use crate::outputs::SPRINGS;
 
@@ -108,12 +109,33 @@ impl SpringState {
     }
 
     /// Advance by `dt_s` with the spring switched `on`, the ambient at `ambient_k` and the
-    /// column's outer surface at `outer_k`.
+    /// column's outer surface at `outer_k`, the Joule power the model's.
     pub fn predict(&mut self, p: &SpringParams, on: bool, ambient_k: f32, outer_k: f32, dt_s: f32) {
+        let power = if on { self.model_power_w(p) } else { 0.0 };
+        self.predict_powered(p, power, ambient_k, outer_k, dt_s);
+    }
+
+    /// The Joule power the model assumes in this spring while it is on, W: the channel's
+    /// current limit through the phase's resistance.
+    pub fn model_power_w(&self, p: &SpringParams) -> f32 {
+        p.power_w.max(0.0) * (1.0 + (AUSTENITE_RESISTANCE_RATIO - 1.0) * self.austenite)
+    }
+
+    /// Advance by `dt_s` with `power_w` of Joule heat in the wire (0: off), the ambient at
+    /// `ambient_k` and the column's outer surface at `outer_k`.
+    pub fn predict_powered(
+        &mut self,
+        p: &SpringParams,
+        power_w: f32,
+        ambient_k: f32,
+        outer_k: f32,
+        dt_s: f32,
+    ) {
+        let on = power_w > 0.0;
         let c = p.capacity_j_per_k.max(1e-3);
         let g = p.ambient_w_per_k.max(0.0) + p.column_w_per_k.max(0.0);
-        let power = if on {
-            p.power_w.max(0.0) * (1.0 + (AUSTENITE_RESISTANCE_RATIO - 1.0) * self.austenite)
+        let power = if power_w.is_finite() {
+            power_w.max(0.0)
         } else {
             0.0
         };
@@ -190,6 +212,59 @@ pub fn settle(p: &SpringParams, h_j: f32, old: f32) -> (f32, f32) {
 /// Every spring's state.
 pub type Springs = [SpringState; SPRINGS];
 
+/// The measured power is used in place of the model's once they differ by more than this
+/// share: the channel's sensing (gain and divider errors of ≈ 1 % each before trimming) is
+/// less accurate than the model on the block it was fitted to, and far more so on a supply
+/// that sags or a wire that differs.
+pub const MEASURED_POWER_SHARE: f32 = 0.1;
+
+/// What a spring channel measured over a control period.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringReading {
+    /// The spring was driven (its gate and the spring power on).
+    pub on: bool,
+    /// The power delivered to the wire, W (NaN: not measured).
+    pub power_w: f32,
+}
+
+/// What the spring channels measured of one spring while it is driven: its power.
+///
+/// The measured power (I·V less the leads' I²R) replaces the model's where they differ by more
+/// than [`MEASURED_POWER_SHARE`]: a supply that sags or is strong, another wire. The wire's
+/// resistance is a measure of the phase, not of the temperature (NiTi's resistivity rises
+/// ≈ 12.5 % from martensite to austenite and moves by 10⁻⁴–10⁻³ per K within a phase); fusing
+/// it, and learning the springs' cooling from it, is not done yet (docs/observer.md).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringFusion {
+    /// The measured power of the present drive, W (NaN: none yet, or off).
+    pub power_w: f32,
+}
+
+impl SpringFusion {
+    /// Nothing measured.
+    pub const NEW: SpringFusion = SpringFusion { power_w: f32::NAN };
+
+    /// The power to predict with for a spring driven `on` in state `s`: the model's, or the
+    /// measured one where they differ by more than [`MEASURED_POWER_SHARE`].
+    pub fn power_w(&self, p: &SpringParams, s: &SpringState, on: bool) -> f32 {
+        if !on {
+            return 0.0;
+        }
+        let model = s.model_power_w(p);
+        let m = self.power_w;
+        if m.is_finite() && (m - model).abs() > MEASURED_POWER_SHARE * model {
+            m.max(0.0)
+        } else {
+            model
+        }
+    }
+
+    /// Take a channel's reading `r`: the power of a driven spring; nothing while it is off.
+    pub fn fuse(&mut self, r: &SpringReading) {
+        self.power_w = if r.on { r.power_w } else { f32::NAN };
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,6 +297,21 @@ mod tests {
         // Between Ms and As nothing transforms: a half-austenite spring stays half.
         let h = p.capacity_j_per_k * 333.0 + p.latent_j * 0.5;
         assert_eq!(settle(&p, h, 0.5), (333.0, 0.5));
+    }
+
+    /// The measured power replaces the model's only where they differ by more than the
+    /// sensing's allowance: a sagging supply, not the sensing's own error.
+    #[test]
+    fn the_measured_power_is_used_where_it_clearly_differs() {
+        let p = params();
+        let s = SpringState::at(&p, 300.0, 1.0);
+        let mut f = SpringFusion::NEW;
+        let model = s.model_power_w(&p);
+        f.power_w = model * 0.95;
+        assert_eq!(f.power_w(&p, &s, true), model);
+        f.power_w = model * 0.5;
+        assert_eq!(f.power_w(&p, &s, true), model * 0.5);
+        assert_eq!(f.power_w(&p, &s, false), 0.0);
     }
 
     #[test]

@@ -69,3 +69,55 @@ impl Supervisor {
         sup
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::ModeId;
+    use super::*;
+    use crate::outputs::Outputs;
+
+    #[test]
+    fn a_power_up_stops_unless_boot_mode_asks_for_standby() {
+        let mut s = Supervisor::boot(Millis(0), Settings::DEFAULT, None, ResetCause::PowerUp);
+        assert_eq!(s.mode().id(), ModeId::Stopped);
+        let d = s.step(Millis(50), None, None);
+        assert_eq!(d.outputs, Outputs::OFF);
+        assert!(d.notice.is_none());
+        let standby = Settings {
+            boot_mode: 1,
+            ..Settings::DEFAULT
+        };
+        let s = Supervisor::boot(Millis(0), standby, None, ResetCause::PowerUp);
+        assert_eq!(s.mode().id(), ModeId::Standby);
+    }
+
+    /// Any other reset comes up stopped whatever `boot_mode`, and says why once.
+    #[test]
+    fn any_other_reset_stops_and_says_why() {
+        let standby = Settings {
+            boot_mode: 1,
+            ..Settings::DEFAULT
+        };
+        for cause in [
+            ResetCause::Watchdog,
+            ResetCause::BrownOut,
+            ResetCause::Software,
+            ResetCause::Pin,
+            ResetCause::Unknown,
+        ] {
+            let mut s = Supervisor::boot(Millis(0), standby, Some(SpringMemory::RESTED), cause);
+            assert_eq!(s.mode().id(), ModeId::Stopped, "{cause:?}");
+            let d = s.step(Millis(50), None, None);
+            assert_eq!(d.outputs, Outputs::OFF);
+            let text = std::format!("{}", d.notice.expect("the reset's warning"));
+            assert_eq!(
+                text,
+                std::format!(
+                    "warning: reset by {}; every output off until a `mode` command",
+                    cause.name()
+                )
+            );
+            assert!(s.step(Millis(100), None, None).notice.is_none());
+        }
+    }
+}

@@ -466,10 +466,27 @@ impl Supervisor {
         // The interval since the last step ran with the last decision's outputs: the
         // observer predicts over it, and the springs that were on are credited (on-time, duty).
         let ran = self.outputs;
+        // The spring channels, read while `ran` was applied: their checks, then each driven
+        // spring's measured power for the observer (before it predicts over the same interval).
+        if let Some(sense) = self.sense.take() {
+            self.check_channels(now, &sense, ran);
+            let st = self.channels.state();
+            let readings = core::array::from_fn(|i| crate::observer::SpringReading {
+                on: ran.spring_power && ran.springs.contains(i),
+                power_w: st[i].power_w,
+            });
+            self.observer.measure_springs(&readings);
+        }
+        // A spring heats only with the spring power on (its gate alone does nothing).
+        let heated = if ran.spring_power {
+            ran.springs
+        } else {
+            SpringMask::NONE
+        };
         self.observer.predict(
             ran.heater.fraction(),
             ran.fan.fraction(),
-            ran.springs,
+            heated,
             Seconds::from_ms(elapsed_ms),
         );
         if let Some(f) = self
@@ -478,10 +495,6 @@ impl Supervisor {
             .or_else(|| Safety::spring_temperature_fault(self.observer.springs(), &self.settings))
         {
             self.latch(now, f);
-        }
-        // The spring channels, read while `ran` was applied.
-        if let Some(sense) = self.sense.take() {
-            self.check_channels(now, &sense, ran);
         }
 
         // 1. The measurement: only a valid, newer one is used. A newer, finite frame above the
@@ -590,7 +603,11 @@ impl Supervisor {
         Decision {
             outputs,
             sensing: self.sensing_hint(),
-            reply: if store.is_some() || probe { None } else { reply },
+            reply: if store.is_some() || probe {
+                None
+            } else {
+                reply
+            },
             store,
             probe,
             telemetry,

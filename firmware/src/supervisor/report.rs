@@ -86,6 +86,18 @@ impl Reply {
         Reply::with(|r| write!(r, "err {code}: {message}"))
     }
 
+    /// `reset` refused: spring `spring`'s sensing reads garbage (an ADC that stopped), so the
+    /// probe cannot check the channels.
+    pub(super) fn unreadable(spring: char) -> Reply {
+        Reply::with(|r| {
+            write!(
+                r,
+                "err cause-present: spring {spring}'s sensing reads beyond 12 bits: \
+                 the channels cannot be checked"
+            )
+        })
+    }
+
     /// `reset` refused: spring `spring` conducts `amps` with its gate off.
     pub(super) fn conducting(spring: char, amps: f32) -> Reply {
         Reply::with(|r| {
@@ -314,7 +326,10 @@ fn write_channels(r: &mut impl Write, s: &Supervisor) -> fmt::Result {
     }
     let st = s.channels.state();
     for (name, f) in [
-        ("spring_a", (|c: &crate::channels::ChannelState| c.current_a) as fn(&_) -> f32),
+        (
+            "spring_a",
+            (|c: &crate::channels::ChannelState| c.current_a) as fn(&_) -> f32,
+        ),
         ("supply_v", |c| c.supply_v),
     ] {
         write!(r, " {name}=")?;

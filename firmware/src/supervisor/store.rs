@@ -62,6 +62,17 @@ pub fn settings_at_boot(stored: Option<&[u8]>, console: &mut impl Write) -> Sett
     }
 }
 
+/// The reply to a `load` or `defaults` refused because it would relax the limit `name` while a
+/// fault is latched.
+fn relaxed(name: &str) -> Reply {
+    let mut r = Reply::err("bad-state", "");
+    let _ = write!(
+        r,
+        "a fault is latched: {name} would be relaxed; nothing changed (`reset` first)"
+    );
+    r
+}
+
 impl Supervisor {
     /// `save`: ask for the record to be written (refused while a mode drives the block).
     pub(super) fn save(&mut self) -> Reply {
@@ -88,25 +99,20 @@ impl Supervisor {
     /// `defaults`: every parameter back to its default, in RAM (refused where that would
     /// relax a limit while a fault is latched).
     pub(super) fn defaults(&mut self) -> Reply {
-        if let Err(r) = self.take_settings(Settings::DEFAULT) {
-            return r;
+        if let Err(name) = self.take_settings(Settings::DEFAULT) {
+            return relaxed(name);
         }
         Reply::ok("defaults in use (`save` keeps them)")
     }
 
     /// Put `s` in use, unless a fault is latched and `s` relaxes one of the limits in use (SPEC
     /// section 5: while a fault is latched no limit can be relaxed); then nothing changes and
-    /// the error reply names the limit.
-    fn take_settings(&mut self, s: Settings) -> Result<(), Reply> {
+    /// the error is the limit's name.
+    fn take_settings(&mut self, s: Settings) -> Result<(), &'static str> {
         if self.fault.is_some()
             && let Some(name) = self.settings.relaxed_by(&s)
         {
-            let mut r = Reply::err("bad-state", "");
-            let _ = write!(
-                r,
-                "a fault is latched: {name} would be relaxed; nothing changed (`reset` first)"
-            );
-            return Err(r);
+            return Err(name);
         }
         self.configure(s);
         Ok(())
@@ -130,7 +136,7 @@ impl Supervisor {
             }
             StoreOutcome::Loaded(None) => match self.take_settings(Settings::DEFAULT) {
                 Ok(()) => Reply::ok("nothing stored, defaults in use"),
-                Err(r) => r,
+                Err(name) => relaxed(name),
             },
             StoreOutcome::Loaded(Some(bytes)) => match Settings::decode(bytes) {
                 Ok(s) => match self.take_settings(s) {
@@ -139,7 +145,7 @@ impl Supervisor {
                         let _ = write!(r, "loaded {} parameters", PARAMS.len());
                         r
                     }
-                    Err(r) => r,
+                    Err(name) => relaxed(name),
                 },
                 Err(e) => {
                     let used = self.take_settings(Settings::DEFAULT).is_ok();

@@ -63,16 +63,17 @@ pub struct Block {
 }
 
 impl Block {
-    /// The block of `scenario` at time 0, its controller started with `settings`, `save` and
-    /// `load` on `store`.
+    /// The block of `scenario` at time 0, its controller started as after a power-up with
+    /// `settings` (`stopped`, unless `boot_mode` is 1), `save` and `load` on `store`.
     pub fn new(
         scenario: Scenario,
         settings: Settings,
         store: SettingsFile,
     ) -> Result<Self, RigError> {
-        Ok(Block {
-            board: SimBoard::new(&scenario.block(), true, settings, SimFlash::File(store))?,
-        })
+        let mut board = SimBoard::new(&scenario.block(), true, settings, SimFlash::File(store))?;
+        // As a board after a power-up: stopped unless the settings' `boot_mode` says standby.
+        board.boot(thermorph::supervisor::ResetCause::PowerUp);
+        Ok(Block { board })
     }
 
     /// The supervisor.

@@ -17,6 +17,7 @@
 //!
 //! This module owns the plant's error type, [`PlantError`] (a configuration the model refuses).
 
+pub mod circuit;
 pub mod linalg;
 pub mod mechanics;
 pub mod params;
@@ -128,10 +129,14 @@ pub struct Inputs {
     pub heater_duty: f64,
     /// Fan PWM duty, 0…1 (clamped).
     pub fan_duty: f64,
-    /// Spring MOSFETs A, B, C on.
+    /// Spring MOSFETs A, B, C on (their gates as driven, or a MOSFET stuck on or off).
     pub springs_on: [bool; 3],
     /// Fault: the heater is open-circuit (no power whatever the duty).
     pub heater_open: bool,
+    /// The spring power enable is off: no spring channel conducts, whatever its MOSFET.
+    pub spring_power_off: bool,
+    /// Faults of each spring channel's circuit (an open or bypassed wire, a MOSFET failed).
+    pub channel_faults: [circuit::ChannelFaults; 3],
 }
 
 /// What the plant shows at one instant.
@@ -167,6 +172,8 @@ pub struct Observation {
     pub spring_power_w: [f64; 3],
     /// Current through each spring, A.
     pub spring_current_a: [f64; 3],
+    /// Each spring supply's voltage at its sense point (ahead of the enable switch), V.
+    pub spring_supply_v: [f64; 3],
     /// Tension of each spring, N.
     pub spring_force_n: [f64; 3],
     /// The coldest SMP layer (the lower of inner and outer), K: stepping stores only bend added
@@ -266,6 +273,9 @@ pub struct ModelOptions {
     /// Factors on the heater power, wall capacity, spring cooling and spring supply (default:
     /// all 1.0).
     pub scale: PlantScale,
+    /// The wires' resistance drifts with their temperature within a phase
+    /// ([`circuit::WIRE_TEMPCO_PER_K`]); off in the fitted block.
+    pub wire_tempco: bool,
 }
 
 /// One spring's thermal and phase state.
@@ -292,7 +302,7 @@ pub struct Plant {
     film_set_rad: [f64; 2],
     k_b_nmm_per_rad: f64,
     heater_power_w: f64,
-    supply: sma::Supply,
+    flows: [circuit::Flow; 3],
     electrical_energy_j: f64,
     lead_energy_j: f64,
     /// Network matrices for the last fan duty (key, A, network).
@@ -399,7 +409,7 @@ impl Plant {
             film_set_rad: [0.0; 2],
             k_b_nmm_per_rad: 0.0,
             heater_power_w: 0.0,
-            supply: sma::Supply::default(),
+            flows: [circuit::Flow::default(); 3],
             electrical_energy_j: 0.0,
             lead_energy_j: 0.0,
             net_cache: None,
@@ -442,8 +452,9 @@ impl Plant {
             bend_plane_deg: self.bend_plane_deg(),
             k_b_nmm_per_rad: self.k_b_nmm_per_rad,
             heater_power_w: self.heater_power_w,
-            spring_power_w: self.supply.wire_w,
-            spring_current_a: self.supply.current_a,
+            spring_power_w: self.flows.map(|f| f.wire_w),
+            spring_current_a: self.flows.map(|f| f.current_a),
+            spring_supply_v: self.flows.map(|f| f.supply_v),
             spring_force_n: self.springs.map(|s| s.force_n),
             smp_coldest_k: inner.min(outer),
             stored_bend_deg: self.stored_bend_deg(),
@@ -595,6 +606,27 @@ impl Plant {
         params::FILM_BENDING_NMM_PER_RAD + self.smp_stiffness()
     }
 
+    /// The spring channels' flows for `inputs` at the present state, without stepping: what
+    /// the board's ADC reads at once when its outputs change (a probe of the channels).
+    pub fn channel_flows(&self, inputs: &Inputs) -> [circuit::Flow; 3] {
+        let tempco = if self.options.wire_tempco {
+            circuit::WIRE_TEMPCO_PER_K
+        } else {
+            0.0
+        };
+        let wire_ohm = self
+            .springs
+            .map(|s| circuit::wire_ohm(s.phase.xi(), s.t_k, tempco));
+        circuit::channels(
+            inputs.springs_on,
+            !inputs.spring_power_off,
+            wire_ohm,
+            params::SPRING_SUPPLY_V * self.options.scale.spring_supply,
+            self.options.shared_spring_supply,
+            inputs.channel_faults,
+        )
+    }
+
     fn substep(&mut self, inputs: &Inputs, h: f64) {
         let fid = self.config.fidelity;
         let integrator = self.config.integrator;
@@ -613,18 +645,12 @@ impl Plant {
                 * params::HEATER_RESISTANCE_OHM
                 * self.options.scale.heater_power
         };
-        let xi = self.springs.map(|s| s.phase.xi());
-        let supply = sma::supply_at(
-            inputs.springs_on,
-            xi,
-            self.options.shared_spring_supply,
-            params::SPRING_SUPPLY_V * self.options.scale.spring_supply,
-        );
-        let spring_w = supply.wire_w;
+        let flows = self.channel_flows(inputs);
+        let spring_w = flows.map(|f| f.wire_w);
         self.heater_power_w = heater_w;
-        self.supply = supply;
+        self.flows = flows;
         self.electrical_energy_j += h * (heater_w + spring_w.iter().sum::<f64>());
-        self.lead_energy_j += h * supply.lead_w.iter().sum::<f64>();
+        self.lead_energy_j += h * flows.iter().map(|f| f.lead_w).sum::<f64>();
         // Heat from the column's outer surface to each spring, held over the step and taken
         // from that node, so the exchange conserves energy exactly.
         // (Full thermal fidelity only: the Lumped level keeps its one-node analytic response.)

@@ -1,6 +1,6 @@
 //! The SMA springs: phase kinetics (a wide martensite band and a narrow R-phase-like band, both
-//! shifted by the spring's stress), latent heat as an enthalpy state, the electrical supply and
-//! the two-way spring's force law.
+//! shifted by the spring's stress), latent heat as an enthalpy state and the two-way spring's force
+//! law (the electrical circuit is [`super::circuit`]).
 //!
 //! Kinetics (`Hysteretic`): Liang & Rogers (1990) cosine branches — cooling
 //! ξ_M(T) = ½[1 − cos(π(Ms − T)/(Ms − Mf))] on (Mf, Ms), heating
@@ -167,48 +167,6 @@ pub fn wire_resistance_ohm(xi: f64) -> f64 {
     rho * (p::WIRE_LENGTH_MM * 1e-3) / (p::WIRE_AREA_MM2 * 1e-6)
 }
 
-/// What the spring supply delivers for one step.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Supply {
-    /// Current through each spring, A.
-    pub current_a: [f64; 3],
-    /// Joule heat in each spring's wire (I²·R_wire), W.
-    pub wire_w: [f64; 3],
-    /// Loss in each spring's leads and MOSFET (I²·R_lead), W: not heat in the wire.
-    pub lead_w: [f64; 3],
-}
-
-/// The supply for the switched-on set and their fractions. Default (`shared` false): one 5 V /
-/// 15 A channel per spring, I = min(V/(R_wire + R_lead), 15 A). `shared`: one 5 V supply feeds
-/// the switched-on springs in parallel and folds back to its 15 A limit when they draw more.
-pub fn supply(on: [bool; 3], xi: [f64; 3], shared: bool) -> Supply {
-    supply_at(on, xi, shared, p::SPRING_SUPPLY_V)
-}
-
-/// [`supply`] from a supply of `supply_v` instead of `SPRING_SUPPLY_V` (the 15 A limit stays).
-pub fn supply_at(on: [bool; 3], xi: [f64; 3], shared: bool, supply_v: f64) -> Supply {
-    let r = [0, 1, 2].map(|i| wire_resistance_ohm(xi[i]) + p::SPRING_LEAD_RESISTANCE_OHM);
-    let mut out = Supply::default();
-    let v = if shared {
-        let g_total: f64 = (0..3).filter(|&i| on[i]).map(|i| 1.0 / r[i]).sum();
-        if g_total == 0.0 {
-            return out;
-        }
-        supply_v.min(p::SPRING_SUPPLY_LIMIT_A / g_total)
-    } else {
-        supply_v
-    };
-    for i in 0..3 {
-        if on[i] {
-            let amps = (v / r[i]).min(p::SPRING_SUPPLY_LIMIT_A);
-            out.current_a[i] = amps;
-            out.wire_w[i] = amps * amps * wire_resistance_ohm(xi[i]);
-            out.lead_w[i] = amps * amps * p::SPRING_LEAD_RESISTANCE_OHM;
-        }
-    }
-    out
-}
-
 /// Natural length of the two-way spring at martensite fraction `xi`, mm.
 pub fn free_length_mm(xi: f64) -> f64 {
     p::SPRING_LENGTH_HOT_MM + (p::SPRING_LENGTH_COLD_MM - p::SPRING_LENGTH_HOT_MM) * xi
@@ -278,18 +236,5 @@ mod tests {
         assert!(ph.xi() < 1.0 && ph.xi() > 0.0);
         assert!(t < 345.0 && t > p::SMA_AS_K);
         assert!((enthalpy_j(f, t, ph.xi()) - h).abs() < 1e-9 * h);
-    }
-
-    #[test]
-    fn each_spring_has_its_own_channel_and_shared_is_an_option() {
-        let one = supply([true, false, false], [1.0; 3], false);
-        let two = supply([true, true, false], [1.0; 3], false);
-        assert_eq!(one.current_a[0], two.current_a[1]);
-        assert!((one.current_a[0] - p::SPRING_SUPPLY_LIMIT_A).abs() < 1e-12);
-        let r = wire_resistance_ohm(1.0);
-        assert!((one.wire_w[0] - 225.0 * r).abs() < 1e-9);
-        assert!((one.lead_w[0] - 225.0 * p::SPRING_LEAD_RESISTANCE_OHM).abs() < 1e-9);
-        let shared = supply([true, true, false], [1.0; 3], true);
-        assert!((shared.current_a[0] + shared.current_a[1] - 15.0).abs() < 1e-9);
     }
 }

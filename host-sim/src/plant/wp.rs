@@ -37,7 +37,7 @@ pub fn scene_inputs(t_s: f64) -> Inputs {
         heater_duty: heater,
         fan_duty: fan,
         springs_on: [springs, springs, false],
-        heater_open: false,
+        ..Inputs::default()
     }
 }
 

@@ -24,12 +24,24 @@ pub struct CameraSettings {
 pub enum Injection {
     /// The heater is open-circuit: no power whatever the duty.
     HeaterOpen,
-    /// A spring's MOSFET is stuck on or off.
+    /// A spring's MOSFET is stuck on (failed short: it conducts whatever its gate, until the
+    /// spring power enable cuts it) or off (failed open).
     StuckSpring {
         /// Spring index, 0 = A.
         spring: usize,
         /// Stuck on (true) or off.
         on: bool,
+    },
+    /// A spring's wire is open (broken, a connector off): its channel carries nothing.
+    OpenWire {
+        /// Spring index, 0 = A.
+        spring: usize,
+    },
+    /// A spring's wire is bypassed (its leads touching, the wire against the frame): its
+    /// channel draws the supply's limit through almost nothing.
+    WireShort {
+        /// Spring index, 0 = A.
+        spring: usize,
     },
     /// The sensor misbehaves (with the camera off: no measurement at all).
     Sensor(SensorFault),

@@ -20,6 +20,7 @@
 //! pipeline that cannot be built, a settings file that cannot be read or written).
 
 pub mod camera;
+pub mod channels;
 pub mod faults;
 pub mod store;
 
@@ -114,6 +115,7 @@ pub fn inputs_of(o: &Outputs) -> Inputs {
         heater_duty: o.heater.fraction() as f64,
         fan_duty: o.fan.fraction() as f64,
         springs_on: core::array::from_fn(|i| o.springs.contains(i)),
+        spring_power_off: !o.spring_power,
         ..Inputs::default()
     }
 }
@@ -127,7 +129,12 @@ pub fn apply_faults(faults: &[FaultSpec], t_s: f64, inputs: &mut Inputs) -> (u32
         mask |= 1 << i.min(31);
         match f.kind {
             Injection::HeaterOpen => inputs.heater_open = true,
-            Injection::StuckSpring { spring, on } => inputs.springs_on[spring] = on,
+            Injection::StuckSpring { spring, on } => {
+                inputs.springs_on[spring] = on;
+                inputs.channel_faults[spring].mosfet_stuck = Some(on);
+            }
+            Injection::OpenWire { spring } => inputs.channel_faults[spring].open_wire = true,
+            Injection::WireShort { spring } => inputs.channel_faults[spring].wire_short = true,
             Injection::Sensor(s) => camera.sensor = Some(s),
             Injection::Camera(v) => camera.view = Some(v),
         }
@@ -166,6 +173,8 @@ pub struct SimBoard {
     commanded: Inputs,
     latched: Vec<FaultRecord>,
     seen_events: u32,
+    /// The spring channels' sensing front end.
+    sensing: channels::Sensing,
 }
 
 impl SimBoard {
@@ -192,17 +201,23 @@ impl SimBoard {
             None
         };
         let truth_period_us = ((block.sample_period_s * 1e6).round() as u64).max(1);
+        let seed = block.camera.seed;
+        let mut sensing = channels::Sensing::new(channels::SenseErrors::drawn(seed), seed);
+        let mut control = closed_loop.then(|| {
+            Controller::new(Supervisor::with_memory(
+                Millis(0),
+                settings,
+                SpringMemory::RESTED,
+            ))
+        });
+        if let Some(c) = &mut control {
+            boot_calibration(c, &mut sensing, &plant);
+        }
         Ok(SimBoard {
             plant,
             camera,
             faults: block.faults.clone(),
-            control: closed_loop.then(|| {
-                Controller::new(Supervisor::with_memory(
-                    Millis(0),
-                    settings,
-                    SpringMemory::RESTED,
-                ))
-            }),
+            control,
             flash,
             time_us: 0,
             plant_us: 0,
@@ -217,6 +232,7 @@ impl SimBoard {
             commanded: Inputs::default(),
             latched: Vec::new(),
             seen_events: 0,
+            sensing,
         })
     }
 
@@ -306,15 +322,40 @@ impl SimBoard {
         }
     }
 
-    /// A board reset (its RAM kept): a new controller with the springs' memory, the settings
-    /// `settings`, the clock from 0; the block keeps its heat.
+    /// A board reset by its reset pin (its RAM kept): a new controller with the springs'
+    /// memory and the settings `settings`, `stopped` with a `# warning` saying why, the clock
+    /// from 0; the block keeps its heat.
     pub fn reset(&mut self, settings: Settings) {
         if let Some(c) = &mut self.control {
             let memory = c.supervisor().spring_memory();
-            *c = Controller::new(Supervisor::with_memory(Millis(0), settings, memory));
+            *c = Controller::new(Supervisor::boot(
+                Millis(0),
+                settings,
+                Some(memory),
+                thermorph::supervisor::ResetCause::Pin,
+            ));
+            boot_calibration(c, &mut self.sensing, &self.plant);
             self.boot_us = self.time_us - self.time_us % 1000;
             self.commanded = Inputs::default();
             self.hold_inputs();
+        }
+    }
+
+    /// Start the controller as the board does after a reset of `cause` at time 0 (its settings
+    /// kept; the springs rested, as the simulated ones are): after a power-up `stopped` unless
+    /// `boot_mode` asks for standby, after any other reset `stopped` with a warning. Scenes
+    /// and `paper` skip this: they start as a power-up followed by `mode standby`.
+    pub fn boot(&mut self, cause: thermorph::supervisor::ResetCause) {
+        let now = self.now();
+        if let Some(c) = &mut self.control {
+            let settings = *c.supervisor().settings();
+            *c = Controller::new(Supervisor::boot(
+                now,
+                settings,
+                Some(SpringMemory::RESTED),
+                cause,
+            ));
+            boot_calibration(c, &mut self.sensing, &self.plant);
         }
     }
 
@@ -328,26 +369,52 @@ impl SimBoard {
     /// and puts the period's warnings and telemetry in `said`. `None` for an open-loop board.
     pub fn line(&mut self, line: Line<'_>, said: &mut Vec<Said>) -> Option<Reply> {
         self.control.as_ref()?;
-        let reply = self.period(None, Some(line), said);
+        let reply = self.period(None, Some(line), false, said);
         self.hold_inputs();
         // Every line gets a reply (a `store`'s comes from the flash).
         Some(reply.unwrap_or_else(|| Reply::err("internal", "no reply")))
     }
 
-    /// One control period at the board's present time; returns the line's reply, if a line
-    /// came and got one.
+    /// One control period at the board's present time, with the spring channels' readings
+    /// (at a tick); returns the line's reply, if a line came and got one.
     fn period(
         &mut self,
         frame: Option<&Measurement>,
         line: Option<Line<'_>>,
+        tick: bool,
         said: &mut Vec<Said>,
     ) -> Option<Reply> {
         let now = self.now();
+        let t_s = self.time_s();
+        let sense = if tick && self.control.is_some() {
+            let o = self.observe();
+            Some(self.sensing.sense(&o))
+        } else {
+            None
+        };
         let c = self.control.as_mut()?;
-        let mut p = c.period(now, None, frame, line);
+        let mut p = c.period(now, None, sense.as_ref(), frame, line);
         if let Some(req) = p.store.take() {
             // The heater and the springs are off through the flash operation (instant here).
             p.reply = Some(self.flash.carry_out(&req, c, now));
+        }
+        if p.probe {
+            // The spring power on with every gate off, read at once (the circuit has no
+            // dynamics here), then the probe's reply.
+            let mut inputs = Inputs {
+                springs_on: [false; 3],
+                ..inputs_of(&p.outputs)
+            };
+            apply_faults(&self.faults, t_s, &mut inputs);
+            let flows = self.plant.channel_flows(&inputs);
+            let o = Observation {
+                spring_current_a: flows.map(|f| f.current_a),
+                spring_supply_v: flows.map(|f| f.supply_v),
+                ..self.plant.observe()
+            };
+            let (reply, outputs) = c.finish_probe(now, &self.sensing.sense(&o));
+            p.reply = Some(reply);
+            p.outputs = outputs;
         }
         for n in p.notices.into_iter().flatten() {
             said.push(Said::Notice(n));
@@ -441,9 +508,25 @@ impl SimBoard {
                 }
             }
             if frame.is_some() || self.time_us == next_tick {
-                self.period(frame.as_ref(), None, said);
+                let tick = self.time_us == next_tick;
+                self.period(frame.as_ref(), None, tick, said);
             }
             self.hold_inputs();
         }
     }
+}
+
+/// The board's boot calibration of the spring channels: scans with every gate and the spring
+/// power off (the supplies at their EMF), the amplifiers' offsets from them; a refused
+/// calibration leaves the nominal one (the board warns; the simulated parts never exceed it).
+fn boot_calibration(c: &mut Controller, sensing: &mut channels::Sensing, plant: &Plant) {
+    let off = Inputs {
+        spring_power_off: true,
+        ..Inputs::default()
+    };
+    let idle = plant.channel_flows(&off).map(|f| f.supply_v);
+    let cal = thermorph::channels::Calibration::from_scans(&sensing.idle_scans(32, idle))
+        .unwrap_or(thermorph::channels::Calibration::NOMINAL);
+    c.supervisor_mut()
+        .set_channels(thermorph::channels::Channels::new(cal));
 }

@@ -327,6 +327,7 @@ pub fn control_row(s: &Supervisor) -> ControlRow {
         target_k: s.target_k() as f64,
         tc_k: s.tc_k() as f64,
         fault: s.fault().map(|f| f.code()),
+        spring_a: s.channels().state().map(|c| c.current_a as f64),
     }
 }
 
@@ -670,7 +671,7 @@ pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
 /// Arguments of `host-sim run`.
 #[derive(clap::Args, Debug, Default, Clone)]
 pub struct RunArgs {
-    /// Scene: a bundled name (cycle, open-loop, faults) or a TOML file.
+    /// Scene: a bundled name (cycle, open-loop, faults, two-cycles) or a TOML file.
     #[arg(default_value = "cycle")]
     pub scene: String,
     /// Output folder (default: `runs/<scene name>`).
@@ -816,6 +817,7 @@ mod tests {
                     heater_power_w: 0.0,
                     spring_power_w: [0.0; 3],
                     spring_current_a: [0.0; 3],
+                    spring_supply_v: [5.0; 3],
                     spring_force_n: [0.0; 3],
                     smp_coldest_k: outer_k,
                     stored_bend_deg: 0.0,

@@ -43,9 +43,10 @@
 //! [[fault]]                      # injected faults, active from `at` until `until` (or the end)
 //! at = "60 s"
 //! until = "80 s"                 # optional
-//! kind = "heater-open"           # heater-open | stuck-spring | sensor | camera
-//! spring = "B"                   # stuck-spring: which MOSFET
-//! stuck = "on"                   # stuck-spring: on | off
+//! kind = "heater-open"           # heater-open | stuck-spring | mosfet-short | open-wire |
+//!                                # wire-short | sensor | camera
+//! spring = "B"                   # stuck-spring, mosfet-short, open-wire, wire-short: which
+//! stuck = "on"                   # stuck-spring: on | off (mosfet-short is stuck on)
 //! sensor = "nack"                # sensor: nack | stuck | corrupt | frozen
 //! camera = "elsewhere"           # camera: elsewhere | burning-film
 //! ```
@@ -75,10 +76,11 @@ pub use crate::rig::faults::{
 };
 
 /// The bundled scenes: (name, TOML text). The first is the default of `host-sim run`.
-pub const BUNDLED: [(&str, &str); 3] = [
+pub const BUNDLED: [(&str, &str); 4] = [
     ("cycle", include_str!("../../scenes/cycle.toml")),
     ("open-loop", include_str!("../../scenes/open-loop.toml")),
     ("faults", include_str!("../../scenes/faults.toml")),
+    ("two-cycles", include_str!("../../scenes/two-cycles.toml")),
 ];
 
 /// Longest sample period a scene may ask for, s (the board steps every 50 ms whatever it is).
@@ -582,12 +584,16 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
                     ("stuck-spring", 1),
                     ("sensor", 2),
                     ("camera", 3),
+                    ("mosfet-short", 4),
+                    ("open-wire", 5),
+                    ("wire-short", 6),
                 ],
             )?;
             let allowed: &[&str] = match kind_name {
                 0 => &[],
                 1 => &["spring", "stuck"],
                 2 => &["sensor"],
+                4..=6 => &["spring"],
                 _ => &["camera"],
             };
             for key in ["spring", "stuck", "sensor", "camera"] {
@@ -610,19 +616,32 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
                     )
                 })
             };
+            let one_spring = || {
+                let (k, v) = need("spring")?;
+                let set = springs(&cx, k, v, &format!("{p}spring"))?;
+                if set.iter().filter(|s| **s).count() != 1 {
+                    return Err(cx.err(
+                        v.span(),
+                        &format!("{p}spring"),
+                        "name one spring: A, B or C",
+                    ));
+                }
+                Ok(set.iter().position(|s| *s).unwrap_or(0))
+            };
             let kind = match kind_name {
                 0 => Injection::HeaterOpen,
+                4 => Injection::StuckSpring {
+                    spring: one_spring()?,
+                    on: true,
+                },
+                5 => Injection::OpenWire {
+                    spring: one_spring()?,
+                },
+                6 => Injection::WireShort {
+                    spring: one_spring()?,
+                },
                 1 => {
-                    let (k, v) = need("spring")?;
-                    let set = springs(&cx, k, v, &format!("{p}spring"))?;
-                    if set.iter().filter(|s| **s).count() != 1 {
-                        return Err(cx.err(
-                            v.span(),
-                            &format!("{p}spring"),
-                            "name one spring: A, B or C",
-                        ));
-                    }
-                    let spring = set.iter().position(|s| *s).unwrap_or(0);
+                    let spring = one_spring()?;
                     let (k, v) = need("stuck")?;
                     let on = choice(
                         &cx,

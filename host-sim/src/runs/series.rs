@@ -52,6 +52,8 @@ pub struct ControlRow {
     pub bend: Bend,
     /// The same model without the camera (run beside the supervisor's), degrees.
     pub model_bend_deg: f64,
+    /// Each spring channel's current as the firmware measured it, A (NaN before a reading).
+    pub spring_a: [f64; 3],
 }
 
 /// The CSV header.
@@ -62,7 +64,7 @@ heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_
 est_frozen_fraction,est_frozen_std,est_inner_k,est_inner_std_k,est_outer_k,est_ambient_k,\
 est_spring_a_k,est_spring_b_k,est_spring_c_k,est_spring_a_std_k,est_spring_b_std_k,\
 est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c,est_bend_deg,est_bend_sd_deg,\
-model_bend_deg,quality";
+model_bend_deg,quality,spring_power,meas_spring_a_a,meas_spring_b_a,meas_spring_c_a";
 
 /// The estimate's columns in an open-loop run (no observer).
 const NO_ESTIMATE: &str =
@@ -174,7 +176,17 @@ fn write_rows(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
             }
             None => write!(out, ",-,-,nan,nan,none{NO_ESTIMATE}")?,
         }
-        writeln!(out, ",{}", r.quality.map_or("none", Quality::name))?;
+        write!(out, ",{}", r.quality.map_or("none", Quality::name))?;
+        write!(out, ",{}", s(!r.inputs.spring_power_off))?;
+        let measured = r.control.map_or([f64::NAN; 3], |c| c.spring_a);
+        for a in measured {
+            if a.is_finite() {
+                write!(out, ",{a:.2}")?;
+            } else {
+                write!(out, ",nan")?;
+            }
+        }
+        writeln!(out)?;
     }
     Ok(())
 }

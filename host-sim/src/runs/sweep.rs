@@ -473,7 +473,8 @@ pub fn write_pngs(
 /// Arguments of `host-sim sweep`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct SweepArgs {
-    /// Scene: a bundled name (cycle, open-loop, faults) or a TOML file (not with --merge).
+    /// Scene: a bundled name (cycle, open-loop, faults, two-cycles) or a TOML file (not with
+    /// --merge).
     pub scene: Option<String>,
     /// A swept scene key and its values, `KEY=V1,V2,…` (repeat for a grid; the last varies
     /// fastest).

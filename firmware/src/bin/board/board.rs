@@ -6,6 +6,8 @@ mod fault;
 pub mod pins;
 #[path = "retained.rs"]
 pub mod retained;
+#[path = "sense.rs"]
+pub mod sense;
 #[path = "serial.rs"]
 pub mod serial;
 
@@ -27,6 +29,7 @@ use embassy_time::{Delay, Duration, Instant, Ticker, Timer};
 use embedded_io_async::{Read as _, Write as _};
 use static_cell::ConstStaticCell;
 use thermorph::app::{Controller, Line};
+use thermorph::channels::Channels;
 use thermorph::command::ParseError;
 use thermorph::console::{ConsoleError, LineReader, MAX_LINE};
 use thermorph::measurement::{Measurement, SensingHint};
@@ -154,6 +157,57 @@ async fn with_long_watchdog<R>(
     watchdog_period(pr, rl);
     watchdog.pet();
     r
+}
+
+/// Drive the pins as `state` says ([`pins::Gates::apply`]); when a spring gate or the spring
+/// power switched, the spring channels' scans start settling again ([`sense::Springs::switched`]).
+fn apply(gates: &mut pins::Gates, springs: &mut sense::Springs, state: &Outputs) {
+    if gates.apply(state) {
+        springs.switched();
+    }
+}
+
+/// The settings' flash store on sectors 6 and 7.
+type BoardStore = FlashStore<
+    BlockingAsync<embassy_stm32::flash::Bank1Region3<'static, embassy_stm32::flash::Blocking>>,
+>;
+
+/// What the control loop drives besides the library, for a period's work before its reply.
+struct Hardware<'a> {
+    gates: &'a mut pins::Gates,
+    springs: &'a mut sense::Springs,
+    store: &'a mut BoardStore,
+    watchdog:
+        &'a mut embassy_stm32::wdg::IndependentWatchdog<'static, embassy_stm32::peripherals::IWDG>,
+}
+
+impl Hardware<'_> {
+    /// Carry out `period`'s flash operation or probe and put its reply in it.
+    ///
+    /// - `save` and `load`: the outputs (heater and springs off) go to the pins first and hold
+    ///   through the flash operation, which stalls the core; then the flash gives the reply.
+    /// - `reset`'s probe: the spring power on with every gate off, a reading once settled
+    ///   (≈ 2 ms), then the reply and the outputs without the probe (the power off again).
+    async fn before_reply(
+        &mut self,
+        period: &mut thermorph::app::Period,
+        control: &mut Controller,
+    ) {
+        apply(self.gates, self.springs, &period.outputs);
+        if let Some(req) = period.store.take() {
+            let reply = with_long_watchdog(
+                self.watchdog,
+                self.store.carry_out(&req, control.supervisor_mut(), now),
+            )
+            .await;
+            period.reply = Some(reply);
+        } else if period.probe {
+            let sense = self.springs.probe().await;
+            let (reply, after) = control.finish_probe(now(), &sense);
+            period.reply = Some(reply);
+            period.outputs = after;
+        }
+    }
 }
 
 /// Time since boot for the pipeline's timestamps.
@@ -334,12 +388,13 @@ fn write_notice(notice: thermorph::supervisor::Notice) {
 async fn main(spawner: Spawner) {
     // Why the chip started, and the springs' memory if a reset kept it: read before anything
     // else, then the reset flags are cleared.
-    let boot = retained::take();
+    let (cause, boot) = retained::take();
     let p = embassy_stm32::init(pins::clocks());
     let pins::Board {
         i2c,
         console,
         mut outputs,
+        springs,
         estop,
         mut led,
         mut watchdog,
@@ -357,26 +412,33 @@ async fn main(spawner: Spawner) {
 
     // The settings record: the stored one, or the defaults with a warning on the console.
     let mut store = unwrap!(FlashStore::new(BlockingAsync::new(flash), SETTINGS_RANGE).ok());
-    let mut boot_line = heapless::String::<TELEMETRY_CAP>::new();
-    let settings = with_long_watchdog(&mut watchdog, store.boot_settings(&mut boot_line)).await;
-    if !boot_line.is_empty() {
-        let _ = OUT.try_send(Out::Text(boot_line));
-    }
-    let supervisor = match boot {
-        retained::Boot::Kept(memory) => {
-            info!("springs: memory kept across the reset");
-            Supervisor::with_memory(now(), settings, memory)
+    // The spring channels: the ADC starts, and the amplifiers' offsets are measured with every
+    // gate and the spring power off (as applied above); a refused calibration adds a warning.
+    let mut springs = sense::Springs::new(springs);
+    // (In a block, so the line's buffer is not kept in the control loop's future.)
+    let (settings, calibration) = {
+        let mut boot_line = heapless::String::<TELEMETRY_CAP>::new();
+        let settings = with_long_watchdog(&mut watchdog, store.boot_settings(&mut boot_line)).await;
+        let calibration = springs.calibrate(&mut boot_line).await;
+        if !boot_line.is_empty() {
+            let _ = OUT.try_send(Out::Text(boot_line));
         }
-        retained::Boot::PowerUp => {
-            info!("power-up: springs assumed hot");
-            Supervisor::new(now(), settings)
-        }
-        retained::Boot::Unchecked => {
-            warn!("reset without a valid spring memory: springs assumed hot");
-            Supervisor::new(now(), settings)
-        }
+        (settings, calibration)
     };
-    let mut control = Controller::new(supervisor);
+    info!("reset cause: {}", cause);
+    match boot {
+        retained::Boot::Kept(_) => info!("springs: memory kept across the reset"),
+        retained::Boot::PowerUp => info!("power-up: springs assumed hot"),
+        retained::Boot::Unchecked => {
+            warn!("reset without a valid spring memory: springs assumed hot")
+        }
+    }
+    // Stopped (or standby after a power-up whose `boot_mode` asks for it); after any other
+    // reset the first period's notice says why.
+    let mut control = Controller::new(Supervisor::boot(now(), settings, boot.memory(), cause));
+    control
+        .supervisor_mut()
+        .set_channels(Channels::new(calibration));
     retained::keep(&control.supervisor().spring_memory());
     let mut ticker = Ticker::every(TICK);
     loop {
@@ -393,10 +455,13 @@ async fn main(spawner: Spawner) {
             }
         };
         let measurement = MEASUREMENT.lock(Cell::take);
+        // The spring channels' scans since the last period, under the outputs it applied.
+        let spring_sense = springs.take();
         let t = now();
 
         // The control period (the library's Controller orders it): the e-stop button's level
-        // (or a press since the last look), the measurement, then the line.
+        // (or a press since the last look), the spring channels, the measurement, then the
+        // line.
         let tapped = ESTOP_TAPPED.swap(false, Ordering::AcqRel);
         let line = match &item {
             Some(Item::Line(l)) => Some(Line::Text(l.as_str())),
@@ -406,28 +471,28 @@ async fn main(spawner: Spawner) {
         let mut period = control.period(
             t,
             Some(pins::estop_pressed() || tapped),
+            spring_sense.as_ref(),
             measurement.as_ref(),
             line,
         );
         if let Some(Item::Busy(n)) = item {
             let _ = OUT.try_send(Out::Busy(n));
         }
-        // `save` and `load`: the outputs (heater and springs off) go to the pins first and
-        // hold through the flash operation, which stalls the core; then the flash gives the
-        // reply.
-        if let Some(req) = period.store.take() {
-            outputs.apply(&period.outputs);
-            let reply = with_long_watchdog(
-                &mut watchdog,
-                store.carry_out(&req, control.supervisor_mut(), now),
-            )
-            .await;
-            period.reply = Some(reply);
+        // `save`, `load` and `reset`'s probe give their reply after the hardware's part (one
+        // await point in this loop besides its wake-up: the period is kept once).
+        if period.store.is_some() || period.probe {
+            let mut hw = Hardware {
+                gates: &mut outputs,
+                springs: &mut springs,
+                store: &mut store,
+                watchdog: &mut watchdog,
+            };
+            hw.before_reply(&mut period, &mut control).await;
         }
         if let Some(r) = period.reply.take() {
             let _ = OUT.try_send(Out::Reply(r));
         }
-        outputs.apply(&period.outputs);
+        apply(&mut outputs, &mut springs, &period.outputs);
         retained::keep(&control.supervisor().spring_memory());
         HINT.signal(period.sensing);
         // After the reply, whose slot is kept free: a notice, then telemetry.

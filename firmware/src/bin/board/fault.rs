@@ -1,6 +1,6 @@
 //! The fault path: every panic, hard fault and unexpected interrupt first drives the heater,
-//! fan and spring gates low, then prints over RTT (once), then stops at a breakpoint under a
-//! debugger or resets the chip.
+//! fan and spring gates and the spring power enable low, then prints over RTT (once), then
+//! stops at a breakpoint under a debugger or resets the chip.
 //!
 //! # A hard fault may find no stack
 //!
@@ -16,9 +16,9 @@
 //! memory but the registers it updates (the program's and FPCCR) and its own code and data in
 //! flash:
 //!
-//! 1. it runs the board's [`OffProgram`] (`pins::OUTPUTS_OFF`: the gate pins' GPIO registers and
-//!    the PWM timers' compare registers) through `thermorph_outputs_off`, a leaf routine that
-//!    uses r0–r3 and r12 only;
+//! 1. it runs the board's [`OffProgram`] (`pins::OUTPUTS_OFF`: the GPIO registers of the gate
+//!    pins and the spring power enable, and the PWM timers' compare registers) through
+//!    `thermorph_outputs_off`, a leaf routine that uses r0–r3 and r12 only;
 //! 2. it cancels a pending lazy save of the FPU registers (FPCCR.LSPACT): its address, FPCAR,
 //!    lies on the dead stack, and the first floating-point instruction in Rust would fault on it;
 //! 3. it points MSP back at the top of the stack (`_stack_start`, where the reset vector starts

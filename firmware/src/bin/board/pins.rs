@@ -6,21 +6,33 @@
 //! | PI heater gate | PA6 (D12) | TIM3 CH1 PWM, 1 kHz |
 //! | fan gate | PB6 (D10) | TIM4 CH1 PWM, 25 kHz |
 //! | SMA spring A / B / C | PA8 / PB5 / PB10 (D7 / D4 / D6) | GPIO, active high |
+//! | spring power enable | PA9 (D8) | GPIO, active high (low: all three spring channels unpowered) |
+//! | spring current A / B / C | PA0 / PA1 / PA4 (A0 / A1 / A2) | ADC1 IN0 / IN1 / IN4 |
+//! | spring supply A / B / C | PB0 / PC1 / PC0 (A3 / A4 / A5) | ADC1 IN8 / IN11 / IN10, 20 kΩ / 10 kΩ dividers |
 //! | console | PA2 / PA3 | USART2, 115200 8N1 (ST-LINK virtual COM port) |
 //! | emergency stop | PC13 | user button B1, EXTI13, active low (level: [`estop_pressed`]) |
 //! | status LED | PA5 | LD2 |
 //!
-//! Every MOSFET gate needs a pull-down of at most 10 kΩ to ground: from reset until
-//! [`Board::new`] drives them, the gate pins are floating inputs, and only the pull-downs keep
-//! the loads off. Spring A is not on PB4: that is JTAG NJTRST, pulled *up* inside the chip
-//! during and after reset, which would switch the spring on before the firmware runs.
+//! Every MOSFET gate, and the spring power enable, needs a pull-down of at most 10 kΩ to
+//! ground: from reset until [`Board::new`] drives them, these pins are floating inputs, and only
+//! the pull-downs keep the loads off. Spring A is not on PB4: that is JTAG NJTRST, pulled *up*
+//! inside the chip during and after reset, which would switch the spring on before the firmware
+//! runs.
 //!
-//! The gate pins are listed once, in [`gate_pins!`]; [`Board::new`] and [`OUTPUTS_OFF`] (the
-//! fault handlers' outputs-off program) both expand it.
+//! The gate pins and the spring power enable are listed once, in [`gate_pins!`]; [`Board::new`]
+//! and [`OUTPUTS_OFF`] (the fault handlers' outputs-off program) both expand it, so every fault
+//! path drives the spring power enable low with the gates.
+//!
+//! The spring channels' six analog inputs are listed once, in [`sense_pins!`], in the ADC's scan
+//! order (currents A, B, C, then supplies A, B, C: the order of `thermorph::channels::Counts`).
+//! ADC1 scans them continuously into a circular DMA buffer ([`SpringInputs`], DMA2 stream 0):
+//! 480 sampling cycles an input at 11.25 MHz (PCLK2 / 8), [`SCAN_NS`] a scan. The board's
+//! `sense` module drains it every control period.
 //!
 //! Clocks: HSE 8 MHz bypass (the ST-LINK's MCO), PLL M 4 · N 180 · P 2 → SYSCLK 180 MHz,
-//! AHB 180 MHz, APB1 45 MHz, APB2 90 MHz.
+//! AHB 180 MHz, APB1 45 MHz, APB2 90 MHz; ADC 11.25 MHz (APB2 / 8).
 
+use embassy_stm32::adc::{self, Adc, AdcChannel, RingBufferedAdc, SampleTime};
 use embassy_stm32::exti::{self, ExtiInput};
 use embassy_stm32::gpio::{Level, Output, OutputOpenDrain, OutputType, Pull, Speed};
 use embassy_stm32::i2c::{self, I2c, Master};
@@ -35,17 +47,26 @@ use embassy_stm32::{Config, Peri, Peripherals, bind_interrupts, dma, interrupt};
 use embassy_time::Timer;
 use embedded_hal::i2c::{ErrorType, Operation};
 use static_cell::ConstStaticCell;
-use thermorph::outputs::{Duty, Outputs, SPRINGS};
+use thermorph::outputs::{Duty, Outputs, SPRINGS, SpringMask};
 use thermorph::sensing::{BusStuck, RecoverBus};
 
 use super::fault::OffProgram;
 use super::serial;
 
-/// The gate pins, the one table: `(heater, fan, [spring A, spring B, spring C])`. Expands to
-/// `$then!(…)` so every place that needs them reads this list.
+/// The gate pins, the one table: `(heater, fan, [spring A, spring B, spring C, spring power
+/// enable])` — every pin that switches a load, each off when low. Expands to `$then!(…)` so
+/// every place that needs them reads this list.
 macro_rules! gate_pins {
     ($then:ident) => {
-        $then!(PA6, PB6, [PA8, PB5, PB10])
+        $then!(PA6, PB6, [PA8, PB5, PB10, PA9])
+    };
+}
+
+/// The spring channels' analog inputs, the one table: `([current A, B, C], [supply A, B, C])`,
+/// all ADC1 inputs, in scan order. Expands to `$then!(…)`.
+macro_rules! sense_pins {
+    ($then:ident) => {
+        $then!([PA0, PA1, PA4], [PB0, PC1, PC0])
     };
 }
 
@@ -54,6 +75,7 @@ bind_interrupts!(struct Irqs {
     I2C1_ER => i2c::ErrorInterruptHandler<peripherals::I2C1>;
     DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
     DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
+    DMA2_STREAM0 => dma::InterruptHandler<peripherals::DMA2_CH0>;
     // The loss watch runs first, before embassy's handler takes the byte.
     USART2 => serial::RxLossWatch, usart::BufferedInterruptHandler<peripherals::USART2>;
     EXTI15_10 => exti::InterruptHandler<interrupt::typelevel::EXTI15_10>;
@@ -72,6 +94,24 @@ pub const FAN_PWM_HZ: u32 = 25_000;
 /// Independent watchdog timeout, µs.
 pub const WATCHDOG_TIMEOUT_US: u32 = 500_000;
 
+/// Inputs in one ADC scan: three currents, three supplies.
+pub const SENSE_INPUTS: usize = 6;
+/// ADC clock, Hz: PCLK2 (90 MHz, [`clocks`]) / 8, the slowest prescaler (the datasheet's range
+/// is 0.6-36 MHz).
+pub const ADC_HZ: u32 = 11_250_000;
+/// Sampling time of every input. The supply dividers' source impedance is 6.7 kΩ (20 k ∥ 10 k);
+/// 480 cycles allow over 250 kΩ at 12 bits, so an RC filter at an input costs no accuracy.
+const SAMPLE_TIME: SampleTime = SampleTime::CYCLES480;
+/// ADC clock cycles of one conversion: 480 sampling, 12 converting.
+const CONVERSION_CYCLES: u32 = 480 + 12;
+/// One scan of the six inputs, ns (262.4 µs: about 3 800 scans a second, 190 a control period).
+pub const SCAN_NS: u32 =
+    (SENSE_INPUTS as u64 * CONVERSION_CYCLES as u64 * 1_000_000_000 / ADC_HZ as u64) as u32;
+/// Scans the circular DMA buffer holds (67 ms: a control period and a late wake-up). The control
+/// loop must drain it within that, or the scans since are lost (`RingBufferedAdc::read_latest`
+/// restarts from the newest).
+pub const RING_SCANS: usize = 256;
+
 // The ST-LINK's virtual COM port has no flow control: these hold about 90 ms of input and of
 // replies. The console reader never waits for anything but input, so the receive buffer only
 // fills if the executor stalls; `serial` detects it (and hardware overruns) and the affected
@@ -79,6 +119,9 @@ pub const WATCHDOG_TIMEOUT_US: u32 = 500_000;
 static CONSOLE_TX: ConstStaticCell<[u8; 1024]> = ConstStaticCell::new([0; 1024]);
 static CONSOLE_RX: ConstStaticCell<[u8; serial::RX_BUF]> =
     ConstStaticCell::new([0; serial::RX_BUF]);
+/// ADC1's circular DMA buffer: [`RING_SCANS`] scans of [`SENSE_INPUTS`] counts.
+static ADC_RING: ConstStaticCell<[u16; RING_SCANS * SENSE_INPUTS]> =
+    ConstStaticCell::new([0; RING_SCANS * SENSE_INPUTS]);
 
 /// The clock tree: 180 MHz from the 8 MHz HSE bypass.
 pub fn clocks() -> Config {
@@ -106,18 +149,25 @@ pub fn clocks() -> Config {
     config
 }
 
-/// The heater, fan and spring gates: driven only by [`Gates::apply`] with the library's
-/// [`Outputs`].
+/// The heater, fan and spring gates and the spring power enable: driven only by
+/// [`Gates::apply`] with the library's [`Outputs`].
 pub struct Gates {
     heater: SimplePwm<'static, peripherals::TIM3>,
     fan: SimplePwm<'static, peripherals::TIM4>,
     springs: [Output<'static>; SPRINGS],
+    spring_power: Output<'static>,
+    /// The spring gates and power as last applied (all off from [`Board::new`]).
+    channels: (SpringMask, bool),
 }
 
 impl Gates {
-    /// Drive every output as `state` says: heater and fan duty, spring gates. The only
-    /// function that switches a load on.
-    pub fn apply(&mut self, state: &Outputs) {
+    /// Drive every output as `state` says: heater and fan duty, spring gates, spring power. The
+    /// only function that switches a load on. Return whether a spring gate or the spring power
+    /// switched (the spring channels' readings then need [`thermorph::channels::SETTLE_US`]).
+    ///
+    /// When the spring power switches, it goes off before the gates change and on after them:
+    /// it is never switched on over the previous state's gates.
+    pub fn apply(&mut self, state: &Outputs) -> bool {
         fn duty(
             ch: &mut embassy_stm32::timer::simple_pwm::SimplePwmChannel<
                 '_,
@@ -135,6 +185,9 @@ impl Gates {
         }
         duty(&mut self.heater.ch1(), state.heater);
         duty(&mut self.fan.ch1(), state.fan);
+        if !state.spring_power {
+            self.spring_power.set_low();
+        }
         for (i, s) in self.springs.iter_mut().enumerate() {
             if state.springs.contains(i) {
                 s.set_high();
@@ -142,6 +195,11 @@ impl Gates {
                 s.set_low();
             }
         }
+        if state.spring_power {
+            self.spring_power.set_high();
+        }
+        let channels = (state.springs, state.spring_power);
+        core::mem::replace(&mut self.channels, channels) != channels
     }
 }
 
@@ -172,10 +230,11 @@ where
 {
 }
 
-/// The register program every fault handler runs before anything else (`fault.rs`): the gate
-/// pins of [`gate_pins!`] driven low as GPIO outputs, whoever holds them, and the heater's and
-/// fan's PWM channels — as [`Board::new`] sets them up — forced inactive with a compare value
-/// of 0. The hard fault handler runs it without a stack.
+/// The register program every fault handler runs before anything else (`fault.rs`): the pins
+/// of [`gate_pins!`] (the spring power enable with the gates) driven low as GPIO outputs,
+/// whoever holds them, and the heater's and fan's PWM channels — as [`Board::new`] sets them
+/// up — forced inactive with a compare value of 0. The hard fault handler runs it without a
+/// stack.
 pub static OUTPUTS_OFF: OffProgram = gate_pins!(outputs_off);
 
 /// I2C1 on PB8 / PB9 with its DMA streams, at [`I2C_HZ`].
@@ -288,14 +347,52 @@ impl RecoverBus for SensorBus {
     }
 }
 
+/// ADC1 scanning the spring channels' inputs ([`sense_pins!`]) into its circular DMA buffer;
+/// not started.
+pub type SpringInputs = RingBufferedAdc<'static, peripherals::ADC1>;
+
+/// ADC1 at [`ADC_HZ`] with `inputs` in its regular sequence, scanning continuously into
+/// [`ADC_RING`] through DMA2 stream 0 (not yet started).
+fn spring_adc(
+    adc1: Peri<'static, peripherals::ADC1>,
+    dma: Peri<'static, peripherals::DMA2_CH0>,
+    inputs: [adc::AnyAdcChannel<'static, peripherals::ADC1>; SENSE_INPUTS],
+) -> SpringInputs {
+    use embassy_stm32::pac::{ADC1, ADC123_COMMON};
+    let adc = Adc::new(adc1);
+    // embassy picks the fastest prescaler (PCLK2 / 4); the ADC is off while it changes, and
+    // `into_ring_buffered` turns it on again.
+    ADC1.cr2().modify(|w| w.set_adon(false));
+    ADC123_COMMON
+        .ccr()
+        .modify(|w| w.set_adcpre(adc::Adcpre::DIV8));
+    adc.into_ring_buffered(
+        dma,
+        ADC_RING.take(),
+        Irqs,
+        inputs.into_iter().map(|i| (i, SAMPLE_TIME)),
+        adc::CONTINUOUS,
+        adc::Exten::DISABLED,
+    )
+}
+
+/// Whether [`SpringInputs`], once started, still converts: ADC1 has no overrun (which stops its
+/// DMA requests) and DMA2 stream 0 is enabled (an error disables it).
+pub fn spring_inputs_running() -> bool {
+    use embassy_stm32::pac::{ADC1, DMA2};
+    !ADC1.sr().read().ovr() && DMA2.st(0).cr().read().en()
+}
+
 /// Every peripheral the firmware uses, configured.
 pub struct Board {
     /// I2C1 to the MLX90640.
     pub i2c: SensorBus,
     /// USART2, the console.
     pub console: BufferedUart<'static>,
-    /// Heater, fan and springs.
+    /// Heater, fan, springs and the spring power.
     pub outputs: Gates,
+    /// The spring channels' currents and supplies (not started).
+    pub springs: SpringInputs,
     /// The user button, for its edges (its level: [`estop_pressed`]).
     pub estop: ExtiInput<'static, Async>,
     /// LD2.
@@ -311,15 +408,20 @@ impl Board {
     pub fn new(p: Peripherals) -> Self {
         // Gates first, low, before anything else can run.
         macro_rules! take_gates {
-            ($h:ident, $f:ident, [$($s:ident),*]) => {
+            ($h:ident, $f:ident, [$a:ident, $b:ident, $c:ident, $power:ident]) => {
                 (
-                    [$(Output::new(p.$s, Level::Low, Speed::Low)),*],
+                    [
+                        Output::new(p.$a, Level::Low, Speed::Low),
+                        Output::new(p.$b, Level::Low, Speed::Low),
+                        Output::new(p.$c, Level::Low, Speed::Low),
+                    ],
+                    Output::new(p.$power, Level::Low, Speed::Low),
                     p.$h,
                     p.$f,
                 )
             };
         }
-        let (springs, heater_pin, fan_pin) = gate_pins!(take_gates);
+        let (springs, spring_power, heater_pin, fan_pin) = gate_pins!(take_gates);
         let mut heater = SimplePwm::new(
             p.TIM3,
             Some(PwmPin::new(heater_pin, OutputType::PushPull)),
@@ -342,6 +444,15 @@ impl Board {
         );
         fan.ch1().set_duty_cycle_fully_off();
         fan.ch1().enable();
+
+        // The spring channels' inputs, analog, in scan order (each an ADC1 input, or this fails
+        // to compile).
+        macro_rules! take_inputs {
+            ([$($i:ident),*], [$($v:ident),*]) => {
+                [$(p.$i.degrade_adc(),)* $(p.$v.degrade_adc(),)*]
+            };
+        }
+        let spring_inputs = spring_adc(p.ADC1, p.DMA2_CH0, sense_pins!(take_inputs));
 
         let i2c = SensorBus {
             i2c: Some(sensor_i2c(p.I2C1, p.PB8, p.PB9, p.DMA1_CH6, p.DMA1_CH0)),
@@ -372,7 +483,10 @@ impl Board {
                 heater,
                 fan,
                 springs,
+                spring_power,
+                channels: (SpringMask::NONE, false),
             },
+            springs: spring_inputs,
             estop: ExtiInput::new(p.PC13, p.EXTI13, Pull::None, Irqs),
             led: Output::new(p.PA5, Level::Low, Speed::Low),
             watchdog: IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US),
