@@ -9,6 +9,9 @@
 //! `docs/observer.md`.
 //! `cargo test -p host-sim --test observer -- --nocapture` prints the errors.
 
+mod doc_table;
+use doc_table::write_or_check;
+
 use std::collections::BTreeMap;
 
 use host_sim::plant::{Inputs, ModelOptions, Observation, Plant, PlantConfig, PlantScale};
@@ -332,6 +335,7 @@ fn observer_error_table_over_the_cycle() {
     }
     print!("{table}");
     write_or_check(
+        "observer.md",
         "observer-errors",
         &table,
         "THERMORPH_WRITE_DOCS=1 cargo test -p host-sim --test observer",
@@ -507,29 +511,10 @@ fn observer_order_table() {
     // The finer models converge: 6 layers are nearer 24 than the default is.
     let (t2, t6, t24) = (models[0].1.0, models[1].1.0, models[2].1.0);
     assert!((t6 - t24).abs() < 0.25 * (t2 - t24).abs(), "{models:?}");
-    write_or_check("observer-order", &table, "bash scripts/observer-order");
-}
-
-/// The table between `<!-- MARKER:start -->` and `<!-- MARKER:end -->` in `docs/observer.md`:
-/// rewritten with `THERMORPH_WRITE_DOCS` set, otherwise it must equal `table` (a stale table
-/// fails, naming the command `regenerate` that rewrites it).
-fn write_or_check(marker: &str, table: &str, regenerate: &str) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/observer.md");
-    let doc = std::fs::read_to_string(&path).expect("docs/observer.md");
-    let (start, end) = (
-        format!("<!-- {marker}:start -->\n"),
-        format!("<!-- {marker}:end -->"),
+    write_or_check(
+        "observer.md",
+        "observer-order",
+        &table,
+        "bash scripts/observer-order",
     );
-    let a = doc.find(&start).expect("start marker") + start.len();
-    let b = doc.find(&end).expect("end marker");
-    if std::env::var_os("THERMORPH_WRITE_DOCS").is_some() {
-        let new = format!("{}{table}{}", &doc[..a], &doc[b..]);
-        std::fs::write(&path, new).unwrap();
-    } else {
-        assert_eq!(
-            &doc[a..b],
-            table,
-            "docs/observer.md's {marker} table is stale: {regenerate}"
-        );
-    }
 }

@@ -8,6 +8,9 @@
 //! safe after the latch; `reset` refused while a MOSFET still conducts and accepted once the
 //! fault is gone.
 
+mod doc_table;
+use doc_table::write_or_check;
+
 use host_sim::runs::run::{Row, RunResult, run};
 use host_sim::runs::scenario;
 
@@ -355,30 +358,4 @@ fn the_springs_envelope_is_the_docs_table() {
         "hottest spring across the envelope: {:.1} K ({})",
         worst.0, worst.1
     );
-}
-
-/// The table between `<!-- MARKER:start -->` and `<!-- MARKER:end -->` in `docs/DOC`:
-/// rewritten with `THERMORPH_WRITE_DOCS` set, otherwise it must equal `table` (a stale table
-/// fails, naming the command `regenerate` that rewrites it).
-fn write_or_check(doc_name: &str, marker: &str, table: &str, regenerate: &str) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../docs")
-        .join(doc_name);
-    let doc = std::fs::read_to_string(&path).expect("the doc");
-    let (start, end) = (
-        format!("<!-- {marker}:start -->\n"),
-        format!("<!-- {marker}:end -->"),
-    );
-    let a = doc.find(&start).expect("start marker") + start.len();
-    let b = doc.find(&end).expect("end marker");
-    if std::env::var_os("THERMORPH_WRITE_DOCS").is_some() {
-        let new = format!("{}{table}{}", &doc[..a], &doc[b..]);
-        std::fs::write(&path, new).unwrap();
-    } else {
-        assert_eq!(
-            &doc[a..b],
-            table,
-            "docs/{doc_name}'s {marker} table is stale: {regenerate}"
-        );
-    }
 }
