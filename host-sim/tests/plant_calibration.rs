@@ -164,7 +164,7 @@ const PREHEAT_TARGET_K: f64 = params::SMA_AS_K - 16.0;
 /// Length of the full-current pre-warming pulse that takes a spring from `from_k` to the
 /// preheat target (the channel's power into the wire's heat capacity, still-air loss neglected).
 fn preheat_s(from_k: f64) -> f64 {
-    let r = circuit::wire_ohm(1.0, circuit::WIRE_REFERENCE_K, 0.0);
+    let r = circuit::wire_ohm(1.0, params::WIRE_REFERENCE_K, 0.0);
     let p = circuit::channel(true, true, r, params::SPRING_SUPPLY_V, Default::default()).wire_w;
     sma::capacity_j_per_k() * (PREHEAT_TARGET_K - from_k) / p
 }

@@ -5,7 +5,7 @@
 //!
 //! The supply's voltage is sensed at its output, ahead of the enable switch; the firmware's
 //! [`thermorph::channels::FRONT_END`] subtracts the series resistance from that point to ground
-//! (leads and switch, MOSFET, shunt: [`SERIES_OHM`]) from V/I to find the wire's. A supply in
+//! (leads and switch, MOSFET, shunt: [`p::SERIES_OHM`]) from V/I to find the wire's. A supply in
 //! its current limit runs in constant current: its output falls to what the load needs.
 //!
 //! The default channel has the same total resistance outside the wire as the plant had before
@@ -14,33 +14,6 @@
 
 use super::params as p;
 use super::sma;
-
-/// The supply's output resistance, Ω [E PLANT-REFERENCE: bench or DC-DC module 10–50 mΩ].
-pub const SUPPLY_OHM: f64 = 0.010;
-/// The spring power enable's high-side switch on-resistance, Ω [S datasheet class: a
-/// logic-level P-MOSFET or a high-side switch such as the BTS50015, 1.5–5 mΩ].
-pub const ENABLE_SWITCH_OHM: f64 = 0.003;
-/// The MOSFET's on-resistance at a 3.3 V gate, Ω [S datasheet class: logic-level N-MOSFETs
-/// (IRLB8721, PSMN2R0-30YLE) 2–10 mΩ].
-pub const MOSFET_OHM: f64 = 0.005;
-/// The current shunt, Ω [S: 2 mΩ, 1 % (SPEC section 2)].
-pub const SHUNT_OHM: f64 = 0.002;
-/// The leads and connectors, Ω [E PLANT-REFERENCE 20–50 mΩ with the rest of the channel].
-pub const LEADS_OHM: f64 =
-    p::SPRING_LEAD_RESISTANCE_OHM - SUPPLY_OHM - ENABLE_SWITCH_OHM - MOSFET_OHM - SHUNT_OHM;
-/// The resistance from the supply's sense point to ground outside the wire, Ω (what the
-/// firmware subtracts: its `FRONT_END.series_ohm`).
-pub const SERIES_OHM: f64 = ENABLE_SWITCH_OHM + LEADS_OHM + MOSFET_OHM + SHUNT_OHM;
-/// What is left of a wire bypassed by a short (leads touching, the wire against the frame), Ω.
-pub const BYPASSED_WIRE_OHM: f64 = 0.005;
-/// The wire's temperature coefficient of resistance within a phase, 1/K [E PLANT-REFERENCE:
-/// order 10⁻⁴–10⁻³ /K, small next to the phase change], with
-/// [`ModelOptions::wire_tempco`](super::ModelOptions::wire_tempco). The fitted block leaves it
-/// out: its resistivities were fitted as constants (the fit absorbed the drift), and even
-/// 10⁻⁴ /K moves its thesis figures (forming's angle loss 3.9° → 3.5°).
-pub const WIRE_TEMPCO_PER_K: f64 = 3e-4;
-/// The temperature at which the resistivities of `params` are the wire's, K.
-pub const WIRE_REFERENCE_K: f64 = 298.15;
 
 /// What a channel's hardware is doing (a fault, or nothing).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -72,7 +45,7 @@ pub struct Flow {
 pub fn wire_ohm(xi: f64, t_k: f64, tempco_per_k: f64) -> f64 {
     let r = sma::wire_resistance_ohm(xi);
     if t_k.is_finite() {
-        r * (1.0 + tempco_per_k * (t_k - WIRE_REFERENCE_K))
+        r * (1.0 + tempco_per_k * (t_k - p::WIRE_REFERENCE_K))
     } else {
         r
     }
@@ -89,23 +62,23 @@ pub fn channel(gate: bool, power: bool, wire_ohm: f64, emf_v: f64, faults: Chann
         };
     }
     let wire = if faults.wire_short {
-        BYPASSED_WIRE_OHM
+        p::BYPASSED_WIRE_OHM
     } else {
         wire_ohm
     };
-    let load = SERIES_OHM + wire;
-    let amps = (emf_v / (SUPPLY_OHM + load)).min(p::SPRING_SUPPLY_LIMIT_A);
+    let load = p::SERIES_OHM + wire;
+    let amps = (emf_v / (p::SUPPLY_OHM + load)).min(p::SPRING_SUPPLY_LIMIT_A);
     let supply_v = if amps >= p::SPRING_SUPPLY_LIMIT_A {
         amps * load
     } else {
-        emf_v - amps * SUPPLY_OHM
+        emf_v - amps * p::SUPPLY_OHM
     };
     let heated = if faults.wire_short { 0.0 } else { wire_ohm };
     Flow {
         current_a: amps,
         supply_v,
         wire_w: amps * amps * heated,
-        lead_w: amps * amps * (SUPPLY_OHM + SERIES_OHM + (wire - heated)),
+        lead_w: amps * amps * (p::SUPPLY_OHM + p::SERIES_OHM + (wire - heated)),
     }
 }
 
@@ -127,11 +100,11 @@ pub fn channels(
         let f = faults[i];
         let conducts = f.mosfet_stuck.unwrap_or(gates[i]) && power && !f.open_wire;
         let wire = if f.wire_short {
-            BYPASSED_WIRE_OHM
+            p::BYPASSED_WIRE_OHM
         } else {
             wire_ohm[i]
         };
-        conducts.then_some(SERIES_OHM + wire)
+        conducts.then_some(p::SERIES_OHM + wire)
     };
     let g_total: f64 = (0..3).filter_map(branch).map(|r| 1.0 / r).sum();
     if g_total == 0.0 {
@@ -141,7 +114,7 @@ pub fn channels(
         }; 3];
     }
     // Node voltage at the sense point: (E − V)/R_s = V·G, capped by the current limit.
-    let v_free = emf_v / (1.0 + SUPPLY_OHM * g_total);
+    let v_free = emf_v / (1.0 + p::SUPPLY_OHM * g_total);
     let v = v_free.min(p::SPRING_SUPPLY_LIMIT_A / g_total);
     core::array::from_fn(|i| match branch(i) {
         None => Flow {
@@ -187,7 +160,7 @@ mod tests {
                 assert!((f.current_a - lumped).abs() < 1e-12, "{xi} {emf}");
                 assert!((f.wire_w - lumped * lumped * r).abs() < 1e-9);
                 // The sense point sees the load: V = I·(R_series + R_wire).
-                assert!((f.supply_v - f.current_a * (SERIES_OHM + r)).abs() < 1e-9);
+                assert!((f.supply_v - f.current_a * (p::SERIES_OHM + r)).abs() < 1e-9);
             }
         }
     }
@@ -233,9 +206,9 @@ mod tests {
 
     #[test]
     fn the_wire_warms_its_resistance_a_little() {
-        let a = WIRE_TEMPCO_PER_K;
-        let cold = wire_ohm(1.0, WIRE_REFERENCE_K, a);
-        let hot = wire_ohm(1.0, WIRE_REFERENCE_K + 60.0, a);
+        let a = p::WIRE_TEMPCO_PER_K;
+        let cold = wire_ohm(1.0, p::WIRE_REFERENCE_K, a);
+        let hot = wire_ohm(1.0, p::WIRE_REFERENCE_K + 60.0, a);
         assert!((hot / cold - 1.018).abs() < 1e-9);
         // Small next to the phase change (+12.5 %).
         assert!(hot / cold - 1.0 < 0.2 * (wire_ohm(0.0, 298.15, a) / cold - 1.0));

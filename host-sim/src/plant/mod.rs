@@ -274,7 +274,7 @@ pub struct ModelOptions {
     /// all 1.0).
     pub scale: PlantScale,
     /// The wires' resistance drifts with their temperature within a phase
-    /// ([`circuit::WIRE_TEMPCO_PER_K`]); off in the fitted block.
+    /// ([`params::WIRE_TEMPCO_PER_K`]); off in the fitted block.
     pub wire_tempco: bool,
 }
 
@@ -610,7 +610,7 @@ impl Plant {
     /// the board's ADC reads at once when its outputs change (a probe of the channels).
     pub fn channel_flows(&self, inputs: &Inputs) -> [circuit::Flow; 3] {
         let tempco = if self.options.wire_tempco {
-            circuit::WIRE_TEMPCO_PER_K
+            params::WIRE_TEMPCO_PER_K
         } else {
             0.0
         };

@@ -65,6 +65,35 @@ pub const NITI_RESISTIVITY_A_OHM_M: f64 = 90e-8;
 /// current but its I²R is not heat in the wire.
 pub const SPRING_LEAD_RESISTANCE_OHM: f64 = 0.03;
 
+// ---------------------------------------------------------------- spring channels [S/E]
+
+/// The supply's output resistance, Ω [E PLANT-REFERENCE: bench or DC-DC module 10–50 mΩ].
+pub const SUPPLY_OHM: f64 = 0.010;
+/// The spring power enable's high-side switch on-resistance, Ω [S datasheet class: a
+/// logic-level P-MOSFET or a high-side switch such as the BTS50015, 1.5–5 mΩ].
+pub const ENABLE_SWITCH_OHM: f64 = 0.003;
+/// The MOSFET's on-resistance at a 3.3 V gate, Ω [S datasheet class: logic-level N-MOSFETs
+/// (IRLB8721, PSMN2R0-30YLE) 2–10 mΩ].
+pub const MOSFET_OHM: f64 = 0.005;
+/// The current shunt, Ω [S: 2 mΩ, 1 % (SPEC section 2)].
+pub const SHUNT_OHM: f64 = 0.002;
+/// The leads and connectors, Ω [E PLANT-REFERENCE 20–50 mΩ with the rest of the channel].
+pub const LEADS_OHM: f64 =
+    SPRING_LEAD_RESISTANCE_OHM - SUPPLY_OHM - ENABLE_SWITCH_OHM - MOSFET_OHM - SHUNT_OHM;
+/// The resistance from the supply's sense point to ground outside the wire, Ω (what the
+/// firmware subtracts: its `FRONT_END.series_ohm`).
+pub const SERIES_OHM: f64 = ENABLE_SWITCH_OHM + LEADS_OHM + MOSFET_OHM + SHUNT_OHM;
+/// What is left of a wire bypassed by a short (leads touching, the wire against the frame), Ω.
+pub const BYPASSED_WIRE_OHM: f64 = 0.005;
+/// The wire's temperature coefficient of resistance within a phase, 1/K [E PLANT-REFERENCE:
+/// order 10⁻⁴–10⁻³ /K, small next to the phase change], with
+/// [`ModelOptions::wire_tempco`](super::ModelOptions::wire_tempco). The fitted block leaves it
+/// out: its resistivities were fitted as constants (the fit absorbed the drift), and even
+/// 10⁻⁴ /K moves its thesis figures (forming's angle loss 3.9° → 3.5°).
+pub const WIRE_TEMPCO_PER_K: f64 = 3e-4;
+/// The temperature at which the resistivities of `params` are the wire's, K.
+pub const WIRE_REFERENCE_K: f64 = 298.15;
+
 // ---------------------------------------------------------------- thermal network
 
 /// PI heater film areal heat capacity (film, adhesive, foil), J/(m²·K) [S/E PLANT-REFERENCE:
