@@ -309,11 +309,6 @@ impl Channels {
         }
     }
 
-    /// Return the calibration in use.
-    pub fn calibration(&self) -> &Calibration {
-        &self.calibration
-    }
-
     /// Return whether any reading has come (a board or simulator that senses its springs).
     pub fn present(&self) -> bool {
         self.present

@@ -654,11 +654,6 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         }
     }
 
-    /// What the spring channels measured of each spring.
-    pub fn fusion(&self) -> &[SpringFusion; SPRINGS] {
-        &self.fusion
-    }
-
     /// Let the first measurement place the springs at the ambient it shows (T5), martensite:
     /// springs known to be at rest, at a temperature not yet known.
     pub fn rest_springs_at_ambient(&mut self) {

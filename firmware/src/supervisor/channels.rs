@@ -64,24 +64,19 @@ impl Supervisor {
 
     /// Finish `reset`'s probe with the channels' reading `sense` (spring power on, every gate
     /// off) at `now`: clear the fault when no channel conducts, else refuse naming it. The
-    /// spring power goes off again with the next decision.
+    /// spring power is off again in the outputs from now on ([`Supervisor::outputs`]).
     pub fn finish_probe(&mut self, now: Millis, sense: &SpringSense) -> Reply {
         if !core::mem::take(&mut self.probe_pending) {
             return Reply::err("bad-state", "no probe was asked for");
         }
-        self.outputs.spring_power = false;
-        self.outputs.springs = crate::outputs::SpringMask::NONE;
-        self.outputs.heater = crate::outputs::Duty::OFF;
+        // The fault is still latched: its safe outputs (spring power, gates and heater off),
+        // until `clear_fault` leaves every output off.
+        self.outputs = self.safe_outputs();
         match self.channels.probe(sense, &self.settings) {
             Probe::Conducts(i, amps) => Reply::conducting(SPRING_NAMES[i as usize % SPRINGS], amps),
             Probe::Garbage(i) => Reply::unreadable(SPRING_NAMES[i as usize % SPRINGS]),
             Probe::Clear => self.clear_fault(now),
         }
-    }
-
-    /// Whether `reset` must probe the channels before it clears (a board that senses them).
-    pub(super) fn needs_probe(&self) -> bool {
-        self.channels.present()
     }
 }
 

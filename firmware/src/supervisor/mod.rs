@@ -857,10 +857,7 @@ impl Supervisor {
                     return Reply::err("unknown-name", "no such parameter");
                 };
                 if self.fault.is_some() && p.relaxes((p.get)(&self.settings), v) {
-                    return Reply::err(
-                        "bad-state",
-                        "a fault is latched: a limit may be tightened, not relaxed (`reset` first)",
-                    );
+                    return Reply::relaxed(p.name);
                 }
                 let mut next = self.settings;
                 match next.set(p.name, v) {
@@ -1011,7 +1008,8 @@ impl Supervisor {
         if !gone {
             return Reply::cause_present(f);
         }
-        if self.needs_probe() {
+        // A board that senses its springs probes them first.
+        if self.channels.present() {
             // The reply comes from the probe ([`Supervisor::finish_probe`]).
             self.probe = true;
             return Reply::ok("probing the spring channels");

@@ -86,6 +86,18 @@ impl Reply {
         Reply::with(|r| write!(r, "err {code}: {message}"))
     }
 
+    /// A `set`, `load` or `defaults` refused: it would relax the limit `name` while a fault is
+    /// latched.
+    pub(super) fn relaxed(name: &str) -> Reply {
+        Reply::with(|r| {
+            write!(
+                r,
+                "err bad-state: a fault is latched: {name} would be relaxed; nothing changed \
+                 (`reset` first)"
+            )
+        })
+    }
+
     /// `reset` refused: spring `spring`'s sensing reads garbage (an ADC that stopped), so the
     /// probe cannot check the channels.
     pub(super) fn unreadable(spring: char) -> Reply {
@@ -325,17 +337,13 @@ fn write_channels(r: &mut impl Write, s: &Supervisor) -> fmt::Result {
         return Ok(());
     }
     let st = s.channels.state();
-    for (name, f) in [
-        (
-            "spring_a",
-            (|c: &crate::channels::ChannelState| c.current_a) as fn(&_) -> f32,
-        ),
-        ("supply_v", |c| c.supply_v),
+    for (name, values) in [
+        ("spring_a", st.map(|c| c.current_a)),
+        ("supply_v", st.map(|c| c.supply_v)),
     ] {
         write!(r, " {name}=")?;
-        for (i, c) in st.iter().enumerate() {
+        for (i, v) in values.into_iter().enumerate() {
             let sep = if i == 0 { "" } else { "," };
-            let v = f(c);
             if v.is_finite() {
                 write!(r, "{sep}{}", Fixed::new(v, 2))?;
             } else {

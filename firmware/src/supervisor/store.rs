@@ -62,17 +62,6 @@ pub fn settings_at_boot(stored: Option<&[u8]>, console: &mut impl Write) -> Sett
     }
 }
 
-/// The reply to a `load` or `defaults` refused because it would relax the limit `name` while a
-/// fault is latched.
-fn relaxed(name: &str) -> Reply {
-    let mut r = Reply::err("bad-state", "");
-    let _ = write!(
-        r,
-        "a fault is latched: {name} would be relaxed; nothing changed (`reset` first)"
-    );
-    r
-}
-
 impl Supervisor {
     /// `save`: ask for the record to be written (refused while a mode drives the block).
     pub(super) fn save(&mut self) -> Reply {
@@ -100,7 +89,7 @@ impl Supervisor {
     /// relax a limit while a fault is latched).
     pub(super) fn defaults(&mut self) -> Reply {
         if let Err(name) = self.take_settings(Settings::DEFAULT) {
-            return relaxed(name);
+            return Reply::relaxed(name);
         }
         Reply::ok("defaults in use (`save` keeps them)")
     }
@@ -136,7 +125,7 @@ impl Supervisor {
             }
             StoreOutcome::Loaded(None) => match self.take_settings(Settings::DEFAULT) {
                 Ok(()) => Reply::ok("nothing stored, defaults in use"),
-                Err(name) => relaxed(name),
+                Err(name) => Reply::relaxed(name),
             },
             StoreOutcome::Loaded(Some(bytes)) => match Settings::decode(bytes) {
                 Ok(s) => match self.take_settings(s) {
@@ -145,7 +134,7 @@ impl Supervisor {
                         let _ = write!(r, "loaded {} parameters", PARAMS.len());
                         r
                     }
-                    Err(name) => relaxed(name),
+                    Err(name) => Reply::relaxed(name),
                 },
                 Err(e) => {
                     let used = self.take_settings(Settings::DEFAULT).is_ok();

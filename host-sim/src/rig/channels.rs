@@ -8,7 +8,6 @@
 
 use thermorph::channels::{ADC_MAX_COUNT, Counts, FRONT_END, SpringSense};
 
-use crate::plant::Observation;
 use crate::sensor::virtual_mlx::Rng;
 
 /// A current amplifier's input offset, V rms [S INA181: ±150 µV max, ≈ 50 µV typical].
@@ -94,12 +93,13 @@ impl Sensing {
         c
     }
 
-    /// A control period's two samples of the plant as `o` shows it.
-    pub fn sense(&mut self, o: &Observation) -> SpringSense {
+    /// A control period's two samples of channels carrying `current_a` with their supplies at
+    /// `supply_v`.
+    pub fn sense(&mut self, current_a: [f64; 3], supply_v: [f64; 3]) -> SpringSense {
         SpringSense {
             samples: [
-                self.scan(o.spring_current_a, o.spring_supply_v),
-                self.scan(o.spring_current_a, o.spring_supply_v),
+                self.scan(current_a, supply_v),
+                self.scan(current_a, supply_v),
             ],
         }
     }

@@ -388,7 +388,7 @@ impl SimBoard {
         let t_s = self.time_s();
         let sense = if tick && self.control.is_some() {
             let o = self.observe();
-            Some(self.sensing.sense(&o))
+            Some(self.sensing.sense(o.spring_current_a, o.spring_supply_v))
         } else {
             None
         };
@@ -407,12 +407,10 @@ impl SimBoard {
             };
             apply_faults(&self.faults, t_s, &mut inputs);
             let flows = self.plant.channel_flows(&inputs);
-            let o = Observation {
-                spring_current_a: flows.map(|f| f.current_a),
-                spring_supply_v: flows.map(|f| f.supply_v),
-                ..self.plant.observe()
-            };
-            let (reply, outputs) = c.finish_probe(now, &self.sensing.sense(&o));
+            let sense = self
+                .sensing
+                .sense(flows.map(|f| f.current_a), flows.map(|f| f.supply_v));
+            let (reply, outputs) = c.finish_probe(now, &sense);
             p.reply = Some(reply);
             p.outputs = outputs;
         }
