@@ -69,7 +69,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::units::{Kelvin, Seconds};
-pub use springs::{SpringFusion, SpringParams, SpringReading, SpringState, Springs};
+pub use springs::{SpringBound, SpringFusion, SpringParams, SpringReading, SpringState, Springs};
 
 /// Number of wall layers through the lattice's thickness (inner = 0, outer = `LAYERS − 1`).
 pub const LAYERS: usize = 2;
@@ -555,6 +555,8 @@ pub struct EstimateN<const L: usize> {
     pub austenite: [f32; SPRINGS],
     /// Standard deviation of each spring's austenite fraction.
     pub austenite_std: [f32; SPRINGS],
+    /// The hottest each spring can be, K ([`SpringBound`]).
+    pub spring_bounds_k: [f32; SPRINGS],
 }
 
 /// The best the heater can do for the wall ([`ObserverN::softest`]): the steady state with
@@ -609,6 +611,8 @@ pub struct ObserverN<const L: usize, const S: usize, const A: usize> {
     springs_at_ambient: bool,
     /// What the spring channels measured of each spring ([`SpringFusion`]).
     fusion: [SpringFusion; SPRINGS],
+    /// The hottest each spring can be ([`SpringBound`]).
+    bounds: [SpringBound; SPRINGS],
 }
 
 impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
@@ -640,6 +644,7 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             p: Mat::<S>::identity() * var,
             zoh: None,
             springs: [SpringState::at(&params.springs, t0, var); SPRINGS],
+            bounds: [SpringBound::at(&SpringState::at(&params.springs, t0, var)); SPRINGS],
             fresh: true,
             springs_at_ambient: false,
             fusion: [SpringFusion::NEW; SPRINGS],
@@ -665,9 +670,16 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         &self.springs
     }
 
-    /// Set the springs' states (restored from the memory kept across a reset).
+    /// Set the springs' states (restored from the memory kept across a reset); their bounds
+    /// start at them.
     pub fn set_springs(&mut self, springs: &Springs) {
         self.springs = *springs;
+        self.bounds = springs.map(|s| SpringBound::at(&s));
+    }
+
+    /// The hottest each spring can be ([`SpringBound`]), K.
+    pub fn spring_bounds_k(&self) -> [f32; SPRINGS] {
+        self.bounds.map(|b| b.state.temp_k)
     }
 
     /// The parameters in use.
@@ -726,8 +738,12 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         let outer = ambient + dev[Self::OUTER];
         let p = &self.params.springs;
         for (i, sp) in self.springs.iter_mut().enumerate() {
-            let power = self.fusion[i].power_w(p, sp, springs.contains(i));
-            sp.predict_powered(p, power, ambient, outer, dt_s);
+            let on = springs.contains(i);
+            let f = &self.fusion[i];
+            sp.predict_powered(p, f.power_w(p, sp, on), ambient, outer, dt_s);
+            let b = &mut self.bounds[i];
+            let power = f.power_w(p, &b.state, on);
+            b.predict(p, power, ambient, outer, dt_s, f.austenite, sp);
         }
     }
 
@@ -774,6 +790,7 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
                 for s in self.springs.iter_mut() {
                     s.austenite = 0.0;
                 }
+                self.bounds = self.springs.map(|s| SpringBound::at(&s));
             }
             let r = (self.params.t1_noise_k2.max(self.params.t2_noise_k2) + extra).max(1e-3);
             let mut p = Mat::<S>::identity() * r;
@@ -825,6 +842,7 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             springs_std_k: self.springs.map(|s| libm::sqrtf(s.var_k2.max(0.0))),
             austenite: self.springs.map(|s| s.austenite),
             austenite_std: self.springs.map(|s| s.austenite_std(sp)),
+            spring_bounds_k: self.spring_bounds_k(),
         }
     }
 

@@ -64,7 +64,8 @@ heater_power_w,spring_power_w,t1_k,t2_k,t3_k,t4_k,t5_k,faults,mode,phase,target_
 est_frozen_fraction,est_frozen_std,est_inner_k,est_inner_std_k,est_outer_k,est_ambient_k,\
 est_spring_a_k,est_spring_b_k,est_spring_c_k,est_spring_a_std_k,est_spring_b_std_k,\
 est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c,est_bend_deg,est_bend_sd_deg,\
-model_bend_deg,quality,spring_power,meas_spring_a_a,meas_spring_b_a,meas_spring_c_a";
+model_bend_deg,quality,spring_power,meas_spring_a_a,meas_spring_b_a,meas_spring_c_a,\
+bound_spring_a_k,bound_spring_b_k,bound_spring_c_k";
 
 /// The estimate's columns in an open-loop run (no observer).
 const NO_ESTIMATE: &str =
@@ -182,6 +183,17 @@ fn write_rows(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
         for a in measured {
             if a.is_finite() {
                 write!(out, ",{a:.2}")?;
+            } else {
+                write!(out, ",nan")?;
+            }
+        }
+        // The springs' bounds (the hottest each can be, as the observer guards them).
+        let bounds = r
+            .control
+            .map_or([f32::NAN; 3], |c| c.estimate.spring_bounds_k);
+        for k in bounds {
+            if k.is_finite() {
+                write!(out, ",{k:.3}")?;
             } else {
                 write!(out, ",nan")?;
             }
