@@ -305,7 +305,8 @@ pub const PHASE_EVIDENCE: f32 = 0.97;
 
 /// The bound's cooling: the share of the model's loss to the ambient that the bound assumes.
 /// 75 % of the model's 13.2 W/(m²·K) is 9.9, 82 % of the block's still-air 12: a block whose
-/// springs cool that slowly stays under `spring_max_k`. Lower shares guard slower springs but
+/// springs cool that slowly stays near `spring_max_k` (the two-cycle envelope at 75 %: at most
+/// 383.8 K). Lower shares guard slower springs but
 /// starve the nominal block's: its recovery holds the springs hot for a minute, over which a
 /// bound at 60 % of the model's loss runs ≈ 10 K ahead of the estimate and reaches the ceiling
 /// while the wire, still fully austenite, shows nothing the bound could be corrected by; the

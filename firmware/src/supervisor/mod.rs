@@ -155,7 +155,7 @@ pub const INNER_MARGIN_K: f32 = 1.0;
 /// No spring is driven while its bound (the hottest it can be on a block whose springs cool
 /// slower than the model, [`crate::observer::SpringBound`]) is within this of
 /// `spring_max_k`, K: the bound's own model error.
-pub const SPRING_BOUND_MARGIN_K: f32 = 5.0;
+pub const SPRING_BOUND_MARGIN_K: f32 = 3.0;
 
 /// Telemetry: on, and when the next line is due.
 #[derive(Clone, Copy, Debug, PartialEq)]
