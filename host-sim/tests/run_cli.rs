@@ -72,8 +72,9 @@ fn default_scene_writes_csv_json_and_png() {
             }
             let x: f64 = v.parse().unwrap();
             // Tc is NaN until the first frame, the target while no loop runs (forming and
-            // recovery's cooling) and the measured spring currents before the first control
-            // tick's reading; nothing else may be.
+            // recovery's cooling), the measured spring currents before the first control
+            // tick's reading and a spring's temperature by its resistance while it is off or
+            // before its first transformation; nothing else may be.
             let mode = r[header.iter().position(|h| *h == "mode").unwrap()];
             let phase = r[header.iter().position(|h| *h == "phase").unwrap()];
             let forming = mode == "form" || (mode == "recover" && phase == "cool");
@@ -82,7 +83,8 @@ fn default_scene_writes_csv_json_and_png() {
                     || (*h == "tc_k" && r[0].parse::<f64>().unwrap() < 1.0)
                     || (*h == "target_k" && forming)
                     || (h.starts_with("meas_spring_")
-                        && r[0].parse::<f64>().unwrap() <= scene.period_s + 1e-9),
+                        && r[0].parse::<f64>().unwrap() <= scene.period_s + 1e-9)
+                    || h.starts_with("low_spring_"),
                 "{h}={v}"
             );
         }

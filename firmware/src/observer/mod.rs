@@ -244,6 +244,8 @@ impl ObserverParams {
             af_k: 351.0,
             ms_k: 325.0,
             mf_k: 315.0,
+            // NiTi within a phase: 10⁻⁴–10⁻³ per K; the block's wire 3·10⁻⁴.
+            tempco_per_k: 3e-4,
             on_process_k2_per_s: 0.5,
             off_process_k2_per_s: 0.02,
         },
@@ -557,6 +559,9 @@ pub struct EstimateN<const L: usize> {
     pub austenite_std: [f32; SPRINGS],
     /// The hottest each spring can be, K ([`SpringBound`]).
     pub spring_bounds_k: [f32; SPRINGS],
+    /// The lowest each driven spring can be by its resistance, K (NaN: off, or no reference
+    /// yet; [`SpringFusion::temp_low_k`]).
+    pub springs_low_k: [f32; SPRINGS],
 }
 
 /// The best the heater can do for the wall ([`ObserverN::softest`]): the steady state with
@@ -739,10 +744,19 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         let p = &self.params.springs;
         for (i, sp) in self.springs.iter_mut().enumerate() {
             let on = springs.contains(i);
-            let f = &self.fusion[i];
-            sp.predict_powered(p, f.power_w(p, sp, on), ambient, outer, dt_s);
+            let f = &mut self.fusion[i];
+            let power = f.power_w(p, sp, on);
+            sp.predict_powered(p, power, ambient, outer, dt_s);
+            // A wire the resistance shows hotter than a fully austenite estimate: raise it.
+            f.temperature(p, power, dt_s, sp.temp_k);
+            let low = f.temp_low_k - springs::TEMP_LOW_MARGIN_K;
+            if on && low > sp.temp_k {
+                // Its enthalpy: a spring the model has still transforming completes first.
+                sp.temp_k = low;
+            }
             let b = &mut self.bounds[i];
             let power = f.power_w(p, &b.state, on);
+            f.phase(p, sp.temp_k);
             b.predict(p, power, ambient, outer, dt_s, f.austenite, sp);
         }
     }
@@ -843,6 +857,7 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             austenite: self.springs.map(|s| s.austenite),
             austenite_std: self.springs.map(|s| s.austenite_std(sp)),
             spring_bounds_k: self.spring_bounds_k(),
+            springs_low_k: self.fusion.map(|f| f.temp_low_k),
         }
     }
 

@@ -30,7 +30,8 @@ pub const AUSTENITE_RESISTANCE_RATIO: f32 = 90.0 / 80.0;
 /// The springs' model parameters (every spring alike).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpringParams {
-    /// Joule power in one martensite spring at full current, W (15 A through ≈0.27 Ω).
+    /// Joule power in one martensite spring at full current and 298.15 K, W (15 A through
+    /// ≈0.27 Ω).
     pub power_w: f32,
     /// One spring's heat capacity, J/K.
     pub capacity_j_per_k: f32,
@@ -48,6 +49,8 @@ pub struct SpringParams {
     pub ms_k: f32,
     /// Martensite finish, K.
     pub mf_k: f32,
+    /// The wire's temperature coefficient of resistance within a phase, 1/K (0: none).
+    pub tempco_per_k: f32,
     /// Process noise of a switched-on spring's temperature, K²/s (the supply, the wire's
     /// resistance, the load's shift of the transformation).
     pub on_process_k2_per_s: f32,
@@ -116,9 +119,15 @@ impl SpringState {
     }
 
     /// The Joule power the model assumes in this spring while it is on, W: the channel's
-    /// current limit through the phase's resistance.
+    /// current limit through the phase's resistance at the spring's temperature.
     pub fn model_power_w(&self, p: &SpringParams) -> f32 {
-        p.power_w.max(0.0) * (1.0 + (AUSTENITE_RESISTANCE_RATIO - 1.0) * self.austenite)
+        let phase = 1.0 + (AUSTENITE_RESISTANCE_RATIO - 1.0) * self.austenite;
+        let warm = if self.temp_k.is_finite() {
+            coefficient(p, self.temp_k).max(0.5)
+        } else {
+            1.0
+        };
+        p.power_w.max(0.0) * phase * warm
     }
 
     /// Advance by `dt_s` with `power_w` of Joule heat in the wire (0: off), the ambient at
@@ -247,7 +256,64 @@ pub struct SpringFusion {
     /// The austenite fraction the present reading's resistance gives (NaN: not driven, or
     /// no clear drop from the peak: see [`PHASE_EVIDENCE`]).
     pub austenite: f32,
+    /// The lowest resistance read since the start (the wire's martensite), Ω (NaN: none yet) ...
+    pub cold_ohm: f32,
+    /// ... and the estimate's temperature then, K.
+    pub cold_k: f32,
+    /// The present reading's resistance, Ω (NaN: off).
+    pub ohm: f32,
+    /// The resistance at the start of the present energy window, Ω (NaN: off) ...
+    pub window_ohm: f32,
+    /// ... and the Joule energy delivered since, J.
+    pub window_j: f32,
+    /// The resistance has risen steeply per joule (a transformation under way), and the
+    /// spring has not been off for long since.
+    pub rising: bool,
+    /// How long the spring has been off, s.
+    pub off_s: f32,
+    /// The wire's resistance at the end of its first transformation to austenite, Ω (NaN:
+    /// none yet) ...
+    pub reference_ohm: f32,
+    /// ... and its temperature there, K ([`SpringFusion::temperature`]).
+    pub reference_k: f32,
+    /// The wire's temperature by the present reading, K (NaN: not driven, or no reference
+    /// yet): the reference plus the resistance's rise over it through the wire's temperature
+    /// coefficient, as if it were all austenite (any martensite lowers the resistance, so the
+    /// wire is at least this hot, to the reference's error).
+    pub temp_low_k: f32,
 }
+
+/// A transformation's end is taken only where the wire's resistance is this much above its
+/// martensite (martensite to austenite is 12.5 %).
+pub const REFERENCE_RISE: f32 = 0.08;
+
+/// The resistance's rise is judged per this much Joule energy, J (≈ 1 s at full power).
+pub const KNEE_WINDOW_J: f32 = 100.0;
+
+/// Transforming, the resistance rises ≈ 1.2 % per 100 J (12.5 % over the latent heat and the
+/// 10 K band, ≈ 1 000 J); within austenite ≈ 0.17 % (3·10⁻⁴ per K over 5.5 K); the threshold
+/// between them (the sensing's noise over a window: ≈ 0.04 %).
+pub const KNEE_RISE_PER_WINDOW: f32 = 0.005;
+
+/// A spring off for longer than this has cooled off its branch: a rise seen before it no
+/// longer leads to an end, and the window starts afresh (a shorter pause keeps both: a band's
+/// pulses are seconds apart), s.
+pub const KNEE_OFF_S: f32 = 60.0;
+
+/// An end whose temperature by the resistance is more than this under Af is a wire still
+/// partly martensite (5 % martensite reads 18 K under), K: no reference is taken there.
+pub const KNEE_BELOW_AF_K: f32 = 3.0;
+
+/// How far above the model's Af the wire can be where its transformation's end is seen, K:
+/// the load raises the transformation (Clausius–Clapeyron: up to 7 K on a spring pulling the
+/// column, ≈ 15 K on one the bent column stretches) and the window lags (up to 5.5 K at full
+/// power). An end whose temperature, read from the resistance's rise over the wire's
+/// martensite at rest, is beyond this is not taken.
+pub const KNEE_SHIFT_MAX_K: f32 = 30.0;
+
+/// The estimate of a driven spring the model holds fully austenite is raised to the resistance's
+/// lowest temperature less this, K: the reading's noise (≈ 1 K a reading).
+pub const TEMP_LOW_MARGIN_K: f32 = 1.0;
 
 impl SpringFusion {
     /// Nothing measured.
@@ -255,6 +321,16 @@ impl SpringFusion {
         power_w: f32::NAN,
         peak_ohm: f32::NAN,
         austenite: f32::NAN,
+        cold_ohm: f32::NAN,
+        cold_k: f32::NAN,
+        ohm: f32::NAN,
+        window_ohm: f32::NAN,
+        window_j: 0.0,
+        rising: false,
+        off_s: 0.0,
+        reference_ohm: f32::NAN,
+        reference_k: f32::NAN,
+        temp_low_k: f32::NAN,
     };
 
     /// The power to predict with for a spring driven `on` in state `s`: the model's, or the
@@ -277,19 +353,116 @@ impl SpringFusion {
     pub fn fuse(&mut self, r: &SpringReading) {
         self.power_w = if r.on { r.power_w } else { f32::NAN };
         self.austenite = f32::NAN;
+        self.temp_low_k = f32::NAN;
         let ohm = r.wire_ohm;
         if !(r.on && ohm.is_finite() && ohm > 0.0) {
+            self.ohm = f32::NAN;
             return;
         }
+        self.ohm = ohm;
         if self.peak_ohm.is_nan() || self.peak_ohm < ohm {
             self.peak_ohm = ohm;
         }
-        let martensite = (self.peak_ohm - ohm) / (MARTENSITE_RESISTANCE_DROP * self.peak_ohm);
+    }
+
+    /// The phase the reading shows for a wire at `temp_k` (the estimate's, raised to what the
+    /// resistance allows): its drop below austenite's resistance at that temperature (by the
+    /// reference and the temperature coefficient), or before a reference, below the highest
+    /// the channel has read. Sets [`SpringFusion::austenite`] where the drop is clear
+    /// ([`PHASE_EVIDENCE`]). One reading cannot tell a cooler wire from a partly martensite
+    /// one; with the estimate's temperature, a wire cooler than the estimate reads as partly
+    /// martensite, which brings the bound down to the phase cap (≈ 370 K at 0.9), still
+    /// above such a wire; a wire hotter than it reads as austenite (no evidence).
+    pub fn phase(&mut self, p: &SpringParams, temp_k: f32) {
+        self.austenite = f32::NAN;
+        let ohm = self.ohm;
+        if ohm.is_nan() {
+            return;
+        }
+        let r0 = self.reference_ohm;
+        let austenite_ohm = if r0.is_finite() && temp_k.is_finite() {
+            r0 * coefficient(p, temp_k) / coefficient(p, self.reference_k)
+        } else {
+            self.peak_ohm
+        };
+        let martensite = (austenite_ohm - ohm) / (MARTENSITE_RESISTANCE_DROP * austenite_ohm);
         let a = (1.0 - martensite).clamp(0.0, 1.0);
         if a < PHASE_EVIDENCE {
             self.austenite = a;
         }
     }
+
+    /// The reading over a period of `dt_s` with `power_w` in the wire, the estimate at
+    /// `estimate_k`: the wire's martensite at rest, the reference at the first
+    /// transformation's end, and the wire's temperature by the resistance.
+    ///
+    /// The martensite is the lowest resistance read, at the estimate's temperature then (a
+    /// spring at rest after a power-up, where the estimate is the ambient's). A
+    /// transformation's end is where the resistance, having risen steeply per joule
+    /// ([`KNEE_RISE_PER_WINDOW`]), rises no faster than the temperature coefficient makes it,
+    /// well above the wire's martensite ([`REFERENCE_RISE`]); the wire's temperature there is
+    /// what its rise over the martensite gives through the phases' resistivities
+    /// ([`AUSTENITE_RESISTANCE_RATIO`]) and the coefficient. An end that reads more than
+    /// [`KNEE_BELOW_AF_K`] under Af (a wire still partly martensite) or more than
+    /// [`KNEE_SHIFT_MAX_K`] over it (a ratio off by 1 % would be 33 K off) is not taken. It is
+    /// taken once: the wire's resistance against its temperature does not change.
+    pub fn temperature(&mut self, p: &SpringParams, power_w: f32, dt_s: f32, estimate_k: f32) {
+        let ohm = self.ohm;
+        if ohm.is_nan() {
+            // A short pause (a band's or a window's) keeps the window: the wire stays on its
+            // branch.
+            self.off_s += dt_s;
+            if self.off_s > KNEE_OFF_S {
+                self.rising = false;
+                self.window_ohm = f32::NAN;
+                self.window_j = 0.0;
+            }
+            return;
+        }
+        self.off_s = 0.0;
+        if self.cold_ohm.is_nan() || ohm < self.cold_ohm {
+            self.cold_ohm = ohm;
+            self.cold_k = estimate_k;
+        }
+        if self.reference_ohm.is_nan() {
+            if self.window_ohm.is_nan() {
+                self.window_ohm = ohm;
+                self.window_j = 0.0;
+            }
+            self.window_j += power_w.max(0.0) * dt_s;
+            if self.window_j >= KNEE_WINDOW_J {
+                let rise = (ohm / self.window_ohm - 1.0) * KNEE_WINDOW_J / self.window_j;
+                let risen = ohm >= self.cold_ohm * (1.0 + REFERENCE_RISE);
+                if rise > KNEE_RISE_PER_WINDOW {
+                    self.rising = true;
+                } else if self.rising && risen && p.tempco_per_k > 0.0 {
+                    let c = ohm / self.cold_ohm * coefficient(p, self.cold_k)
+                        / AUSTENITE_RESISTANCE_RATIO;
+                    let t = TEMPCO_BASE_K + (c - 1.0) / p.tempco_per_k;
+                    // A wire still partly martensite reads far under Af: not its end yet.
+                    if t >= p.af_k - KNEE_BELOW_AF_K && t <= p.af_k + KNEE_SHIFT_MAX_K {
+                        self.reference_ohm = ohm;
+                        self.reference_k = t.max(p.af_k);
+                    }
+                }
+                self.window_ohm = ohm;
+                self.window_j = 0.0;
+            }
+        }
+        let r0 = self.reference_ohm;
+        if r0.is_finite() && p.tempco_per_k > 0.0 {
+            let at_reference = coefficient(p, self.reference_k);
+            self.temp_low_k = TEMPCO_BASE_K + (ohm / r0 * at_reference - 1.0) / p.tempco_per_k;
+        }
+    }
+}
+
+/// The temperature the wire's coefficient is given at, K: R(T) = R(T₀)·(1 + α·(T − T₀)).
+pub const TEMPCO_BASE_K: f32 = 298.15;
+
+/// `1 + α·(T − T₀)`: the wire's resistance at `t_k` over its resistance at [`TEMPCO_BASE_K`].
+fn coefficient(p: &SpringParams, t_k: f32) -> f32 {
+    1.0 + p.tempco_per_k * (t_k - TEMPCO_BASE_K)
 }
 
 /// A wire's resistance falls by this share from austenite to martensite (1 − 80/90).
@@ -478,28 +651,121 @@ mod tests {
     /// martensite reads 0.6 austenite; a drop within the noise reads nothing; off, nothing.
     #[test]
     fn the_resistance_drop_gives_the_martensite_share() {
+        let p = params();
         for gain in [0.97, 1.0, 1.03] {
             let r_a = 0.306 * gain;
             let mut f = SpringFusion::NEW;
-            f.fuse(&reading(r_a));
+            let read = |f: &mut SpringFusion, ohm: f32| {
+                f.fuse(&reading(ohm));
+                f.phase(&p, f32::NAN);
+            };
+            read(&mut f, r_a);
             assert!(f.austenite.is_nan(), "the peak itself: no evidence");
-            f.fuse(&reading(r_a * (1.0 - 0.4 * MARTENSITE_RESISTANCE_DROP)));
+            read(&mut f, r_a * (1.0 - 0.4 * MARTENSITE_RESISTANCE_DROP));
             assert!((f.austenite - 0.6).abs() < 1e-4, "{}", f.austenite);
-            f.fuse(&reading(r_a * (1.0 - 0.001)));
+            read(&mut f, r_a * (1.0 - 0.001));
             assert!(f.austenite.is_nan(), "a 0.1 % drop is noise");
+            read(&mut f, f32::NAN);
+            assert!(f.austenite.is_nan());
             f.fuse(&SpringReading {
                 on: false,
                 power_w: 0.0,
                 wire_ohm: f32::NAN,
             });
+            f.phase(&p, f32::NAN);
             assert!(f.austenite.is_nan() && f.power_w.is_nan());
-            assert_eq!(f.peak_ohm, r_a);
-            f.fuse(&reading(f32::NAN));
             assert_eq!(
                 f.peak_ohm, r_a,
                 "a reading without a resistance keeps the peak"
             );
+            // With a reference, the drop is from austenite at the given temperature: a wire
+            // there reads austenite; one half martensite there, half.
+            f.reference_ohm = r_a;
+            f.reference_k = p.af_k + 5.0;
+            let base = coefficient(&p, f.reference_k);
+            let at = p.af_k + 30.0;
+            let austenite_there = r_a * coefficient(&p, at) / base;
+            f.fuse(&reading(austenite_there));
+            f.phase(&p, at);
+            assert!(f.austenite.is_nan(), "austenite at its temperature");
+            f.fuse(&reading(
+                austenite_there * (1.0 - 0.5 * MARTENSITE_RESISTANCE_DROP),
+            ));
+            f.phase(&p, at);
+            assert!((f.austenite - 0.5).abs() < 1e-3, "{}", f.austenite);
         }
+    }
+
+    /// A wire heated from martensite at 298 K at 100 W in 0.25 s readings: its resistance
+    /// (the plant's law: 12.5 % over the transformation between As and Af, 3·10⁻⁴ per K) is
+    /// read for the transformation's end, and from there the temperature the resistance gives
+    /// is the wire's.
+    #[test]
+    fn the_resistance_reads_the_wire_hot_after_its_transformation() {
+        let p = params();
+        let mut f = SpringFusion::NEW;
+        let (c, l) = (p.capacity_j_per_k, p.latent_j);
+        let (mut t, mut a) = (298.0f32, 0.0f32);
+        let ohm = |t: f32, a: f32| 0.272 * (1.0 + 0.125 * a) * (1.0 + 3e-4 * (t - 298.15));
+        let mut low_err = f32::MIN;
+        for _ in 0..200 {
+            // 25 J a reading: sensible heat, or latent heat across the band.
+            let mut e = 25.0;
+            if t >= p.as_k && a < 1.0 {
+                let w = p.af_k - p.as_k;
+                let da = (e / (l + c * w)).min(1.0 - a);
+                a += da;
+                t += da * w;
+                e -= da * (l + c * w);
+            }
+            t += e / c;
+            f.fuse(&reading(ohm(t, a)));
+            f.temperature(&p, 100.0, 0.25, t);
+            if f.temp_low_k.is_finite() {
+                low_err = low_err.max(f.temp_low_k - t);
+                assert!((f.temp_low_k - t).abs() < 0.5, "{} vs {t}", f.temp_low_k);
+            }
+        }
+        assert!(f.reference_ohm.is_finite(), "no end found");
+        assert!(t > 420.0 && low_err <= 0.5, "{t} {low_err}");
+        assert!(
+            f.reference_k > p.af_k && f.reference_k < p.af_k + 6.0,
+            "{}",
+            f.reference_k
+        );
+    }
+
+    /// A drive that stops mid-transformation and resumes after a pause warms back to its
+    /// branch with a flat resistance first: that is no end, and no reference is taken.
+    #[test]
+    fn a_resumed_drive_is_no_transformation_end() {
+        let p = params();
+        let mut f = SpringFusion::NEW;
+        let base = 0.272;
+        f.fuse(&reading(base));
+        f.temperature(&p, 100.0, 0.25, 300.0);
+        // Rising steeply: 1.2 % per 100 J, to 6 % (half transformed).
+        for k in 1..=20 {
+            f.fuse(&reading(base * (1.0 + 0.003 * k as f32)));
+            f.temperature(&p, 100.0, 0.25, 300.0);
+        }
+        assert!(f.rising);
+        for _ in 0..40 {
+            f.fuse(&SpringReading {
+                on: false,
+                power_w: 0.0,
+                wire_ohm: f32::NAN,
+            });
+            f.temperature(&p, 0.0, 0.25, 300.0);
+        }
+        assert!(f.rising, "a 10 s pause keeps the rise");
+        // Back on, flat at 9 % above martensite: by the phases' ratio it reads ≈ 100 K under
+        // Af, a wire still partly martensite: no end.
+        for _ in 0..20 {
+            f.fuse(&reading(base * 1.09));
+            f.temperature(&p, 100.0, 0.25, 300.0);
+        }
+        assert!(f.reference_ohm.is_nan() && f.temp_low_k.is_nan());
     }
 
     /// With nothing measured, the bound heats as the estimate does and cools slower: it stays

@@ -273,9 +273,9 @@ pub struct ModelOptions {
     /// Factors on the heater power, wall capacity, spring cooling and spring supply (default:
     /// all 1.0).
     pub scale: PlantScale,
-    /// The wires' resistance drifts with their temperature within a phase
-    /// ([`params::WIRE_TEMPCO_PER_K`]); off in the fitted block.
-    pub wire_tempco: bool,
+    /// The wires' resistance does not drift with their temperature within a phase (default:
+    /// it does, by [`params::WIRE_TEMPCO_PER_K`]).
+    pub constant_wire_resistance: bool,
 }
 
 /// One spring's thermal and phase state.
@@ -609,10 +609,10 @@ impl Plant {
     /// The spring channels' flows for `inputs` at the present state, without stepping: what
     /// the board's ADC reads at once when its outputs change (a probe of the channels).
     pub fn channel_flows(&self, inputs: &Inputs) -> [circuit::Flow; 3] {
-        let tempco = if self.options.wire_tempco {
-            params::WIRE_TEMPCO_PER_K
-        } else {
+        let tempco = if self.options.constant_wire_resistance {
             0.0
+        } else {
+            params::WIRE_TEMPCO_PER_K
         };
         let wire_ohm = self
             .springs

@@ -86,10 +86,11 @@ pub const SERIES_OHM: f64 = ENABLE_SWITCH_OHM + LEADS_OHM + MOSFET_OHM + SHUNT_O
 /// What is left of a wire bypassed by a short (leads touching, the wire against the frame), Ω.
 pub const BYPASSED_WIRE_OHM: f64 = 0.005;
 /// The wire's temperature coefficient of resistance within a phase, 1/K [E PLANT-REFERENCE:
-/// order 10⁻⁴–10⁻³ /K, small next to the phase change], with
-/// [`ModelOptions::wire_tempco`](super::ModelOptions::wire_tempco). The fitted block leaves it
-/// out: its resistivities were fitted as constants (the fit absorbed the drift), and even
-/// 10⁻⁴ /K moves its thesis figures (forming's angle loss 3.9° → 3.5°).
+/// order 10⁻⁴–10⁻³ /K, small next to the phase change]; off with
+/// [`ModelOptions::constant_wire_resistance`](super::ModelOptions::constant_wire_resistance).
+/// It moves the thesis figures a little (a hotter wire draws more power at the channel's
+/// current limit: forming's angle loss 3.9° → 2.9°, every `host-sim paper` row passes) and is
+/// what lets the firmware read a spring's temperature within austenite.
 pub const WIRE_TEMPCO_PER_K: f64 = 3e-4;
 /// The temperature at which the resistivities of `params` are the wire's, K.
 pub const WIRE_REFERENCE_K: f64 = 298.15;
