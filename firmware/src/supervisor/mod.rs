@@ -75,9 +75,8 @@
 //! [`Observer`] (the wall through its thickness, each spring's temperature and phase, the
 //! ambient), predicted every step from the outputs that ran and corrected by every new frame.
 //! Every spring phase drives a spring by its estimate (`spring_hot_k`, `spring_band_k`);
-//! a spring estimated past `spring_max_k` latches `spring-over-temperature`, and none is driven
-//! while its bound (the hottest it can be, on springs that cool slower than the model's) is
-//! within [`SPRING_BOUND_MARGIN_K`] of it; the heater is cut
+//! a spring estimated past `spring_max_k` latches `spring-over-temperature` (the estimate of a
+//! driven spring is raised to the temperature its resistance shows); the heater is cut
 //! as the estimated inner layer nears `t_max_k` ([`INNER_MARGIN_K`]). Recovery uses the
 //! estimate to bring all three springs to austenite together — three equal pulls hold the
 //! softened column straight while it cools and locks,
@@ -151,11 +150,6 @@ pub const WARN_RESOLVED: Warning = Warning::Resolved;
 /// `heater_cap_band_k` of `t_max_k` − this, K: the estimate's error allowance (its mean error
 /// over the cycle is ≈ 0.1 K, docs/observer.md).
 pub const INNER_MARGIN_K: f32 = 1.0;
-
-/// No spring is driven while its bound (the hottest it can be on a block whose springs cool
-/// slower than the model, [`crate::observer::SpringBound`]) is within this of
-/// `spring_max_k`, K: the bound's own model error.
-pub const SPRING_BOUND_MARGIN_K: f32 = 3.0;
 
 /// Telemetry: on, and when the next line is due.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -673,16 +667,6 @@ impl Supervisor {
         self.mode.cooling_since().is_none() && !matches!(self.mode, Mode::Stopped | Mode::Faulted)
     }
 
-    /// Of `springs`, the ones whose bound leaves them room ([`SPRING_BOUND_MARGIN_K`]).
-    fn bounded(&self, springs: SpringMask) -> SpringMask {
-        let ceiling_k = self.settings.spring_max_k - SPRING_BOUND_MARGIN_K;
-        let bounds = self.observer.spring_bounds_k();
-        let bits = (0..crate::outputs::SPRINGS)
-            .filter(|&i| springs.contains(i) && bounds[i] < ceiling_k)
-            .fold(0u8, |b, i| b | 1 << i);
-        SpringMask::from_bits(bits)
-    }
-
     fn safe_outputs(&self) -> Outputs {
         let fan = match self.fault {
             Some(f) if f.fan_helps() && !self.quiet => Duty::from_fraction(self.settings.form_fan),
@@ -784,10 +768,9 @@ impl Supervisor {
             events: &mut self.events,
             notice: &mut self.notice,
         };
-        let Some(mut step) = self.mode.advance(&mut c) else {
+        let Some(step) = self.mode.advance(&mut c) else {
             return self.safe_outputs();
         };
-        step.springs = self.bounded(step.springs);
         if let Some(next) = step.next {
             let mode = match next {
                 Next::Enter(m) => m,

@@ -65,7 +65,7 @@ est_frozen_fraction,est_frozen_std,est_inner_k,est_inner_std_k,est_outer_k,est_a
 est_spring_a_k,est_spring_b_k,est_spring_c_k,est_spring_a_std_k,est_spring_b_std_k,\
 est_spring_c_std_k,est_austenite_a,est_austenite_b,est_austenite_c,est_bend_deg,est_bend_sd_deg,\
 model_bend_deg,quality,spring_power,meas_spring_a_a,meas_spring_b_a,meas_spring_c_a,\
-bound_spring_a_k,bound_spring_b_k,bound_spring_c_k,low_spring_a_k,low_spring_b_k,low_spring_c_k";
+res_spring_a_k,res_spring_b_k,res_spring_c_k";
 
 /// The estimate's columns in an open-loop run (no observer).
 const NO_ESTIMATE: &str =
@@ -187,13 +187,11 @@ fn write_rows(rows: &[Row], out: &mut impl Write) -> std::io::Result<()> {
                 write!(out, ",nan")?;
             }
         }
-        // The springs' bounds (the hottest each can be, as the observer guards them).
-        // ... and the lowest each driven spring can be by its resistance.
-        let bounds = r.control.map_or([f32::NAN; 6], |c| {
-            let (b, l) = (c.estimate.spring_bounds_k, c.estimate.springs_low_k);
-            [b[0], b[1], b[2], l[0], l[1], l[2]]
-        });
-        for k in bounds {
+        // Each driven spring's temperature by its resistance (the firmware's reading).
+        let by_resistance = r
+            .control
+            .map_or([f32::NAN; 3], |c| c.estimate.springs_wire_k);
+        for k in by_resistance {
             if k.is_finite() {
                 write!(out, ",{k:.3}")?;
             } else {
