@@ -415,6 +415,20 @@ impl Posture {
     pub fn reach_deg(springs: SpringMask, phi: f32) -> f32 {
         let a: [f32; SPRINGS] =
             core::array::from_fn(|i| if springs.contains(i) { 1.0 } else { 0.0 });
+        Self::reach_with_deg(&a, phi)
+    }
+
+    /// How far springs at these austenite fractions bend the column from straight with the
+    /// wall at frozen fraction `phi` and nothing stored, degrees ([`Posture::reach_deg`] for
+    /// springs that cannot become fully austenite: a supply too weak for it).
+    pub fn reach_with_deg(a: &[f32; SPRINGS], phi: f32) -> f32 {
+        let a = a.map(|x| {
+            if x.is_finite() {
+                x.clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        });
         let k = stiffness_nmm_per_rad(phi);
         // From straight the first step's pull decides the direction; the solve is iterated
         // to convergence here (once per command).

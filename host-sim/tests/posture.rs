@@ -168,3 +168,34 @@ fn poses_form_near_their_targets_without_a_fault() {
         "docs/posture.md's summary is stale: {summary}"
     );
 }
+
+/// A spring supply that sags to 70 % (or is strong, 150 %) still forms `mode pose 40 AB form`:
+/// the pose's steps carry the model's energy at the power the channels measure, where
+/// fixed-length steps at 70 % gave each step only what the settle lost and stepped forever.
+#[test]
+fn a_pose_forms_whatever_the_spring_supply() {
+    for supply in [70, 150] {
+        let text = format!(
+            "name = \"pose-supply\"\nduration = \"8:00\"\nambient = \"298.15 K\"\n\
+             period = \"0.25 s\"\n[fidelity]\ncamera = false\n[plant]\n\
+             spring_supply = \"{supply} %\"\n\
+             [[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+             [[command]]\nat = \"60 s\"\nline = \"mode pose 40 AB form\"\n\
+             [[command]]\nat = \"7:50\"\nline = \"log\"\n"
+        );
+        let sc = scenario::parse(&text, "pose-supply", "pose-supply").unwrap();
+        let r = run(&sc, &mut |_| {}).unwrap();
+        let log = &r.summary.replies.last().unwrap().reply;
+        assert!(
+            log.contains("mode pose -> standby") && !log.contains("out of reach"),
+            "{supply} %: {log}"
+        );
+        assert!(
+            r.summary.faults.is_empty(),
+            "{supply} %: {:?}",
+            r.summary.faults
+        );
+        let fin = r.summary.final_bend_deg;
+        assert!((fin - 40.0).abs() < 3.0, "{supply} %: formed at {fin}°");
+    }
+}

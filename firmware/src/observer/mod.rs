@@ -69,7 +69,9 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::units::{Kelvin, Seconds};
-pub use springs::{SpringFusion, SpringParams, SpringReading, SpringState, Springs};
+pub use springs::{
+    SpringFusion, SpringParams, SpringReading, SpringState, Springs, attainable_austenite,
+};
 
 /// Number of wall layers through the lattice's thickness (inner = 0, outer = `LAYERS − 1`).
 pub const LAYERS: usize = 2;
@@ -560,6 +562,9 @@ pub struct EstimateN<const L: usize> {
     /// Each driven spring's temperature by its resistance, K (NaN: off, or no reference yet;
     /// [`SpringFusion::wire_k`]).
     pub springs_wire_k: [f32; SPRINGS],
+    /// Each spring's measured power over the model's in its recent drives (1 before any
+    /// drive; [`SpringFusion::share`]).
+    pub springs_power_share: [f32; SPRINGS],
 }
 
 /// The best the heater can do for the wall ([`ObserverN::softest`]): the steady state with
@@ -665,6 +670,15 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         self.springs_at_ambient = true;
     }
 
+    /// Every spring at rest at `ambient_k`, martensite, as uncertain as T5.
+    fn place_springs_at(&mut self, ambient_k: f32) {
+        let v = self.params.t5_noise_k2;
+        self.springs = [SpringState::at(&self.params.springs, ambient_k, v); SPRINGS];
+        for s in self.springs.iter_mut() {
+            s.austenite = 0.0;
+        }
+    }
+
     /// Return the springs' states (for the memory kept across a reset).
     pub fn springs(&self) -> &Springs {
         &self.springs
@@ -730,9 +744,16 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
         // wall is ≈ 0.017 W/K against the wall's ≈ 2 W/K: one-way).
         let outer = ambient + dev[Self::OUTER];
         let p = &self.params.springs;
+        if !springs.is_empty() {
+            // A driven spring is no longer at the ambient.
+            self.springs_at_ambient = false;
+        }
         for (i, sp) in self.springs.iter_mut().enumerate() {
             let on = springs.contains(i);
             let f = &mut self.fusion[i];
+            if on {
+                f.track_share(sp.model_power_w(p));
+            }
             let power = f.power_w(p, sp, on);
             sp.predict_powered(p, power, ambient, outer, dt_s);
             // A wire the resistance shows hotter than the estimate: raise the estimate.
@@ -782,12 +803,11 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             }
             self.x[Self::AMBIENT] = z5;
             if self.springs_at_ambient {
-                self.springs_at_ambient = false;
-                let v = self.params.t5_noise_k2;
-                self.springs = [SpringState::at(&self.params.springs, z5, v); SPRINGS];
-                for s in self.springs.iter_mut() {
-                    s.austenite = 0.0;
-                }
+                self.place_springs_at(z5);
+                // A frame whose regions were not separated (a first frame holding a subpage
+                // from before the power-up) may not show the ambient: the next that does
+                // places them again.
+                self.springs_at_ambient = extra > 0.0;
             }
             let r = (self.params.t1_noise_k2.max(self.params.t2_noise_k2) + extra).max(1e-3);
             let mut p = Mat::<S>::identity() * r;
@@ -798,6 +818,13 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             p[(Self::AMBIENT, Self::AMBIENT)] = self.params.t5_noise_k2.max(1e-3);
             self.p = p;
             return;
+        }
+        if self.springs_at_ambient
+            && extra == 0.0
+            && let Some(z5) = finite(t5)
+        {
+            self.springs_at_ambient = false;
+            self.place_springs_at(z5);
         }
         let r = [
             self.params.t1_noise_k2 + extra,
@@ -840,6 +867,7 @@ impl<const L: usize, const S: usize, const A: usize> ObserverN<L, S, A> {
             austenite: self.springs.map(|s| s.austenite),
             austenite_std: self.springs.map(|s| s.austenite_std(sp)),
             springs_wire_k: self.fusion.map(|f| f.wire_k),
+            springs_power_share: self.fusion.map(|f| f.share),
         }
     }
 
@@ -1137,6 +1165,40 @@ mod tests {
         obs.predict(0.3, 0.0, SpringMask::NONE, secs(0.25));
         obs.correct(None, None, None);
         assert!(trace(&obs) > before);
+    }
+
+    /// A first frame whose regions were not separated (at power-up, half of it a subpage
+    /// from before: 288 K in a 273 K room) does not fix the springs' temperature: the first
+    /// separated frame places them at its ambient. Once a spring is driven, none is moved.
+    #[test]
+    fn the_springs_rest_at_the_first_separated_ambient() {
+        let p = ObserverParams::DEFAULT;
+        let mut obs = Observer::new(&p, 298.15);
+        obs.rest_springs_at_ambient();
+        obs.predict(0.0, 0.0, SpringMask::NONE, secs(0.25));
+        obs.correct_with(k(288.0), k(288.0), k(288.0), 25.0);
+        assert!((obs.springs()[0].temp_k - 288.0).abs() < 0.01);
+        obs.predict(0.0, 0.0, SpringMask::NONE, secs(0.25));
+        obs.correct_with(k(275.0), k(273.2), k(273.2), 0.0);
+        for s in obs.springs() {
+            assert!(
+                (s.temp_k - 273.2).abs() < 0.01 && s.austenite == 0.0,
+                "{s:?}"
+            );
+        }
+        // Placed once: a later frame leaves them to the model.
+        obs.predict(0.0, 0.0, SpringMask::ALL, secs(0.25));
+        let driven = obs.springs()[0].temp_k;
+        obs.correct_with(k(275.0), k(273.2), k(280.0), 0.0);
+        assert_eq!(obs.springs()[0].temp_k, driven);
+        // A spring driven before any separated frame is not placed either.
+        let mut obs = Observer::new(&p, 298.15);
+        obs.rest_springs_at_ambient();
+        obs.correct_with(k(288.0), k(288.0), k(288.0), 25.0);
+        obs.predict(0.0, 0.0, SpringMask::from_bits(1), secs(0.25));
+        let driven = obs.springs()[0].temp_k;
+        obs.correct_with(k(275.0), k(273.2), k(273.2), 0.0);
+        assert_eq!(obs.springs()[0].temp_k, driven);
     }
 
     #[test]

@@ -269,6 +269,9 @@ pub struct SpringFusion {
     pub reference_ohm: f32,
     /// ... and its temperature there, K ([`SpringFusion::temperature`]).
     pub reference_k: f32,
+    /// The measured power's share of the model's over the recent drives (1: as the model
+    /// assumes, before any drive; [`SpringFusion::track_share`]).
+    pub share: f32,
     /// The wire's temperature by the present reading, K (NaN: not driven, or no reference
     /// yet): the reference plus the resistance's rise over it through the wire's temperature
     /// coefficient, as if it were all austenite (any martensite lowers the resistance, so the
@@ -304,6 +307,36 @@ pub const KNEE_BELOW_AF_K: f32 = 3.0;
 /// martensite at rest, is beyond this is not taken.
 pub const KNEE_SHIFT_MAX_K: f32 = 30.0;
 
+/// How far a reading moves [`SpringFusion::share`] towards its own (a few readings' memory:
+/// the sensing's noise averages out within a step).
+pub const SHARE_GAIN: f32 = 0.2;
+
+/// The largest share taken (a supply at 150 % gives ≈ 1.6 where its current is not limited).
+pub const SHARE_MAX: f32 = 3.0;
+
+/// The austenite fraction a spring can reach at best when driven at `duty` (0…1, the duty
+/// limit) of `share` times the model's power (its martensite's, the least), in still air at
+/// `ambient_k` beside a column at `column_k`, and held at most at `ceiling_k` (the springs'
+/// band): the heating branch at that steady temperature. At the model's power any duty
+/// above ≈ 12 % reaches austenite, and at the 60 % duty limit any share above ≈ 20 %.
+pub fn attainable_austenite(
+    p: &SpringParams,
+    share: f32,
+    duty: f32,
+    ambient_k: f32,
+    column_k: f32,
+    ceiling_k: f32,
+) -> f32 {
+    let (ga, gc) = (p.ambient_w_per_k.max(0.0), p.column_w_per_k.max(0.0));
+    let g = (ga + gc).max(1e-6);
+    let power = p.power_w.max(0.0) * share.max(0.0) * duty.clamp(0.0, 1.0);
+    let steady = (ga * ambient_k + gc * column_k + power) / g;
+    if !steady.is_finite() {
+        return 0.0;
+    }
+    heating_branch(p, steady.min(ceiling_k))
+}
+
 /// The estimate of a driven spring is raised to its temperature by the resistance less this,
 /// K: the reading's noise (≈ 1 K a reading).
 pub const WIRE_MARGIN_K: f32 = 1.0;
@@ -321,8 +354,19 @@ impl SpringFusion {
         off_s: 0.0,
         reference_ohm: f32::NAN,
         reference_k: f32::NAN,
+        share: 1.0,
         wire_k: f32::NAN,
     };
+
+    /// Follow the measured power's share of `model_w` (the model's power for the spring
+    /// now) while the spring is driven, by [`SHARE_GAIN`] a reading; kept while it is off.
+    pub fn track_share(&mut self, model_w: f32) {
+        let m = self.power_w;
+        if m.is_finite() && model_w > 0.0 {
+            let r = (m / model_w).clamp(0.0, SHARE_MAX);
+            self.share += SHARE_GAIN * (r - self.share);
+        }
+    }
 
     /// The power to predict with for a spring driven `on` in state `s`: the model's, or the
     /// measured one where they differ by more than [`MEASURED_POWER_SHARE`].
@@ -472,6 +516,40 @@ mod tests {
         f.power_w = model * 0.5;
         assert_eq!(f.power_w(&p, &s, true), model * 0.5);
         assert_eq!(f.power_w(&p, &s, false), 0.0);
+    }
+
+    /// The share follows the measured power of driven readings only; a spring the supply
+    /// gives a tenth of its power cannot reach austenite under the duty limit, one at half of
+    /// it can.
+    #[test]
+    fn the_share_follows_the_drives_and_limits_the_austenite() {
+        let p = params();
+        let mut f = SpringFusion::NEW;
+        assert_eq!(f.share, 1.0);
+        for _ in 0..40 {
+            f.fuse(&SpringReading {
+                on: true,
+                power_w: 30.0,
+                wire_ohm: 0.27,
+            });
+            f.track_share(60.0);
+        }
+        assert!((f.share - 0.5).abs() < 1e-3, "{}", f.share);
+        f.fuse(&SpringReading {
+            on: false,
+            power_w: f32::NAN,
+            wire_ohm: f32::NAN,
+        });
+        f.track_share(60.0);
+        assert!((f.share - 0.5).abs() < 1e-3, "kept while off: {}", f.share);
+        let at = |share: f32| attainable_austenite(&p, share, 0.6, 298.15, 358.0, 373.0);
+        assert_eq!(at(1.0), 1.0);
+        assert_eq!(at(0.49), 1.0);
+        assert_eq!(at(0.0), 0.0);
+        // 17 % of 61 W at 60 % duty holds the wire ≈ 346 K, inside the transformation.
+        let part = at(0.17);
+        assert!(part > 0.2 && part < 0.8, "{part}");
+        assert_eq!(at(0.1), 0.0);
     }
 
     fn reading(ohm: f32) -> SpringReading {

@@ -43,6 +43,13 @@ pub enum EventKind {
     SpringsResting,
     /// A warning also printed on the console (`# warning: …`).
     Warning(Warning),
+    /// A pose ended short of its target at this estimated bend, degrees, and why; standby.
+    PoseOutOfReach {
+        /// The estimated bend, degrees.
+        deg: f32,
+        /// Why.
+        why: ShortBy,
+    },
     /// A phase that waits for a temperature gave up (`soak`, `reheat`, `form` or `recover`,
     /// recovery's cooling) and the mode
     /// ended in standby; Tc when it did, K.
@@ -85,11 +92,55 @@ pub enum Notice {
         /// spring-back).
         rest_deg: Option<f32>,
     },
-    /// A pose's springs pull all they can and the bend is short of the target, degrees.
+    /// A pose ended short of its target (also in the `log`).
     PoseOutOfReach {
         /// The estimated bend, degrees.
         deg: f32,
+        /// Why.
+        why: ShortBy,
     },
+}
+
+/// Why a pose ended short of its target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShortBy {
+    /// Every selected spring is austenite: they pull all they can.
+    Austenite,
+    /// The selected springs' measured power cannot make them austenite within the duty
+    /// limit: what they reach with it, degrees, and their power's share of the model's.
+    Power {
+        /// The reach at that power, degrees.
+        reach_deg: f32,
+        /// The weakest selected spring's measured power over the model's.
+        share: f32,
+    },
+    /// Steps gained nothing (no bend, no spring warmer or further transformed) over
+    /// `steps` of them; the weakest selected spring's power share then.
+    Stalled {
+        /// Steps without a gain.
+        steps: u8,
+        /// The weakest selected spring's measured power over the model's.
+        share: f32,
+    },
+}
+
+impl fmt::Display for ShortBy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            ShortBy::Austenite => f.write_str("the springs pull all they can"),
+            ShortBy::Power { reach_deg, share } => write!(
+                f,
+                "the springs get {} % of their power, which reaches {} deg",
+                Fixed::new(share * 100.0, 0),
+                Fixed::new(reach_deg, 1)
+            ),
+            ShortBy::Stalled { steps, share } => write!(
+                f,
+                "{steps} steps gained nothing with the springs at {} % of their power",
+                Fixed::new(share * 100.0, 0)
+            ),
+        }
+    }
 }
 
 impl fmt::Display for Notice {
@@ -136,8 +187,8 @@ impl fmt::Display for Notice {
                 Fixed::new(sd_deg, 1),
                 Fixed::new(rest, 1)
             ),
-            Notice::PoseOutOfReach { deg } => {
-                write!(f, "pose out of reach at {}", Fixed::new(deg, 1))
+            Notice::PoseOutOfReach { deg, why } => {
+                write!(f, "pose out of reach at {}: {why}", Fixed::new(deg, 1))
             }
         }
     }

@@ -122,7 +122,7 @@ use safety::{Fault, FaultKind, LoopState, Safety};
 
 pub use autotune::Tuning;
 pub use boot::ResetCause;
-pub use events::{Notice, Warning};
+pub use events::{Notice, ShortBy, Warning};
 pub use forming::Forming;
 pub use memory::{SpringMemory, SpringRecord};
 pub use mode::{Mode, ModeId, PauseError};
@@ -923,10 +923,16 @@ impl Supervisor {
                 form,
             } => {
                 let springs = springs.unwrap_or(self.springs);
-                // What the springs reach against the soft wall, less the tolerance: a target
-                // beyond is refused now, not found out after a soak.
-                let soft_reach_deg = Posture::reach_deg(springs, self.settings.soft_frozen_max)
-                    - self.settings.pose_tol_deg;
+                // What the springs reach against the soft wall at the power their channels
+                // measured, less the tolerance: a target beyond is refused now, not found out
+                // after a soak.
+                let soft_reach_deg = pose::reach_at_power_deg(
+                    springs,
+                    &self.settings,
+                    &self.observer.estimate(),
+                    &self.observer.params().springs,
+                    self.settings.soft_frozen_max,
+                ) - self.settings.pose_tol_deg;
                 // Formed, the column rests short of the bend it froze at once the springs have
                 // cooled (the outer springs' pull on the glassy wall): it is bent past the
                 // target by that spring-back, at most to the soft reach, and a target is taken

@@ -23,10 +23,13 @@
 //! that finds every selected spring austenite and the bend still short ends the mode in
 //! standby with `# pose out of reach at …`.
 
-use super::events::Notice;
+use super::events::{EventKind, Notice, ShortBy};
 use super::mode::{Ctx, Drive, Mode, ModeStep, Next, Soak, ms};
 use crate::fmath::clamp;
+use crate::observer::{Estimate, SpringParams, attainable_austenite};
 use crate::outputs::{SPRINGS, SpringMask};
+use crate::posture::Posture;
+use crate::settings::Settings;
 use crate::units::Millis;
 
 /// Step length per degree still missing, s/°.
@@ -46,6 +49,19 @@ pub const FORM_STEP_FROZEN_MAX: f32 = 0.5;
 pub const FORM_STEP_BUDGET_S: f32 = 3.0;
 /// The highest target, degrees.
 pub const MAX_TARGET_DEG: f32 = 65.0;
+/// The shortest share of the model's power a step is lengthened for: a weaker supply gets
+/// steps this much longer at most (up to `step_s`).
+pub const MIN_STEP_SHARE: f32 = 0.25;
+/// Steps that gain nothing — the bend up by [`GAIN_DEG`], a selected spring warmer by
+/// [`GAIN_K`] or further transformed by [`GAIN_AUSTENITE`] since the last gain — before the
+/// pose ends short (a supply that gives each step only what the settle loses).
+pub const MAX_STALLED_STEPS: u8 = 10;
+/// A gain in the bend, degrees.
+pub const GAIN_DEG: f32 = 0.5;
+/// A gain in a selected spring's estimated temperature, K.
+pub const GAIN_K: f32 = 1.0;
+/// A gain in a selected spring's estimated austenite fraction.
+pub const GAIN_AUSTENITE: f32 = 0.02;
 
 /// Where a pose is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,6 +119,82 @@ pub struct Posing {
     /// Since when it has been waiting with the springs off (hold, or above the target):
     /// past `hold_timeout_s` it returns to standby.
     pub idle_since: Option<Millis>,
+    /// Where the steps last gained: the bend, the selected springs' hottest estimate and
+    /// largest austenite fraction (None: no step yet, or re-stepping from a hold).
+    pub gained: Option<Gain>,
+    /// Steps since that gain.
+    pub stalled: u8,
+}
+
+/// What a pose's steps have reached: the bend and its selected springs' state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gain {
+    /// The estimated bend, degrees.
+    pub bend_deg: f32,
+    /// The hottest selected spring's estimate, K.
+    pub spring_k: f32,
+    /// The largest selected spring's austenite fraction.
+    pub austenite: f32,
+}
+
+impl Gain {
+    fn of(springs: SpringMask, bend_deg: f32, e: &Estimate) -> Gain {
+        let sel = (0..SPRINGS).filter(|&i| springs.contains(i));
+        Gain {
+            bend_deg,
+            spring_k: sel.clone().map(|i| e.springs_k[i]).fold(f32::MIN, f32::max),
+            austenite: sel.map(|i| e.austenite[i]).fold(f32::MIN, f32::max),
+        }
+    }
+
+    /// Whether `now` is a gain over `self`.
+    fn beaten_by(&self, now: &Gain) -> bool {
+        now.bend_deg >= self.bend_deg + GAIN_DEG
+            || now.spring_k >= self.spring_k + GAIN_K
+            || now.austenite >= self.austenite + GAIN_AUSTENITE
+    }
+}
+
+/// The weakest of `springs`' measured power shares ([`Estimate::springs_power_share`]; 1
+/// for none).
+pub fn power_share(springs: SpringMask, e: &Estimate) -> f32 {
+    (0..SPRINGS)
+        .filter(|&i| springs.contains(i))
+        .map(|i| e.springs_power_share[i])
+        .filter(|x| x.is_finite())
+        .fold(1.0f32, f32::min)
+        .max(0.0)
+}
+
+/// How far `springs` bend the soft column at the power their channels measured: each as
+/// austenite as its power share lets it become under the duty limit, held at most at
+/// `spring_hot_k` beside a wall at `hot_k` ([`attainable_austenite`]), degrees. At the
+/// model's power (or any supply above a small share of it) this is
+/// [`Posture::reach_deg`]: the supply decides how fast the springs transform, not how far.
+pub fn reach_at_power_deg(
+    springs: SpringMask,
+    s: &Settings,
+    e: &Estimate,
+    p: &SpringParams,
+    phi: f32,
+) -> f32 {
+    let a: [f32; SPRINGS] = core::array::from_fn(|i| {
+        if springs.contains(i) {
+            let share = e.springs_power_share[i];
+            let share = if share.is_finite() { share } else { 1.0 };
+            attainable_austenite(
+                p,
+                share,
+                s.spring_duty_max,
+                e.ambient_k,
+                s.hot_k,
+                s.spring_hot_k,
+            )
+        } else {
+            0.0
+        }
+    });
+    Posture::reach_with_deg(&a, phi)
 }
 
 impl Posing {
@@ -117,7 +209,44 @@ impl Posing {
             phase: PosePhase::Soak { warned: false },
             reached: false,
             idle_since: None,
+            gained: None,
+            stalled: 0,
         }
+    }
+
+    /// Why the pose, about to step again at `bend_deg`, is short for good (None: step):
+    /// every selected spring austenite; the springs' measured power reaching short of the
+    /// aim; or [`MAX_STALLED_STEPS`] steps without a gain.
+    fn short(&mut self, c: &Ctx, bend_deg: f32) -> Option<ShortBy> {
+        let e = c.estimate;
+        let full =
+            (0..SPRINGS).all(|i| !self.springs.contains(i) || e.austenite[i] >= FULL_AUSTENITE);
+        if full {
+            return Some(ShortBy::Austenite);
+        }
+        let share = power_share(self.springs, e);
+        let p = &c.observer.params().springs;
+        let reach_deg = reach_at_power_deg(self.springs, &c.s, e, p, c.s.soft_frozen_max);
+        if reach_deg < self.aim_deg - c.s.pose_tol_deg {
+            return Some(ShortBy::Power { reach_deg, share });
+        }
+        let now = Gain::of(self.springs, bend_deg, e);
+        match self.gained {
+            Some(g) if !g.beaten_by(&now) => {
+                self.stalled = self.stalled.saturating_add(1);
+                if self.stalled >= MAX_STALLED_STEPS {
+                    return Some(ShortBy::Stalled {
+                        steps: self.stalled,
+                        share,
+                    });
+                }
+            }
+            _ => {
+                self.gained = Some(now);
+                self.stalled = 0;
+            }
+        }
+        None
     }
 
     /// One step of the pose.
@@ -164,14 +293,20 @@ impl Posing {
                             }
                         }
                     } else if error_deg > 0.0 {
-                        let full = (0..SPRINGS).all(|i| {
-                            !self.springs.contains(i) || c.estimate.austenite[i] >= FULL_AUSTENITE
-                        });
-                        if full {
-                            c.announce(Notice::PoseOutOfReach { deg: bend.deg });
+                        if let Some(why) = self.short(c, bend.deg) {
+                            c.announce(Notice::PoseOutOfReach { deg: bend.deg, why });
+                            c.events
+                                .push(now, EventKind::PoseOutOfReach { deg: bend.deg, why });
                             next = Some(Next::Enter(Mode::Standby));
                         } else {
-                            let step_s = clamp(POSE_S_PER_DEG * error_deg, MIN_STEP_S, s.step_s);
+                            // A step gives the energy the model's power gives in its length:
+                            // a weak supply's steps are longer.
+                            let share = power_share(self.springs, c.estimate).max(MIN_STEP_SHARE);
+                            let step_s = clamp(
+                                POSE_S_PER_DEG * error_deg / share,
+                                MIN_STEP_S / share,
+                                s.step_s,
+                            );
                             self.phase = PosePhase::Step {
                                 left_ms: ms(step_s),
                             };
@@ -188,6 +323,7 @@ impl Posing {
                 idle = true;
                 if error_deg > s.pose_tol_deg {
                     self.phase = PosePhase::Settle { left_ms: 0 };
+                    self.gained = None;
                 }
             }
             PosePhase::Form {
@@ -255,5 +391,114 @@ impl Posing {
             springs,
             next,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::observer::Observer;
+    use crate::posture::Bend;
+    use crate::supervisor::events::EventLog;
+    use crate::supervisor::safety::Safety;
+
+    /// A pose stepped with a fixed estimate (the springs at `spring_k`, half austenite, at
+    /// `share` of the model's power) and a fixed bend: what its steps last, and how it ends.
+    fn run(share: f32, spring_k: f32) -> (Vec<u32>, Option<Notice>, EventLog, Posing) {
+        let s = Settings::DEFAULT;
+        let observer = Observer::new(&s.observer_params(), 298.15);
+        let mut estimate = observer.estimate();
+        estimate.springs_k = [spring_k; SPRINGS];
+        estimate.austenite = [0.5; SPRINGS];
+        estimate.springs_power_share = [share; SPRINGS];
+        estimate.frozen = 0.0;
+        let safety = Safety::new();
+        let mut events = EventLog::new();
+        let mut notice = None;
+        let ab = SpringMask::parse("AB").unwrap();
+        let mut pose = Posing::new(40.0, 40.0, ab, false);
+        pose.phase = PosePhase::Settle { left_ms: 0 };
+        let mut steps = Vec::new();
+        for k in 0..2_000u64 {
+            let mut c = Ctx {
+                now: Millis(k * 250),
+                elapsed_ms: 250,
+                s,
+                tc_k: s.hot_k,
+                hotter_k: Some(s.hot_k),
+                mode_since: Millis(0),
+                fresh: None,
+                last_heater: crate::outputs::Duty::OFF,
+                last_springs: SpringMask::NONE,
+                estimate: &estimate,
+                bend: Bend {
+                    deg: 30.0,
+                    sd_deg: 1.0,
+                },
+                observer: &observer,
+                safety: &safety,
+                events: &mut events,
+                notice: &mut notice,
+            };
+            let was_step = matches!(pose.phase, PosePhase::Step { .. });
+            let step = pose.advance(&mut c);
+            if let (false, PosePhase::Step { left_ms }) = (was_step, pose.phase) {
+                steps.push(left_ms);
+            }
+            if step.next.is_some() {
+                break;
+            }
+        }
+        (steps, notice, events, pose)
+    }
+
+    /// A weak supply's steps are longer by its share (the model's energy a step); steps that
+    /// gain nothing end the pose short, with the reason in the notice and the log.
+    #[test]
+    fn steps_stretch_with_a_weak_supply_and_a_stall_ends_the_pose() {
+        let (full, notice, events, pose) = run(1.0, 350.0);
+        let (half, ..) = run(0.5, 350.0);
+        // 10° missing: 2.5 s at the model's power, 5 s at half of it.
+        assert_eq!(full[0], 2_500);
+        assert_eq!(half[0], 5_000);
+        assert_eq!(full.len(), MAX_STALLED_STEPS as usize, "{full:?}");
+        assert_eq!(pose.stalled, MAX_STALLED_STEPS);
+        let Some(Notice::PoseOutOfReach {
+            deg,
+            why: ShortBy::Stalled { steps, share },
+        }) = notice
+        else {
+            panic!("{notice:?}")
+        };
+        assert_eq!((deg, steps, share), (30.0, MAX_STALLED_STEPS, 1.0));
+        let said = std::format!("{}", notice.unwrap());
+        assert_eq!(
+            said,
+            "pose out of reach at 30.0: 10 steps gained nothing with the springs at 100 % of their power"
+        );
+        assert!(
+            events
+                .iter()
+                .any(|e| matches!(e.kind, EventKind::PoseOutOfReach { .. }))
+        );
+    }
+
+    /// Springs whose supply gives a few percent of the model's power cannot become austenite
+    /// under the duty limit: the pose ends at its first step with what that power reaches.
+    #[test]
+    fn a_supply_too_weak_to_transform_ends_the_pose_at_once() {
+        let (steps, notice, ..) = run(0.03, 300.0);
+        assert!(steps.is_empty(), "{steps:?}");
+        let Some(Notice::PoseOutOfReach {
+            why: ShortBy::Power { reach_deg, share },
+            ..
+        }) = notice
+        else {
+            panic!("{notice:?}")
+        };
+        assert!(
+            reach_deg < 10.0 && (share - 0.03).abs() < 1e-6,
+            "{notice:?}"
+        );
     }
 }

@@ -385,6 +385,11 @@ fn write_event(r: &mut impl Write, e: &EventKind) -> fmt::Result {
         EventKind::RecoveryCooling => r.write_str("recovery: straight, cooling to lock it"),
         EventKind::SpringsResting => r.write_str("springs warm: stepping waits for them to rest"),
         EventKind::Warning(w) => write!(r, "warning: {w}"),
+        EventKind::PoseOutOfReach { deg, why } => write!(
+            r,
+            "pose out of reach at {} deg ({why}), standby",
+            Fixed::new(*deg, 1)
+        ),
         EventKind::TimedOut { what, tc_k } => {
             write!(
                 r,
