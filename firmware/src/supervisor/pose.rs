@@ -124,6 +124,8 @@ pub struct Posing {
     pub gained: Option<Gain>,
     /// Steps since that gain.
     pub stalled: u8,
+    /// The bend when it last decided to step, degrees (NaN: not yet).
+    pub last_step_deg: f32,
 }
 
 /// What a pose's steps have reached: the bend and its selected springs' state.
@@ -211,17 +213,21 @@ impl Posing {
             idle_since: None,
             gained: None,
             stalled: 0,
+            last_step_deg: f32::NAN,
         }
     }
 
     /// Why the pose, about to step again at `bend_deg`, is short for good (None: step):
-    /// every selected spring austenite; the springs' measured power reaching short of the
-    /// aim; or [`MAX_STALLED_STEPS`] steps without a gain.
+    /// every selected spring austenite and the bend no further than at the last step (the
+    /// bend estimate lags the springs by a settle or so); the springs' measured power reaching
+    /// short of the aim; or [`MAX_STALLED_STEPS`] steps without a gain.
     fn short(&mut self, c: &Ctx, bend_deg: f32) -> Option<ShortBy> {
         let e = c.estimate;
         let full =
             (0..SPRINGS).all(|i| !self.springs.contains(i) || e.austenite[i] >= FULL_AUSTENITE);
-        if full {
+        let moving = bend_deg >= self.last_step_deg + GAIN_DEG;
+        self.last_step_deg = bend_deg;
+        if full && !moving {
             return Some(ShortBy::Austenite);
         }
         let share = power_share(self.springs, e);
