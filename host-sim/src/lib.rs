@@ -12,6 +12,8 @@
 //!   thesis's experiments, plots.
 //! - [`console`]: the console — the block behind the board's console, and the researcher's
 //!   desk that drives it (or the board).
+//! - [`f446`]: the emulated STM32F446's peripherals, register-level models the board's own ELF
+//!   runs against (the CPU core, unicorn, only with `--features pil`).
 //!
 //! Errors are typed, one `thiserror` enum per layer, each in the module that owns it:
 //! [`runs::scenario::ScenarioError`], [`plant::PlantError`], [`sensor::eeprom::EepromError`]
@@ -25,6 +27,7 @@
 //! binaries print `error: {:#}`.
 
 pub mod console;
+pub mod f446;
 pub mod imaging;
 pub mod plant;
 pub mod rig;
