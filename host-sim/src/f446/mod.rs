@@ -16,6 +16,10 @@
 //! map, the DMA streams' requests, the button's pin to EXTI, the watchdog's reset — is the
 //! chip's own wiring, in one place (the chip, `f446::soc`), not in the models.
 
+#[cfg(feature = "pil")]
+pub mod cpu;
+pub mod nvic;
+
 /// Time on the emulated chip since power-up, in ticks of [`TIME_HZ`]: every clock the board
 /// uses (16 and 180 MHz, the buses' 45 and 90 MHz, the time driver's 1 MHz, I2C's 400 kHz,
 /// 115 200 baud, the LSI's 32 kHz) is a whole number of them, so no conversion drifts.
@@ -149,6 +153,35 @@ pub trait Peripheral {
         let _ = (now, clocks);
         None
     }
+}
+
+/// The emulated chip's memories as its bus masters (the core, the DMA streams) reach them:
+/// SRAM, and the flash's array for reading.
+pub trait Memory {
+    /// Read `buf.len()` bytes at `addr` (false: nothing there).
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> bool;
+    /// Write `bytes` at `addr` (false: nothing writable there).
+    fn write(&mut self, addr: u32, bytes: &[u8]) -> bool;
+}
+
+/// The chip's peripherals as the core sees them: the address map's registers, time, the
+/// clocks and the interrupt lines. The chip (`f446::soc`) implements it over the models; the
+/// CPU core (unicorn, `--features pil`) drives it.
+pub trait Bus {
+    /// A read of `size` at `addr` at time `now` (None: no peripheral there, a bus fault).
+    fn read(&mut self, addr: u32, size: Size, now: Time, mem: &mut dyn Memory) -> Option<u32>;
+    /// A write at time `now` (false: no peripheral there, a bus fault). Writes to the flash's
+    /// address range come here too (programming it, through its interface).
+    fn write(&mut self, addr: u32, size: Size, value: u32, now: Time, mem: &mut dyn Memory)
+    -> bool;
+    /// Advance every peripheral to `now` (DMA transfers reach `mem`).
+    fn advance(&mut self, now: Time, mem: &mut dyn Memory);
+    /// The next instant after `now` at which a peripheral changes of its own accord.
+    fn next_event(&self, now: Time) -> Option<Time>;
+    /// The clocks in force.
+    fn clocks(&self) -> Clocks;
+    /// Each external interrupt line's level: `line(irq, high)`.
+    fn irqs(&self, line: &mut dyn FnMut(u16, bool));
 }
 
 /// The bits of `value` (a write of `size` at `offset`) merged into the 32-bit register at

@@ -1,0 +1,218 @@
+//! The emulated Cortex-M4 core (`--features pil`) on hand-assembled Thumb code: sleep at `wfe`
+//! skips to the next peripheral event, an interrupt is entered and left by the ARMv7-M rules
+//! (basic and extended frames), and an access to nothing is recorded.
+#![cfg(feature = "pil")]
+
+use host_sim::f446::cpu::{BusFault, Core, FLASH_BASE, SRAM_BASE, SRAM_BYTES};
+use host_sim::f446::{Bus, Clocks, Memory, Size, TIME_HZ, Time};
+use unicorn_engine::RegisterARM;
+
+/// A peripheral at 0x4000_0000 whose interrupt line (IRQ 0) rises at `at` and falls when
+/// software writes its register; the writes are kept.
+struct TestBus {
+    at: Time,
+    raised: bool,
+    cleared: bool,
+    writes: Vec<(u32, u32, Time)>,
+}
+
+impl Bus for TestBus {
+    fn read(&mut self, addr: u32, _: Size, _: Time, _: &mut dyn Memory) -> Option<u32> {
+        (addr == 0x4000_0000).then_some(0x5A)
+    }
+
+    fn write(&mut self, addr: u32, _: Size, value: u32, now: Time, _: &mut dyn Memory) -> bool {
+        if addr != 0x4000_0000 {
+            return false;
+        }
+        self.writes.push((addr, value, now));
+        self.cleared = true;
+        true
+    }
+
+    fn advance(&mut self, now: Time, _: &mut dyn Memory) {
+        if now >= self.at {
+            self.raised = true;
+        }
+    }
+
+    fn next_event(&self, now: Time) -> Option<Time> {
+        (now < self.at).then_some(self.at)
+    }
+
+    fn clocks(&self) -> Clocks {
+        Clocks {
+            sysclk_hz: 180_000_000,
+            hclk_hz: 180_000_000,
+            ..Clocks::RESET
+        }
+    }
+
+    fn irqs(&self, line: &mut dyn FnMut(u16, bool)) {
+        line(0, self.raised && !self.cleared);
+    }
+}
+
+/// What software wrote to the test peripheral.
+fn written(c: &Core) -> Vec<u32> {
+    let bus = c.bus() as *const dyn Bus as *const TestBus;
+    // The core was built on a TestBus (`core` below).
+    unsafe { &*bus }.writes.iter().map(|w| w.1).collect()
+}
+
+/// Halfwords as little-endian bytes.
+fn code(hw: &[u16]) -> Vec<u8> {
+    hw.iter().flat_map(|h| h.to_le_bytes()).collect()
+}
+
+/// An image: the vector table (SP at the top of SRAM, reset at 0x100, IRQ 0's handler at
+/// 0x200) and the two routines.
+fn image(main: &[u16], handler: &[u16]) -> Vec<(u32, Vec<u8>)> {
+    let mut table = vec![0u8; 0x100];
+    let mut put = |i: usize, v: u32| table[4 * i..4 * i + 4].copy_from_slice(&v.to_le_bytes());
+    put(0, SRAM_BASE + SRAM_BYTES);
+    put(1, (FLASH_BASE + 0x100) | 1);
+    put(16, (FLASH_BASE + 0x200) | 1);
+    vec![
+        (FLASH_BASE, table),
+        (FLASH_BASE + 0x100, code(main)),
+        (FLASH_BASE + 0x200, code(handler)),
+    ]
+}
+
+fn core(main: &[u16], handler: &[u16], at: Time) -> Core {
+    let img = image(main, handler);
+    let code: Vec<(u32, Vec<u8>)> = img[1..].to_vec();
+    let bus = TestBus {
+        at,
+        raised: false,
+        cleared: false,
+        writes: Vec::new(),
+    };
+    let mut c = Core::new(Box::new(bus), &img, &code).unwrap();
+    c.reset().unwrap();
+    c
+}
+
+/// Enable IRQ 0 (NVIC ISER0 = 1) with r4/r5: movs r4, #0xE0; lsls r4, #24 (0xE000_0000);
+/// add r4 with 0xE100 by movw; simpler: ldr from a literal is avoided by building it.
+const ENABLE_IRQ0: [u16; 7] = [
+    0x24E0, // movs r4, #0xE0
+    0x0624, // lsls r4, r4, #24      → 0xE000_0000
+    0xF504, 0x4461, // add.w r4, r4, #0xE100 → 0xE000_E100 (ISER0)
+    0x2501, // movs r5, #1
+    0x6025, // str r5, [r4]
+    0xBF00, // nop
+];
+
+/// The handler: r1 = 7, write it to the peripheral (which lowers its line), return.
+const HANDLER: [u16; 5] = [
+    0x2107, // movs r1, #7
+    0x2240, // movs r2, #0x40
+    0x0612, // lsls r2, r2, #24   → 0x4000_0000
+    0x6011, // str r1, [r2]
+    0x4770, // bx lr
+];
+
+#[test]
+fn wfe_sleeps_to_the_interrupt_which_returns_to_the_thread() {
+    let at = TIME_HZ / 1000; // 1 ms
+    let mut main = ENABLE_IRQ0.to_vec();
+    main.extend([
+        0x202A, // movs r0, #42
+        0xBF20, // wfe
+        0x2305, // movs r3, #5
+        0xE7FE, // b .
+    ]);
+    let mut c = core(&main, &HANDLER, at);
+    let sp0 = c.reg(RegisterARM::SP);
+    // Before the event it sleeps at wfe, having run a few instructions only.
+    c.run_until(at / 2).unwrap();
+    assert!(c.sleeping());
+    assert!(c.instructions() < 20, "{}", c.instructions());
+    assert_eq!(c.reg(RegisterARM::R1), 0);
+    c.run_until(at + TIME_HZ / 100_000).unwrap();
+    assert_eq!(
+        c.reg(RegisterARM::R0),
+        42,
+        "the thread's registers are restored"
+    );
+    assert_eq!(
+        c.reg(RegisterARM::R1),
+        0,
+        "r1 is in the frame: the handler's 7 is gone"
+    );
+    assert_eq!(written(&c), vec![7], "the handler ran once");
+    assert_eq!(c.reg(RegisterARM::R3), 5, "the thread went on past wfe");
+    assert_eq!(c.reg(RegisterARM::SP), sp0, "the frame was popped");
+    assert!(!c.nvic().is_active(16) && !c.nvic().is_pending(16));
+    assert!(c.bus_faults().is_empty(), "{:?}", c.bus_faults());
+}
+
+#[test]
+fn an_fpu_context_is_stacked_in_the_extended_frame() {
+    let at = TIME_HZ / 1000;
+    let mut main = ENABLE_IRQ0.to_vec();
+    main.extend([
+        // CPACR (0xE000_ED88) |= 0xF << 20: r4 = 0xE000_E100 + 0xC88.
+        0xF604, 0x4488, // addw r4, r4, #0xC88
+        0xF44F, 0x0570, // mov.w r5, #0x00F0_0000
+        0x6025, // str r5, [r4]
+        0xF3BF, 0x8F6F, // isb
+        0x2063, // movs r0, #99
+        0xEE00, 0x0A10, // vmov s0, r0   (the FP context becomes active: CONTROL.FPCA)
+        0xBF20, // wfe
+        0xEE10, 0x3A10, // vmov r3, s0
+        0xE7FE, // b .
+    ]);
+    let handler = [
+        0x2107, // movs r1, #7
+        0xEE00, 0x1A10, // vmov s0, r1  (the handler clobbers s0)
+        0x2240, 0x0612, 0x6011, // write the peripheral
+        0x4770, // bx lr
+    ];
+    let mut c = core(&main, &handler, at);
+    let sp0 = c.reg(RegisterARM::SP);
+    c.run_until(at / 2).unwrap();
+    assert_eq!(
+        c.reg(RegisterARM::CONTROL) & 0b100,
+        0b100,
+        "FPCA after vmov"
+    );
+    c.run_until(at + TIME_HZ / 100_000).unwrap();
+    assert_eq!(written(&c), vec![7], "the handler ran once");
+    assert_eq!(
+        c.reg(RegisterARM::R3),
+        99,
+        "s0 restored from the extended frame"
+    );
+    assert_eq!(c.reg(RegisterARM::SP), sp0);
+    assert_eq!(c.reg(RegisterARM::CONTROL) & 0b100, 0b100, "FPCA restored");
+}
+
+#[test]
+fn an_access_to_nothing_is_a_recorded_bus_fault_or_an_error() {
+    // 0x4000_0004: inside the peripheral window, no register: recorded, read as 0.
+    let main = [
+        0x2240, // movs r2, #0x40
+        0x0612, // lsls r2, r2, #24   → 0x4000_0000
+        0x6850, // ldr r0, [r2, #4]
+        0x2307, // movs r3, #7
+        0xE7FE, // b .
+    ];
+    let mut c = core(&main, &HANDLER, Time::MAX);
+    c.run_until(TIME_HZ / 1000).unwrap();
+    assert_eq!(
+        c.bus_faults(),
+        &[BusFault {
+            addr: 0x4000_0004,
+            write: false
+        }]
+    );
+    assert_eq!((c.reg(RegisterARM::R0), c.reg(RegisterARM::R3)), (0, 7));
+    // 0x4100_0000: outside every window: the run stops with the address.
+    let main = [0x2241, 0x0612, 0x6810, 0xE7FE];
+    let mut c = core(&main, &HANDLER, Time::MAX);
+    let err = c.run_until(TIME_HZ / 1000).unwrap_err();
+    assert!(err.to_string().contains("stopped at pc"), "{err}");
+}
