@@ -32,14 +32,8 @@ use unicorn_engine::{RegisterARM, Unicorn};
 use super::nvic::{Masks, Nvic, SCS_BASE};
 use super::{Bus, Memory, Size, Time};
 
-/// The flash's base address.
-pub const FLASH_BASE: u32 = 0x0800_0000;
-/// The flash's size, bytes.
-pub const FLASH_BYTES: u32 = 512 * 1024;
-/// SRAM's base address.
-pub const SRAM_BASE: u32 = 0x2000_0000;
-/// SRAM's size (SRAM1 112 KiB and SRAM2 16 KiB, contiguous), bytes.
-pub const SRAM_BYTES: u32 = 128 * 1024;
+pub use super::{FLASH_BASE, FLASH_BYTES, SRAM_BASE, SRAM_BYTES};
+
 /// The peripheral windows forwarded to the bus: APB1, APB2, AHB1 (with the backup SRAM),
 /// AHB2, and the DBGMCU.
 const WINDOWS: [(u32, u32); 4] = [

@@ -18,7 +18,17 @@
 
 #[cfg(feature = "pil")]
 pub mod cpu;
+pub mod elf;
 pub mod nvic;
+
+/// The flash's base address.
+pub const FLASH_BASE: u32 = 0x0800_0000;
+/// The flash's size, bytes.
+pub const FLASH_BYTES: u32 = 512 * 1024;
+/// SRAM's base address.
+pub const SRAM_BASE: u32 = 0x2000_0000;
+/// SRAM's size (SRAM1 112 KiB and SRAM2 16 KiB, contiguous), bytes.
+pub const SRAM_BYTES: u32 = 128 * 1024;
 
 /// Time on the emulated chip since power-up, in ticks of [`TIME_HZ`]: every clock the board
 /// uses (16 and 180 MHz, the buses' 45 and 90 MHz, the time driver's 1 MHz, I2C's 400 kHz,
