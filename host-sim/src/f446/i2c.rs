@@ -929,10 +929,10 @@ mod tests {
     impl DmaBus for Bus<'_> {
         fn read(&mut self, address: u32, size: Size) -> Result<u32, BusFault> {
             match address {
-                a if a >= I2C1_BASE && a < I2C1_BASE + 0x400 => {
+                a if (I2C1_BASE..I2C1_BASE + 0x400).contains(&a) => {
                     Ok(self.i2c.read(a - I2C1_BASE, size))
                 }
-                a if a >= RAM && a < RAM + self.ram.len() as u32 => {
+                a if (RAM..RAM + self.ram.len() as u32).contains(&a) => {
                     assert_eq!(size, Size::Byte);
                     Ok(u32::from(self.ram[(a - RAM) as usize]))
                 }
@@ -941,11 +941,11 @@ mod tests {
         }
         fn write(&mut self, address: u32, size: Size, value: u32) -> Result<(), BusFault> {
             match address {
-                a if a >= I2C1_BASE && a < I2C1_BASE + 0x400 => {
+                a if (I2C1_BASE..I2C1_BASE + 0x400).contains(&a) => {
                     self.i2c.write(a - I2C1_BASE, size, value);
                     Ok(())
                 }
-                a if a >= RAM && a < RAM + self.ram.len() as u32 => {
+                a if (RAM..RAM + self.ram.len() as u32).contains(&a) => {
                     self.ram[(a - RAM) as usize] = value as u8;
                     Ok(())
                 }
