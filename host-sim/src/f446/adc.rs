@@ -206,6 +206,17 @@ impl Adc {
         }
     }
 
+    /// The RCC's reset of the ADCs (APB2RSTR ADCRST): every register to its reset value;
+    /// the inputs, VREF+ and the time stay.
+    pub fn rcc_reset(&mut self) {
+        let (inputs_v, vref_v, now, clocks) = (self.inputs_v, self.vref_v, self.now, self.clocks);
+        *self = Adc::new();
+        self.inputs_v = inputs_v;
+        self.vref_v = vref_v;
+        self.now = now;
+        self.clocks = clocks;
+    }
+
     /// Harness: the voltage on channel `channel` (0–18), V.
     pub fn set_input_v(&mut self, channel: usize, volts: f64) {
         self.inputs_v[channel] = volts;
@@ -882,5 +893,10 @@ mod tests {
         assert_eq!(adc.peek(0x2C), 0x00FF_FFFF);
         adc.write(0x304, Size::Word, u32::MAX);
         assert_eq!(adc.peek(0x304), 0x00C3_EF1F);
+        adc.rcc_reset();
+        assert_eq!(
+            (adc.peek(0x2C), adc.peek(0x304), adc.peek(0x24)),
+            (0, 0, 0xFFF)
+        );
     }
 }

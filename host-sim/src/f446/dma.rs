@@ -285,6 +285,11 @@ impl Dma {
         }
     }
 
+    /// The RCC's reset of the controller (AHB1RSTR DMAxRST): the reset state.
+    pub fn rcc_reset(&mut self) {
+        *self = Dma::new(self.controller);
+    }
+
     /// Which controller this is.
     pub fn controller(&self) -> Controller {
         self.controller
@@ -329,7 +334,9 @@ impl Dma {
     /// Service one request of stream `stream`: if enabled, move one item (a burst of PBURST
     /// items in FIFO mode) through `bus`, then update NDTR, the pointers and the flags.
     pub fn service(&mut self, stream: usize, bus: &mut dyn DmaBus) -> Serviced {
-        if !self.streams[stream].enabled() {
+        let s = &self.streams[stream];
+        if !s.enabled() || (s.ndtr == 0 && s.cr & (cr::CIRC | cr::DBM) == 0) {
+            // §9.5.6: with NDTR 0 no transaction is served, even with the stream enabled.
             return Serviced::Idle;
         }
         let items = {
@@ -361,8 +368,6 @@ impl Dma {
     fn move_item(&mut self, stream: usize, bus: &mut dyn DmaBus) -> Result<u16, BusFault> {
         let s = &mut self.streams[stream];
         if s.ndtr == 0 {
-            // Enabled with NDTR 0: the manual's "nothing to transfer"; the stream ends.
-            s.cr &= !cr::EN;
             return Ok(0);
         }
         let (psize, msize) = (s.psize(), s.msize());
@@ -461,6 +466,15 @@ impl Dma {
                 } else {
                     s.cr = value;
                     if value & cr::EN != 0 {
+                        if s.direct() {
+                            // §9.5.5: in direct mode MSIZE takes PSIZE's value and the bursts
+                            // are forced to single as EN is set.
+                            let psize = s.field(cr::PSIZE_SHIFT, 2);
+                            s.cr &= !(0b11 << cr::MSIZE_SHIFT
+                                | 0b11 << cr::PBURST_SHIFT
+                                | 0b11 << cr::MBURST_SHIFT);
+                            s.cr |= psize << cr::MSIZE_SHIFT;
+                        }
                         s.start();
                     }
                 }
@@ -721,7 +735,16 @@ mod tests {
     fn protected_registers_ignore_writes_while_enabled_and_disable_sets_tc() {
         let mut dma = Dma::new(Controller::Dma1);
         assert_eq!(word(&mut dma, S0 + 0x14), 0x21, "FCR reset value");
-        configure(&mut dma, S0, DR, 0x2000_0000, 5, cr::MINC);
+        // Direct mode: MSIZE (word here) takes PSIZE's value (byte) at the enable.
+        configure(
+            &mut dma,
+            S0,
+            DR,
+            0x2000_0000,
+            5,
+            cr::MINC | 0b10 << cr::MSIZE_SHIFT,
+        );
+        assert_eq!(word(&mut dma, S0) >> cr::MSIZE_SHIFT & 3, 0);
         dma.write(S0 + 4, Size::Word, 99);
         dma.write(S0 + 8, Size::Word, 0x1234);
         dma.write(S0, Size::Word, cr::EN | cr::CIRC);
@@ -737,6 +760,17 @@ mod tests {
         // A byte write to NDTR changes its low lane only.
         dma.write(S0 + 4, Size::Byte, 0x03);
         assert_eq!(word(&mut dma, S0 + 4), 3);
+        // Enabled with NDTR 0: nothing is served, EN stays.
+        let mut mem = Mem::default();
+        dma.write(S0 + 4, Size::Word, 0);
+        dma.write(0x08, Size::Word, flag::ALL);
+        dma.write(S0, Size::Word, cr::MINC | cr::EN);
+        assert_eq!(dma.service(0, &mut mem), Serviced::Idle);
+        assert!(dma.enabled(0));
+        assert!(mem.log.is_empty());
+        dma.rcc_reset();
+        assert!(!dma.enabled(0));
+        assert_eq!(word(&mut dma, S0 + 0x14), 0x21);
     }
 
     #[test]

@@ -315,9 +315,16 @@ impl I2c {
             return;
         }
         self.sr2 &= !sr2::BUSY;
+        self.cr1 &= !cr1::STOP;
         if self.cr1 & cr1::START != 0 {
             self.try_start();
         }
+    }
+
+    /// The RCC's reset of I2C1 (APB1RSTR I2C1RST, pulsed by the driver's `new`): every
+    /// register to its reset value; the device on the bus and the lines' state stay.
+    pub fn rcc_reset(&mut self) {
+        self.reset();
     }
 
     /// Harness: the next address or data byte this master sends loses arbitration (another
@@ -427,7 +434,13 @@ impl I2c {
 
     /// A STOP was asked for: generate it now if no byte is in progress (else at its end).
     fn try_stop(&mut self) {
+        if self.cr1 & cr1::PE != 0 && !self.master() && self.sr2 & sr2::BUSY == 0 {
+            // Slave mode, bus idle: nothing to release; the bit clears (as at a STOP seen).
+            self.cr1 &= !cr1::STOP;
+            return;
+        }
         if self.cr1 & cr1::PE == 0 || self.op.is_some() || !self.master() {
+            // In slave mode on a busy bus the bit clears at the STOP the bus sees.
             return;
         }
         self.schedule(1, Op::Stop);
@@ -589,6 +602,7 @@ impl I2c {
             }
             Op::OtherMaster => {
                 self.sr2 &= !sr2::BUSY;
+                self.cr1 &= !cr1::STOP;
                 if self.cr1 & cr1::START != 0 {
                     self.try_start();
                 }
@@ -1256,11 +1270,16 @@ mod tests {
             "MSL cleared, the other master holds the bus"
         );
         rig.wr(SR1, !sr1::ARLO);
+        // embassy sets STOP after the error: in slave mode it waits for the bus's STOP.
+        rig.modify(CR1, |v| v | cr1::STOP);
+        assert_ne!(rig.rd(CR1) & cr1::STOP, 0);
         // A new START waits for the other master's STOP, then goes ahead.
         let t = rig.now;
         rig.modify(CR1, |v| v | cr1::START);
         rig.wait(sr1::SB).unwrap();
         assert_eq!(rig.now, t + 10 * SCL);
+        assert_eq!(rig.rd(CR1) & (cr1::STOP | cr1::START), 0);
+        assert_eq!(rig.rd(SR2), sr2::MSL | sr2::BUSY);
     }
 
     #[test]
