@@ -879,6 +879,51 @@ mod tests {
     }
 
     #[test]
+    fn dds_0_stops_requests_after_the_dma_eot_until_dma_is_rewritten() {
+        let mut adc = Adc::new();
+        adc.advance(0, &CLOCKS);
+        modify(&mut adc, 0x08, |_| cr2::ADON | cr2::CONT | cr2::DMA);
+        modify(&mut adc, 0x08, |v| v | cr2::SWSTART);
+        let conv = Clocks::time_of(15 * 2, 90_000_000);
+        adc.advance(conv, &CLOCKS);
+        assert!(adc.requests().rx);
+        adc.read(0x4C, Size::Half);
+        adc.dma_eot();
+        adc.advance(2 * conv, &CLOCKS);
+        assert!(
+            !adc.requests().rx,
+            "DDS=0: no request after the last transfer"
+        );
+        modify(&mut adc, 0x08, |v| v & !cr2::DMA);
+        modify(&mut adc, 0x08, |v| v | cr2::DMA);
+        assert!(adc.requests().rx);
+        // With DDS=1 the EOT changes nothing.
+        modify(&mut adc, 0x08, |v| v | cr2::DDS);
+        adc.dma_eot();
+        assert!(adc.requests().rx);
+    }
+
+    #[test]
+    fn jauto_converts_the_injected_group_after_the_regular_one() {
+        let mut adc = Adc::new();
+        adc.advance(0, &CLOCKS);
+        adc.set_input_v(1, 3.3);
+        adc.set_input_v(2, 1.65);
+        modify(&mut adc, 0x04, |_| cr1::JAUTO);
+        modify(&mut adc, 0x34, |_| 1);
+        // JL=0: the one injected conversion is JSQ4.
+        modify(&mut adc, 0x38, |_| 2 << 15);
+        modify(&mut adc, 0x08, |_| cr2::ADON | cr2::SWSTART);
+        let conv = Clocks::time_of(15 * 2, 90_000_000);
+        adc.advance(conv, &CLOCKS);
+        assert_eq!(adc.peek(0x00) & (sr::EOC | sr::JEOC), sr::EOC);
+        adc.advance(2 * conv, &CLOCKS);
+        assert_eq!(adc.peek(0x00) & sr::JEOC, sr::JEOC);
+        assert_eq!((adc.peek(0x4C), adc.peek(0x3C)), (4095, 2048));
+        assert_eq!(adc.next_event(2 * conv, &CLOCKS), None, "CONT=0: done");
+    }
+
+    #[test]
     fn adon_off_stops_and_registers_mask() {
         let mut adc = Adc::new();
         adc.advance(0, &CLOCKS);

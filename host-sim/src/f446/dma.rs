@@ -875,6 +875,41 @@ mod tests {
     }
 
     #[test]
+    fn flag_positions_in_lisr_hisr_and_pincos() {
+        let mut dma = Dma::new(Controller::Dma1);
+        let mut mem = Mem::default();
+        // Stream 3 (LISR bits 22–27) and stream 5 (HISR bits 6–11), one item each.
+        for (stream, shift, isr) in [(3usize, 22u32, 0x00u32), (5, 6, 0x04)] {
+            let base = 0x10 + 0x18 * stream as u32;
+            configure(&mut dma, base, 0x4000_0000, 0x2000_0000, 1, cr::TCIE);
+            dma.service(stream, &mut mem);
+            assert_eq!(word(&mut dma, isr), (flag::TCIF | flag::HTIF) << shift);
+            // A half-word write to the clear register's half clears it.
+            let ifcr = isr + 0x08;
+            let half = shift / 16 * 2;
+            dma.write(ifcr + half, Size::Half, (flag::ALL << shift) >> (8 * half));
+            assert_eq!(word(&mut dma, isr), 0);
+        }
+        // PINCOS: the peripheral address steps by 4 whatever PSIZE (bytes here).
+        let mut mem = Mem::default();
+        configure(
+            &mut dma,
+            S0,
+            0x4000_0000,
+            0x2000_0000,
+            3,
+            cr::PINC | cr::PINCOS | cr::MINC,
+        );
+        for _ in 0..3 {
+            dma.service(0, &mut mem);
+        }
+        let reads: Vec<u32> = mem.log.iter().filter(|e| e.0 == 'r').map(|e| e.1).collect();
+        assert_eq!(reads, [0x4000_0000, 0x4000_0004, 0x4000_0008]);
+        let writes: Vec<u32> = mem.log.iter().filter(|e| e.0 == 'w').map(|e| e.1).collect();
+        assert_eq!(writes, [0x2000_0000, 0x2000_0001, 0x2000_0002]);
+    }
+
+    #[test]
     fn irq_numbers_follow_table_38() {
         let d1: Vec<_> = (0..8).map(|s| Controller::Dma1.irq(s)).collect();
         let d2: Vec<_> = (0..8).map(|s| Controller::Dma2.irq(s)).collect();

@@ -1216,6 +1216,61 @@ mod tests {
     }
 
     #[test]
+    fn embassy_write_with_stop_and_the_buffer_interrupt() {
+        // write_frame(FirstAndLastFrame): a register write (address, value), STOP after BTF.
+        let mut rig = Rig::new();
+        rig.init();
+        rig.modify(CR2, |v| (v & !(cr2::ITBUFEN | cr2::LAST)) | cr2::DMAEN);
+        rig.modify(CR1, |v| v | cr1::START);
+        rig.wait(sr1::SB).unwrap();
+        rig.wr(DR, 0x33 << 1);
+        rig.wait(sr1::ADDR).unwrap();
+        rig.rd(SR2);
+        // TXE with ITEVTEN alone is not an event; with ITBUFEN it is.
+        let ev = |rig: &Rig| {
+            let mut ev = false;
+            rig.i2c.irqs(&mut |i, h| ev |= i == I2C1_EV_IRQ && h);
+            ev
+        };
+        rig.modify(CR2, |v| v | cr2::ITEVTEN);
+        assert!(!ev(&rig));
+        rig.modify(CR2, |v| v | cr2::ITBUFEN);
+        assert!(ev(&rig));
+        rig.modify(CR2, |v| v & !(cr2::ITBUFEN | cr2::ITEVTEN));
+        rig.ram[..4].copy_from_slice(&[0x80, 0x0D, 0x19, 0x01]);
+        rig.start_dma(6, true, RAM, 4);
+        while rig.dma.enabled(6) {
+            assert!(rig.step(Time::MAX));
+        }
+        rig.modify(CR2, |v| v & !cr2::DMAEN);
+        rig.wait(sr1::BTF).unwrap();
+        rig.modify(CR1, |v| v | cr1::STOP);
+        finish_bus(&mut rig);
+        assert_eq!(rig.rd(SR2), 0);
+        assert_eq!(rig.now, (1 + 5 * 9 + 1) * SCL);
+        assert_eq!(rig.dev.0.borrow().log.join(" "), "S33w W80 W0d W19 W01 P");
+    }
+
+    #[test]
+    fn ten_bit_address_header_sets_add10() {
+        let mut rig = Rig::new();
+        rig.init();
+        // A device at 10-bit address 0x2A5: header 11110·10·0 (0xF4), then 0xA5.
+        rig.dev.0.borrow_mut().address = 0xF4 >> 1;
+        rig.modify(CR1, |v| v | cr1::START);
+        rig.wait(sr1::SB).unwrap();
+        rig.wr(DR, 0xF4);
+        rig.wait(sr1::ADD10).unwrap();
+        assert_eq!(rig.i2c.peek(SR1) & sr1::ADDR, 0);
+        rig.wr(DR, 0xA5);
+        rig.wait(sr1::ADDR).unwrap();
+        assert_eq!(rig.i2c.peek(SR1) & sr1::ADD10, 0);
+        rig.rd(SR2);
+        assert_eq!(rig.i2c.peek(SR1), sr1::TXE);
+        assert_eq!(rig.dev.0.borrow().log.join(" "), "S7aw Wa5");
+    }
+
+    #[test]
     fn nack_of_address_sets_af_and_the_error_line() {
         let mut rig = Rig::new();
         rig.init();
