@@ -11,7 +11,9 @@
 //! stream (the chip's request mapping, RM0390 tables 28/29: it compares [`Dma::channel`] with
 //! the peripheral's channel and calls [`Dma::service`] while the request is high) and the
 //! arbitration between streams (the chip services them in the order it likes; PL is stored and
-//! reported by [`Dma::priority`]).
+//! reported by [`Dma::priority`]), nor the end-of-transfer signals a stream gives its
+//! peripheral (the chip passes them on from [`Serviced::Moved`]'s `remaining`: NDTR 1 on
+//! I2C1_RX is the I2C's EOT−1, `I2c::dma_eot_1`; NDTR 0 on ADC1's stream is `Adc::dma_eot`).
 //!
 //! Modelling choices (RM0390 §9.3):
 //! - An item moves at once when serviced: the AHB cycles a transfer takes are not timed (a few
@@ -20,8 +22,9 @@
 //!   words, equal sizes) moves each item straight through with MSIZE taken as PSIZE, as the
 //!   manual says. FIFO mode (DMDIS=1) keeps a 16-byte FIFO that packs and unpacks between PSIZE
 //!   and MSIZE; as items move at once it can neither overrun nor underrun, so FEIF is never set
-//!   by a transfer, and FTH only bounds how much a memory-to-memory stream reads ahead (not
-//!   timed). FS reports the FIFO's fill level (100: empty in direct mode, as after reset).
+//!   by a transfer. FTH is stored: it decides when the chip's FIFO drains to memory, which with
+//!   items moving at once changes nothing the software can see but FS. FS reports the FIFO's
+//!   fill level (100: empty, always so in direct mode, as after reset).
 //! - DMEIF is never set: a direct-mode item always completes before the peripheral's next
 //!   request, so the "request while the previous item is pending" error cannot happen.
 //! - PFCTRL (the SDIO's flow control) is stored but the F446 models here have no flow

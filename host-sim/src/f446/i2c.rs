@@ -702,12 +702,9 @@ impl I2c {
             self.cr1 = cr1::SWRST;
             return;
         }
+        // Leaving SWRST needs nothing more: the registers were held at their reset values.
         let was = self.cr1;
         self.cr1 = value;
-        if was & cr1::SWRST != 0 {
-            // Leaving reset: the registers were held at their reset values.
-            self.cr1 = value;
-        }
         if value & cr1::PE == 0 {
             if was & cr1::PE != 0 || self.sr2 != 0 {
                 self.disable();
