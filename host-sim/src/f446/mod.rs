@@ -16,9 +16,12 @@
 //! map, the DMA streams' requests, the button's pin to EXTI, the watchdog's reset — is the
 //! chip's own wiring, in one place (the chip, `f446::soc`), not in the models.
 
+pub mod adc;
 #[cfg(feature = "pil")]
 pub mod cpu;
+pub mod dma;
 pub mod elf;
+pub mod i2c;
 pub mod nvic;
 
 /// The flash's base address.
