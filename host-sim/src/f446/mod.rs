@@ -22,6 +22,7 @@ pub mod cpu;
 pub mod dma;
 pub mod elf;
 pub mod i2c;
+pub mod mlx_target;
 pub mod nvic;
 
 /// The flash's base address.

@@ -473,6 +473,13 @@ impl VirtualMlx90640 {
             .sum();
         self.clock
             .advance_us(((bytes as u64 + 1) * 9 * BIT_TIME_NS).div_ceil(1000));
+        self.transact(address, ops)
+    }
+
+    /// One I2C transaction at the clock's present time (a bus that keeps its own time, as the
+    /// emulated chip's I2C1 does, sets the clock; [`VirtualBus`] advances it by the bytes'
+    /// time first): the measurements due run, then the operations.
+    pub fn transact(&mut self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
         self.advance();
         if self.fault == Some(SensorFault::Nack) || address != thermorph::mlx90640::ADDRESS {
             return Err(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address));
