@@ -16,9 +16,13 @@
 //! map, the DMA streams' requests, the button's pin to EXTI, the watchdog's reset — is the
 //! chip's own wiring, in one place (the chip, `f446::soc`), not in the models.
 
+pub mod exti;
 pub mod flash;
+pub mod gpio;
+pub mod iwdg;
 pub mod pwr;
 pub mod rcc;
+pub mod syscfg;
 
 /// Time on the emulated chip since power-up, in ticks of [`TIME_HZ`]: every clock the board
 /// uses (16 and 180 MHz, the buses' 45 and 90 MHz, the time driver's 1 MHz, I2C's 400 kHz,

@@ -213,7 +213,7 @@ impl Peripheral for Pwr {
                 } else if old & cr::ODSWEN == 0 && self.od_ready {
                     self.odsw_ready_at = Some(self.now + OVER_DRIVE_SWITCH);
                 }
-                if (new ^ old) >> cr::VOS_SHIFT & 3 != 0 && self.pll_on {
+                if ((new ^ old) >> cr::VOS_SHIFT) & 3 != 0 && self.pll_on {
                     self.vos_ready = false;
                     self.vos_ready_at = Some(self.now + VOS_READY);
                 }
