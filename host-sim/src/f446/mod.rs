@@ -21,9 +21,16 @@ pub mod adc;
 pub mod cpu;
 pub mod dma;
 pub mod elf;
+pub mod exti;
+pub mod flash;
+pub mod gpio;
 pub mod i2c;
+pub mod iwdg;
 pub mod mlx_target;
 pub mod nvic;
+pub mod pwr;
+pub mod rcc;
+pub mod syscfg;
 
 /// The flash's base address.
 pub const FLASH_BASE: u32 = 0x0800_0000;
