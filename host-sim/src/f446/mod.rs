@@ -16,6 +16,9 @@
 //! map, the DMA streams' requests, the button's pin to EXTI, the watchdog's reset — is the
 //! chip's own wiring, in one place (the chip, `f446::soc`), not in the models.
 
+pub mod tim;
+pub mod usart;
+
 /// Time on the emulated chip since power-up, in ticks of [`TIME_HZ`]: every clock the board
 /// uses (16 and 180 MHz, the buses' 45 and 90 MHz, the time driver's 1 MHz, I2C's 400 kHz,
 /// 115 200 baud, the LSI's 32 kHz) is a whole number of them, so no conversion drifts.
