@@ -18,9 +18,11 @@
 //! - update events: overflow/underflow and EGR.UG (UG reinitialises the counter and the
 //!   prescaler counter; it loads PSC, ARR and CCRx into their shadows and sets UIF unless
 //!   UDIS = 1; with URS = 1 it sets no UIF — §17.4.1, §17.4.5, §17.4.6);
-//! - output compare: CCxIF when the counter reaches CCRx (counting into it; a CCRx above ARR is
-//!   never reached while the counter is within ARR), CCRx preloaded when OCxPE, OCxREF in the
-//!   modes frozen / active / inactive / toggle on match / forced / PWM 1 and 2;
+//! - output compare: CCxIF when the counter reaches CCRx (counting into it, so a CCRx of 0
+//!   matches as the counter wraps to 0 — every output channel left at CCR 0 flags each period,
+//!   as TIM12's CC2 does before the first alarm; a CCRx above ARR is never reached while the
+//!   counter is within ARR; writing CNT or UG is no match), CCRx preloaded when OCxPE, OCxREF
+//!   in the modes frozen / active / inactive / toggle on match / forced / PWM 1 and 2;
 //! - SR's flags rc_w0 (writing 0 clears, 1 leaves), EGR's UG, CCxG (input channels capture the
 //!   counter, CCxOF when CCxIF was already set) and TG (sets TIF);
 //! - DIER's interrupt enables and the IRQ line (UIF·UIE, CCxIF·CCxIE, TIF·TIE: one line per
@@ -38,6 +40,11 @@
 //! - the timers' DMA requests (UDE, CCxDE, TDE, CCDS are stored, nothing is requested);
 //! - a counter written above ARR counts to its top (0xFFFF or 0xFFFF_FFFF) and wraps to 0
 //!   without an update event (RM0390 does not say; a compare match above ARR is reached then).
+//!
+//! Time: [`Peripheral::advance`] counts whole timer clock ticks at the clock it is given (a
+//! change of the timer clock is exact to one tick); [`Peripheral::next_event`] is the next
+//! instant a flag not yet set is set (or OPM stops the counter), None when no period will ever
+//! set one (a PWM timer whose flags software leaves set wakes nobody).
 //!
 //! A stopped timer's output (CEN = 0) holds a static level: its OCxREF at the present counter
 //! value (in PWM mode 1 upcounting: high while CNT < CCRx), through CCxP; [`Tim::pwm_duty`]
@@ -276,6 +283,14 @@ impl Tim {
         }
     }
 
+    /// A reset from the RCC (APB1RSTR's bit pulsed): every register back to its reset value, the
+    /// counter stopped, at the present time.
+    pub fn reset(&mut self) {
+        let now = self.now;
+        *self = Tim::new(self.inst);
+        self.now = now;
+    }
+
     /// The instance this models.
     pub fn instance(&self) -> TimInstance {
         self.inst
@@ -449,12 +464,12 @@ impl Tim {
         };
         debug_assert!(d <= to_event);
         let wrap = self.ticks_to_wrap() == Some(d);
+        // Counting up from above ARR, the counter wraps at its top without an update;
+        // counting down it always underflows at 0.
         let in_range = self.cnt <= self.arr_active;
         if wrap {
             if self.down() {
-                if in_range {
-                    self.overflow();
-                }
+                self.overflow();
                 self.cnt = self.arr_active;
             } else {
                 self.cnt = 0;
@@ -879,6 +894,25 @@ mod tests {
     }
 
     #[test]
+    fn a_flag_set_after_the_handler_read_sr_survives_its_write() {
+        let mut t = time_driver(0);
+        t.advance(us(0x8000), &BOARD);
+        let seen = r(&mut t, SR);
+        assert_eq!(seen, cc_bit(0));
+        // The overflow comes between the handler's read and its write of !SR.
+        t.advance(us(0x10000), &BOARD);
+        w(&mut t, SR, !seen);
+        assert_eq!(r(&mut t, SR), UIF | cc_bit(1));
+        assert_eq!(irq(&t), (43, true));
+        // An RCC reset: registers back to reset, time kept.
+        t.reset();
+        assert_eq!(r(&mut t, SR), 0);
+        assert_eq!(r(&mut t, ARR), 0xFFFF);
+        assert_eq!(t.now, us(0x10000));
+        assert_eq!(t.next_event(t.now, &BOARD), None);
+    }
+
+    #[test]
     fn a_long_jump_sets_what_small_steps_set() {
         let mut a = time_driver(0);
         let mut b = a.clone();
@@ -902,6 +936,98 @@ mod tests {
             a.next_event(end, &BOARD),
             Some(us(3_000_017 - 3_000_017 % 65_536 + 65_536))
         );
+    }
+
+    #[test]
+    fn jumps_agree_with_single_clock_steps_in_random_settings() {
+        // A small linear congruential generator: the same cases every run.
+        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let mut rnd = |n: u32| {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((seed >> 33) % u64::from(n)) as u32
+        };
+        for case in 0..300 {
+            let mut a = Tim::new(if case % 2 == 0 { TIM3 } else { TIM12 });
+            for _ in 0..6 {
+                // Random writes, the same to both.
+                let modes = [0x6, 0x7, 0x1, 0x2, 0x3, 0x0, 0x4, 0x5];
+                let ccmr = |m: u32, pe: u32| (m << 4) | (pe << 3);
+                let writes = [
+                    (PSC, rnd(4)),
+                    (ARR, rnd(12)),
+                    (CCR1, rnd(14)),
+                    (CCR1 + 4, rnd(14)),
+                    (CCR1 + 8, rnd(14)),
+                    (
+                        CCMR1,
+                        ccmr(modes[rnd(8) as usize], rnd(2))
+                            | (ccmr(modes[rnd(8) as usize], rnd(2)) << 8),
+                    ),
+                    (
+                        CCMR2,
+                        ccmr(modes[rnd(8) as usize], rnd(2))
+                            | (ccmr(modes[rnd(8) as usize], rnd(2)) << 8),
+                    ),
+                    (CCER, 0x1111 * rnd(2)),
+                    (SR, rnd(0x2000)),
+                    (CNT, rnd(14)),
+                    (EGR, rnd(2)),
+                ];
+                for (offset, value) in writes {
+                    // ARR always (small: every period within the single steps' reach).
+                    if offset == ARR || rnd(3) == 0 {
+                        w(&mut a, offset, value);
+                    }
+                }
+                let cr1 = CEN
+                    | (rnd(2) * ARPE)
+                    | (rnd(2) * DIR)
+                    | (rnd(2) * URS)
+                    | (u32::from(rnd(8) == 0) * UDIS)
+                    | (u32::from(rnd(8) == 0) * OPM);
+                w(&mut a, CR1, cr1);
+                // The next change, as next_event finds it and by single clocks.
+                let mut c = a.clone();
+                let found = match c.run(1 << 40, true) {
+                    Run::Changed(used) => Some(used),
+                    Run::Steady => None,
+                    Run::Done => panic!("case {case}: no end"),
+                };
+                let mut d = a.clone();
+                // (Single steps as far as the change found, or 5 000 clocks.)
+                let reach = found.unwrap_or(0).max(5_000);
+                let stepped = (1..=reach).find(|_| {
+                    let before = d.sr;
+                    d.run(1, false);
+                    d.sr & !before != 0 || d.cr1 & CEN == 0
+                });
+                assert_eq!(found, stepped, "case {case}: next change");
+                let mut b = a.clone();
+                let n = u64::from(rnd(600));
+                a.run(n, false);
+                for _ in 0..n {
+                    b.run(1, false);
+                }
+                let key = |t: &Tim| {
+                    (
+                        t.cnt,
+                        t.sr,
+                        t.cr1,
+                        t.prescaler_count,
+                        t.psc_active,
+                        t.arr_active,
+                        t.ccr_active,
+                        t.oc_ref,
+                    )
+                };
+                assert_eq!(key(&a), key(&b), "case {case}, {n} clocks");
+                for ch in 1..=4 {
+                    assert_eq!(a.pwm_duty(ch), b.pwm_duty(ch));
+                }
+            }
+        }
     }
 
     #[test]
@@ -1128,6 +1254,20 @@ mod tests {
         t.advance(Clocks::time_of(500, 90_000_000), &BOARD);
         assert_eq!(r(&mut t, CNT), 99);
         assert_eq!(t.next_event(t.now, &BOARD), None);
+        // Written above ARR: down to 0, then the underflow (an update) and ARR.
+        w(&mut t, SR, 0);
+        w(&mut t, CNT, 150);
+        w(&mut t, CR1, DIR | CEN);
+        t.advance(Clocks::time_of(500 + 151, 90_000_000), &BOARD);
+        assert_eq!(r(&mut t, SR) & UIF, UIF);
+        assert_eq!(r(&mut t, CNT), 99);
+        // Counting up from above ARR: to the top and round to 0 without an update.
+        w(&mut t, SR, 0);
+        w(&mut t, CNT, 0xFFF0);
+        w(&mut t, CR1, CEN);
+        t.advance(Clocks::time_of(500 + 151 + 16, 90_000_000), &BOARD);
+        assert_eq!(r(&mut t, CNT), 0);
+        assert_eq!(r(&mut t, SR) & UIF, 0);
     }
 
     #[test]

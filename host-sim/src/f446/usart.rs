@@ -9,7 +9,7 @@
 //!
 //! Modelled as RM0390 says:
 //! - BRR and OVER8: a bit lasts USARTDIV · 16 (OVER8 = 0: BRR bus clocks) or USARTDIV · 8
-//!   (OVER8 = 1: 8 · DIV_Mantissa + DIV_Fraction[2:0] clocks); a frame 1 start bit, 8 or 9 data
+//!   (OVER8 = 1: 8 · DIV_Mantissa + DIV_Fraction bits 2:0 clocks); a frame 1 start bit, 8 or 9 data
 //!   bits (M; a parity bit, PCE, is one of them) and 0.5, 1, 1.5 or 2 stop bits (CR2.STOP);
 //! - transmission: a DR write fills TDR (TXE cleared); the shift register takes it at once when
 //!   free (TXE set again), and a frame later the byte is out ([`Usart::take_transmitted`], with
@@ -33,7 +33,7 @@
 //! bits have no effect): synchronous mode (CLKEN, CPOL, CPHA, LBCL), LIN (LINEN, LBDL, LBDIE:
 //! LBD is never set), hardware flow control (RTSE, CTSE, CTSIE: CTS is never set), smartcard,
 //! IrDA and half-duplex (SCEN, NACK, IREN, IRLP, HDSEL, GTPR), ONEBIT sampling, the parity's
-//! value and the 9th data bit (received bytes are 8 bits, DR[8] reads 0), receiver wake-up
+//! value and the 9th data bit (received bytes are 8 bits, DR bit 8 reads 0), receiver wake-up
 //! (CR1.WAKE, CR2.ADD; RWU reads 0, writes ignored) and send break (SBK reads 0, writes
 //! ignored). The sender of received bytes runs at exactly the USART's configured baud rate.
 
@@ -229,6 +229,20 @@ impl Usart {
             now: 0,
             clocks: Clocks::RESET,
         }
+    }
+
+    /// A reset from the RCC (its APBxRSTR bit pulsed): every register back to its reset value
+    /// and the transmitter's frame under way cut, at the present time. The receive line is
+    /// outside the chip: bytes queued or arriving keep coming (to a disabled receiver); the
+    /// bytes already sent stay for [`Usart::take_transmitted`].
+    pub fn reset(&mut self) {
+        let mut fresh = Usart::new(self.inst);
+        fresh.transmitted = std::mem::take(&mut self.transmitted);
+        fresh.rx_queue = std::mem::take(&mut self.rx_queue);
+        fresh.arriving = self.arriving;
+        fresh.now = self.now;
+        fresh.clocks = self.clocks;
+        *self = fresh;
     }
 
     /// The instance this models.
@@ -786,6 +800,22 @@ mod tests {
                 tx: true
             }
         );
+    }
+
+    #[test]
+    fn an_rcc_reset_cuts_the_transmitter_but_not_the_line() {
+        let mut u = console();
+        let t0 = u.now;
+        w(&mut u, DR, u32::from(b'q'));
+        u.receive(b'r', RxFault::None);
+        u.advance(t0 + FRAME / 2, &BOARD);
+        u.reset();
+        assert_eq!(r(&mut u, SR), TXE | TC);
+        assert_eq!(r(&mut u, CR1), 0);
+        u.advance(t0 + 3 * FRAME, &BOARD);
+        assert!(u.take_transmitted().is_empty());
+        assert_eq!(u.rx_pending(), 0);
+        assert_eq!(r(&mut u, SR), TXE | TC, "the byte met a disabled receiver");
     }
 
     #[test]
