@@ -31,6 +31,8 @@ pub mod nvic;
 pub mod pwr;
 pub mod rcc;
 pub mod syscfg;
+pub mod tim;
+pub mod usart;
 
 /// The flash's base address.
 pub const FLASH_BASE: u32 = 0x0800_0000;
