@@ -55,9 +55,8 @@ impl Bus for TestBus {
 
 /// What software wrote to the test peripheral.
 fn written(c: &Core) -> Vec<u32> {
-    let bus = c.bus() as *const dyn Bus as *const TestBus;
-    // The core was built on a TestBus (`core` below).
-    unsafe { &*bus }.writes.iter().map(|w| w.1).collect()
+    let bus = c.bus_as::<TestBus>().expect("built on a TestBus");
+    bus.writes.iter().map(|w| w.1).collect()
 }
 
 /// Halfwords as little-endian bytes.

@@ -371,6 +371,18 @@ impl Core {
             .expect("the bus is present")
     }
 
+    /// The chip's peripherals as the type they were built as (None: another type).
+    pub fn bus_as<T: Bus>(&self) -> Option<&T> {
+        let any: &dyn std::any::Any = self.bus();
+        any.downcast_ref::<T>()
+    }
+
+    /// [`Core::bus_as`], mutable: to drive the chip's outside.
+    pub fn bus_as_mut<T: Bus>(&mut self) -> Option<&mut T> {
+        let any: &mut dyn std::any::Any = self.bus_mut();
+        any.downcast_mut::<T>()
+    }
+
     /// A core register.
     pub fn reg(&self, r: RegisterARM) -> u32 {
         self.uc.reg_read(r).unwrap_or(0) as u32
@@ -514,10 +526,29 @@ impl Core {
             Err(err) => {
                 let pc = self.reg(RegisterARM::PC);
                 if pc >= EXC_RETURN_MIN {
-                    self.exit(pc | 1)
-                } else {
-                    Err(CpuError::Core { pc, err })
+                    return self.exit(pc | 1);
                 }
+                // unicorn takes an M-profile `wfe` as an invalid instruction: one that runs
+                // (its hook found the event register set) has completed.
+                if err == uc_error::INSN_INVALID {
+                    let hw = |at: u32| {
+                        let mut b = [0u8; 2];
+                        self.uc
+                            .mem_read(u64::from(at), &mut b)
+                            .ok()
+                            .map(|()| u16::from_le_bytes(b))
+                    };
+                    if hw(pc) == Some(0xBF20) {
+                        return self
+                            .uc
+                            .reg_write(RegisterARM::PC, u64::from(pc + 2))
+                            .map_err(|err| CpuError::Core { pc, err });
+                    }
+                    if hw(pc.wrapping_sub(2)) == Some(0xBF20) {
+                        return Ok(());
+                    }
+                }
+                Err(CpuError::Core { pc, err })
             }
         }
     }

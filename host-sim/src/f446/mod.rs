@@ -30,6 +30,7 @@ pub mod mlx_target;
 pub mod nvic;
 pub mod pwr;
 pub mod rcc;
+pub mod soc;
 pub mod syscfg;
 pub mod tim;
 pub mod usart;
@@ -190,7 +191,7 @@ pub trait Memory {
 /// The chip's peripherals as the core sees them: the address map's registers, time, the
 /// clocks and the interrupt lines. The chip (`f446::soc`) implements it over the models; the
 /// CPU core (unicorn, `--features pil`) drives it.
-pub trait Bus {
+pub trait Bus: std::any::Any {
     /// A read of `size` at `addr` at time `now` (None: no peripheral there, a bus fault).
     fn read(&mut self, addr: u32, size: Size, now: Time, mem: &mut dyn Memory) -> Option<u32>;
     /// A write at time `now` (false: no peripheral there, a bus fault). Writes to the flash's
