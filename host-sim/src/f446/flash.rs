@@ -632,6 +632,8 @@ mod tests {
         f.load(SECTOR6, &[0u8; 8]).unwrap();
         f.load(SECTOR6 + 0x1_FFFC, &[0x12, 0x34, 0x56, 0x78])
             .unwrap();
+        f.load(SECTOR6 - 4, &[0; 4]).unwrap();
+        f.load(SECTOR6 + 0x2_0000, &[0; 4]).unwrap();
         unlock(&mut f);
         let t0 = 1_000;
         at(&mut f, t0);
@@ -652,7 +654,9 @@ mod tests {
             f.read_array(SECTOR6 + 0x1_FFFC, Size::Word),
             Some(0xFFFF_FFFF)
         );
-        // Sector 5 untouched.
+        // Sectors 5 and 7 untouched.
+        assert_eq!(f.read_array(SECTOR6 - 4, Size::Word), Some(0));
+        assert_eq!(f.read_array(SECTOR6 + 0x2_0000, Size::Word), Some(0));
         let mut irq = false;
         f.irqs(&mut |n, high| {
             assert_eq!(n, FLASH_IRQ);
