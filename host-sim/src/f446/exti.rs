@@ -224,6 +224,39 @@ mod tests {
         assert_eq!(irq_of(19), None);
     }
 
+    /// The chip's wiring for the board's e-stop, end to end: the button (PC13, pulled up,
+    /// active low) through SYSCFG's EXTICR4 to EXTI line 13, falling edge, IRQ 40.
+    #[test]
+    fn the_button_on_pc13_through_syscfg_to_irq_40() {
+        use crate::f446::gpio::{Drive, Gpio};
+        use crate::f446::syscfg::{self, Syscfg};
+        let mut portc = Gpio::new(2);
+        let mut sys = Syscfg::new();
+        let mut e = Exti::new();
+        portc.set_input(13, Drive::High);
+        sys.write(syscfg::reg::EXTICR4, Size::Word, 2 << 4);
+        e.write(reg::FTSR, Size::Word, 1 << 13);
+        e.write(reg::IMR, Size::Word, 1 << 13);
+        let route = |g: &mut Gpio, s: &Syscfg, e: &mut Exti| {
+            let edges = g.take_edges();
+            let mine = u32::from(s.lines_of(2));
+            e.edges(
+                u32::from(edges.rising) & mine,
+                u32::from(edges.falling) & mine,
+            );
+        };
+        route(&mut portc, &sys, &mut e);
+        assert_eq!(e.pending(), 0);
+        portc.set_input(13, Drive::Low);
+        route(&mut portc, &sys, &mut e);
+        assert_eq!(e.pending(), 1 << 13);
+        assert!(high(&e, 40));
+        e.write(reg::PR, Size::Word, 1 << 13);
+        portc.set_input(13, Drive::High);
+        route(&mut portc, &sys, &mut e);
+        assert!(!high(&e, 40), "release: a rising edge, not selected");
+    }
+
     #[test]
     fn swier_and_events() {
         let mut e = Exti::new();

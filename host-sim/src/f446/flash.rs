@@ -13,7 +13,8 @@
 //! [`OPTION_PROGRAM_TIME`]; nWRP's write protection takes effect then).
 //!
 //! The array: the CPU's writes to it go through [`Flash::program`], its reads through
-//! [`Flash::read_array`]; [`Flash::load`] puts an ELF's segments in at start and
+//! [`Flash::read_array`]; [`Flash::load_elf`] (or [`Flash::load`]) puts an ELF's loadable
+//! segments in at start and
 //! [`Flash::array`] reads the whole array back (a saved settings record). Programming
 //! follows RM0390 §3.5.4: it needs CR.PG (else PGSERR), an access of PSIZE's width (else
 //! PGPERR), not crossing a 128-bit row (else PGAERR), to a sector nWRP leaves writable (else
@@ -133,6 +134,8 @@ pub mod optcr {
 }
 
 const ACR_MASK: u32 = 0x1F0F;
+/// OPTCR's reserved bits 27:24, which read 1.
+const OPTCR_RESERVED: u32 = 0x0F00_0000;
 
 /// The byte offset in the array and size of sector `n` (0–7).
 pub fn sector_range(n: u32) -> Option<(usize, usize)> {
@@ -258,6 +261,48 @@ impl Flash {
         Ok(())
     }
 
+    /// Load an ELF file's (32-bit little-endian, the board's `thermorph-board`) loadable
+    /// segments whose load address (`p_paddr`: `.data`'s initial values are at theirs in
+    /// flash) is in the flash, as a programmer would; segments elsewhere (RAM: `.bss`, the
+    /// retained RAM) are skipped. Returns the bytes loaded; Err: not such an ELF, or a
+    /// segment running past the flash's end.
+    pub fn load_elf(&mut self, elf: &[u8]) -> Result<usize, String> {
+        let u16_at = |o: usize| -> Result<u32, String> {
+            elf.get(o..o + 2)
+                .map(|b| u32::from(u16::from_le_bytes([b[0], b[1]])))
+                .ok_or_else(|| format!("ELF truncated at {o:#x}"))
+        };
+        let u32_at = |o: usize| -> Result<u32, String> {
+            elf.get(o..o + 4)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                .ok_or_else(|| format!("ELF truncated at {o:#x}"))
+        };
+        if elf.get(..6) != Some(&[0x7F, b'E', b'L', b'F', 1, 1]) {
+            return Err("not a 32-bit little-endian ELF".into());
+        }
+        let (phoff, phentsize, phnum) = (u32_at(0x1C)?, u16_at(0x2A)?, u16_at(0x2C)?);
+        let mut loaded = 0;
+        for i in 0..phnum {
+            let ph = (phoff + i * phentsize) as usize;
+            let (kind, offset, paddr, filesz) = (
+                u32_at(ph)?,
+                u32_at(ph + 4)?,
+                u32_at(ph + 12)?,
+                u32_at(ph + 16)?,
+            );
+            let in_flash = (FLASH_BASE..FLASH_BASE + FLASH_SIZE_BYTES as u32).contains(&paddr);
+            if kind != 1 || filesz == 0 || !in_flash {
+                continue;
+            }
+            let bytes = elf
+                .get(offset as usize..(offset + filesz) as usize)
+                .ok_or_else(|| format!("segment {i} runs past the file's end"))?;
+            self.load(paddr, bytes)?;
+            loaded += bytes.len();
+        }
+        Ok(loaded)
+    }
+
     /// The whole array (512 KiB from 0x0800_0000) as it is now.
     pub fn array(&self) -> &[u8] {
         &self.array
@@ -292,7 +337,10 @@ impl Flash {
             reg::ACR => self.acr,
             reg::SR => self.sr | if busy { sr::BSY } else { 0 },
             reg::CR => self.cr | if busy && self.erasing() { cr::STRT } else { 0 },
-            reg::OPTCR => self.optcr,
+            reg::OPTCR => {
+                let programming = matches!(self.busy, Some((_, Op::Options { .. })));
+                self.optcr | if programming { optcr::OPTSTRT } else { 0 }
+            }
             _ => 0,
         }
     }
@@ -469,7 +517,7 @@ impl Peripheral for Flash {
                 if self.optcr & optcr::OPTLOCK != 0 || self.busy.is_some() {
                     return;
                 }
-                self.optcr = (v & optcr::OPTIONS) | (v & optcr::OPTLOCK);
+                self.optcr = (v & optcr::OPTIONS) | (v & optcr::OPTLOCK) | OPTCR_RESERVED;
                 if v & optcr::OPTSTRT != 0 && v & optcr::OPTLOCK == 0 {
                     let value = self.optcr | (optcr::RESET & !optcr::OPTIONS);
                     self.busy = Some((self.now + OPTION_PROGRAM_TIME, Op::Options { value }));
@@ -584,6 +632,8 @@ mod tests {
         f.load(SECTOR6, &[0u8; 8]).unwrap();
         f.load(SECTOR6 + 0x1_FFFC, &[0x12, 0x34, 0x56, 0x78])
             .unwrap();
+        f.load(SECTOR6 - 4, &[0; 4]).unwrap();
+        f.load(SECTOR6 + 0x2_0000, &[0; 4]).unwrap();
         unlock(&mut f);
         let t0 = 1_000;
         at(&mut f, t0);
@@ -604,7 +654,9 @@ mod tests {
             f.read_array(SECTOR6 + 0x1_FFFC, Size::Word),
             Some(0xFFFF_FFFF)
         );
-        // Sector 5 untouched.
+        // Sectors 5 and 7 untouched.
+        assert_eq!(f.read_array(SECTOR6 - 4, Size::Word), Some(0));
+        assert_eq!(f.read_array(SECTOR6 + 0x2_0000, Size::Word), Some(0));
         let mut irq = false;
         f.irqs(&mut |n, high| {
             assert_eq!(n, FLASH_IRQ);
@@ -682,6 +734,7 @@ mod tests {
         let v = rd(&mut f, reg::OPTCR) & !(1 << 22);
         wr(&mut f, reg::OPTCR, v | optcr::OPTSTRT);
         assert_eq!(f.busy_until(), Some(OPTION_PROGRAM_TIME));
+        assert_eq!(rd(&mut f, reg::OPTCR), 0x0FBF_AAEE, "OPTSTRT while busy");
         at(&mut f, OPTION_PROGRAM_TIME);
         f.program(SECTOR6, Size::Word, 0, OPTION_PROGRAM_TIME);
         assert_eq!(rd(&mut f, reg::SR) & sr::WRPERR, sr::WRPERR);
@@ -693,6 +746,43 @@ mod tests {
             0x0FBF_AAED,
             "kept in the option bytes"
         );
+    }
+
+    /// A hand-made ELF: a flash segment, a RAM one (skipped), an empty one.
+    #[test]
+    fn elf_segments_load_at_their_load_addresses() {
+        let mut elf = vec![0u8; 0x34 + 3 * 32 + 8];
+        elf[..6].copy_from_slice(&[0x7F, b'E', b'L', b'F', 1, 1]);
+        elf[0x1C..0x20].copy_from_slice(&0x34u32.to_le_bytes());
+        elf[0x2A..0x2C].copy_from_slice(&32u16.to_le_bytes());
+        elf[0x2C..0x2E].copy_from_slice(&3u16.to_le_bytes());
+        let data = 0x34 + 3 * 32;
+        elf[data..data + 8].copy_from_slice(&[1, 2, 3, 4, 5, 6, 7, 8]);
+        for (i, (paddr, filesz)) in [
+            (FLASH_BASE + 0x100, 8u32),
+            (0x2000_0000, 8),
+            (FLASH_BASE, 0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let ph = 0x34 + i * 32;
+            elf[ph..ph + 4].copy_from_slice(&1u32.to_le_bytes());
+            elf[ph + 4..ph + 8].copy_from_slice(&(data as u32).to_le_bytes());
+            elf[ph + 12..ph + 16].copy_from_slice(&paddr.to_le_bytes());
+            elf[ph + 16..ph + 20].copy_from_slice(&filesz.to_le_bytes());
+        }
+        let mut f = Flash::new();
+        assert_eq!(f.load_elf(&elf), Ok(8));
+        assert_eq!(
+            f.read_array(FLASH_BASE + 0x100, Size::Word),
+            Some(0x0403_0201)
+        );
+        assert_eq!(f.array()[0x108], 0xFF);
+        assert_eq!(f.read_array(FLASH_BASE, Size::Word), Some(0xFFFF_FFFF));
+        assert!(f.load_elf(b"nope").is_err());
+        elf[0x34 + 16..0x34 + 20].copy_from_slice(&64u32.to_le_bytes());
+        assert!(f.load_elf(&elf).is_err(), "past the file's end");
     }
 
     #[test]

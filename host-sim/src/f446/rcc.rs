@@ -13,6 +13,11 @@
 //! clears at once when its oscillator is turned off. The switch (SW → SWS) happens when the
 //! selected source is ready, at once if it already is.
 //!
+//! PLLCFGR (and the I2S/SAI PLLs' registers) are taken as written even while the PLL runs
+//! (RM0390 asks software to write them only with the PLL off); [`Rcc::clocks`] follows them.
+//! The chip forwards PWR_CR's DBP with [`Rcc::set_backup_access`] after each PWR write:
+//! BDCR ignores writes without it.
+//!
 //! Not modelled (registers hold and read back what is written, with no further effect): the
 //! clock security system (CSSON is stored; the HSE never fails, CSSF never sets), the MCO
 //! outputs (CFGR's MCO fields), RTCPRE, spread spectrum (SSCGR), the I2S/SAI/SPDIF/48 MHz
