@@ -14,7 +14,7 @@
 //!
 //! BSRR: a write sets the ODR bits of its low half and resets those of its high half; set
 //! has priority when both name a bit (RM0390 §7.4.7); it reads 0. LCKR: the lock sequence
-//! (write LCKK=1, write LCKK=0, write LCKK=1 with the same LCK[15:0], then read) freezes the
+//! (write LCKK=1, write LCKK=0, write LCKK=1 with the same `LCK[15:0]`, then read) freezes the
 //! locked pins' MODER, OTYPER, OSPEEDR, PUPDR and AFR bits and LCKR itself until reset; any
 //! other order aborts it (RM0390 §7.4.8). OSPEEDR is stored only (no slew-rate model).
 

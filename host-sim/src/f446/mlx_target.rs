@@ -69,10 +69,10 @@ impl MlxTarget {
             2 => self.pointer = Some(u16::from_be_bytes([w[0], w[1]])),
             4 => {
                 let buf = w;
-                let r = self.device.borrow_mut().transact(
-                    thermorph::mlx90640::ADDRESS,
-                    &mut [Operation::Write(&buf)],
-                );
+                let r = self
+                    .device
+                    .borrow_mut()
+                    .transact(thermorph::mlx90640::ADDRESS, &mut [Operation::Write(&buf)]);
                 self.pointer = None;
                 if r.is_err() {
                     self.refused += 1;

@@ -38,7 +38,13 @@ pub const PLAIN: [(u32, u32, &str); 5] = [
 ];
 
 /// The timers' instances in [`Soc::tims`]: TIM2, TIM3, TIM4, TIM5, TIM12.
-pub const TIMERS: [u32; 5] = [0x4000_0000, 0x4000_0400, 0x4000_0800, 0x4000_0C00, 0x4000_1800];
+pub const TIMERS: [u32; 5] = [
+    0x4000_0000,
+    0x4000_0400,
+    0x4000_0800,
+    0x4000_0C00,
+    0x4000_1800,
+];
 
 /// The chip's peripherals.
 pub struct Soc {
@@ -297,7 +303,8 @@ impl DmaBus for ChipBus<'_> {
 }
 
 fn in_memory(a: u32) -> bool {
-    (SRAM_BASE..SRAM_BASE + SRAM_BYTES).contains(&a) || (FLASH_BASE..FLASH_BASE + FLASH_BYTES).contains(&a)
+    (SRAM_BASE..SRAM_BASE + SRAM_BYTES).contains(&a)
+        || (FLASH_BASE..FLASH_BASE + FLASH_BYTES).contains(&a)
 }
 
 impl Bus for Soc {
@@ -309,7 +316,14 @@ impl Bus for Soc {
         Self::plain_window(addr).then(|| self.plain_read(addr, size))
     }
 
-    fn write(&mut self, addr: u32, size: Size, value: u32, now: Time, mem: &mut dyn Memory) -> bool {
+    fn write(
+        &mut self,
+        addr: u32,
+        size: Size,
+        value: u32,
+        now: Time,
+        mem: &mut dyn Memory,
+    ) -> bool {
         self.advance(now, mem);
         if (FLASH_BASE..FLASH_BASE + FLASH_BYTES).contains(&addr) {
             self.flash.program(addr, size, value, now);

@@ -1,0 +1,82 @@
+//! The board's own release ELF (`thermorph-board`) on the emulated STM32F446 (`--features
+//! pil`): it boots through embassy's clock setup to 180 MHz with no access to an unmodelled
+//! register, sleeps in its executor, and answers the console over the emulated USART2.
+//!
+//! Needs the ELF: `cargo build --release -p thermorph-firmware --target thumbv7em-none-eabihf
+//! --bin thermorph-board` (`.ci/run` builds it before this test).
+#![cfg(feature = "pil")]
+
+use std::path::PathBuf;
+
+use host_sim::f446::cpu::Core;
+use host_sim::f446::gpio::Drive;
+use host_sim::f446::soc::Soc;
+use host_sim::f446::{TIME_HZ, Time};
+
+fn elf() -> PathBuf {
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(
+        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target"),
+        PathBuf::from,
+    );
+    let p = target.join("thumbv7em-none-eabihf/release/thermorph-board");
+    assert!(
+        p.exists(),
+        "{} is missing: build it with `cargo build --release -p thermorph-firmware --target \
+         thumbv7em-none-eabihf --bin thermorph-board`",
+        p.display()
+    );
+    p
+}
+
+/// The board powered up with the e-stop button released (PC13 high).
+fn board() -> Core {
+    let img = host_sim::f446::elf::load(&elf()).unwrap();
+    let mut soc = Soc::new();
+    for (a, b) in &img.flash {
+        soc.flash.load(*a, b).unwrap();
+    }
+    soc.gpio[2].set_input(13, Drive::High);
+    let mut core = Core::new(Box::new(soc), &img.flash, &img.code).unwrap();
+    core.reset().unwrap();
+    core
+}
+
+fn soc(core: &mut Core) -> &mut Soc {
+    core.bus_as_mut::<Soc>().expect("built on the Soc")
+}
+
+/// Send `line` and run `for_s` more: the bytes the board wrote meanwhile.
+fn exchange(core: &mut Core, line: &str, for_s: f64) -> String {
+    soc(core)
+        .usart2
+        .receive_bytes(format!("{line}\r\n").as_bytes());
+    let until = core.now() + (for_s * TIME_HZ as f64) as Time;
+    core.run_until(until).unwrap();
+    soc(core)
+        .usart2
+        .take_transmitted()
+        .iter()
+        .map(|b| char::from(b.byte))
+        .collect()
+}
+
+#[test]
+fn the_elf_boots_to_180_mhz_and_answers_its_console() {
+    let mut core = board();
+    core.run_until(TIME_HZ / 2).unwrap();
+    assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
+    assert_eq!(core.bus().clocks().sysclk_hz, 180_000_000);
+    assert_eq!(core.bus().clocks().pclk1_hz, 45_000_000);
+    assert!(core.sleeping(), "the executor sleeps at wfe between tasks");
+    let version = exchange(&mut core, "version", 0.2);
+    assert!(
+        version.starts_with("ok thermorph ") && version.ends_with("\r\n"),
+        "{version:?}"
+    );
+    // A power-up with default settings starts stopped, every output off.
+    let status = exchange(&mut core, "status", 0.2);
+    assert!(status.starts_with("ok mode=stopped "), "{status:?}");
+    let s = soc(&mut core);
+    assert_eq!(s.tims[1].pwm_duty(0), 0.0, "the heater (TIM3 CH1) off");
+    assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
+}
