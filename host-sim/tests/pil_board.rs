@@ -1,17 +1,23 @@
 //! The board's own release ELF (`thermorph-board`) on the emulated STM32F446 (`--features
 //! pil`): it boots through embassy's clock setup to 180 MHz with no access to an unmodelled
-//! register, sleeps in its executor, and answers the console over the emulated USART2.
+//! register, sleeps in its executor, answers the console over the emulated USART2, and reads
+//! the virtual MLX90640 over I2C1 with DMA into regions through its own MTTS.
 //!
 //! Needs the ELF: `cargo build --release -p thermorph-firmware --target thumbv7em-none-eabihf
 //! --bin thermorph-board` (`.ci/run` builds it before this test).
 #![cfg(feature = "pil")]
 
+use std::cell::RefCell;
 use std::path::PathBuf;
+use std::rc::Rc;
 
 use host_sim::f446::cpu::Core;
 use host_sim::f446::gpio::Drive;
 use host_sim::f446::soc::Soc;
 use host_sim::f446::{TIME_HZ, Time};
+use host_sim::sensor::eeprom;
+use host_sim::sensor::sim_time::SimClock;
+use host_sim::sensor::virtual_mlx::VirtualMlx90640;
 
 fn elf() -> PathBuf {
     let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(
@@ -28,10 +34,15 @@ fn elf() -> PathBuf {
     p
 }
 
-/// The board powered up with the e-stop button released (PC13 high).
+/// The board powered up with the e-stop button released (PC13 high) and the camera on I2C1
+/// (a realistic sensor looking at a uniform 303 K field).
 fn board() -> Core {
     let img = host_sim::f446::elf::load(&elf()).unwrap();
     let mut soc = Soc::new();
+    let clock = SimClock::new();
+    let words = eeprom::realistic(1).encode().unwrap();
+    let device = VirtualMlx90640::new(words, clock.clone(), 1).unwrap();
+    soc.attach_sensor(Rc::new(RefCell::new(device)), clock);
     for (a, b) in &img.flash {
         soc.flash.load(*a, b).unwrap();
     }
@@ -78,5 +89,18 @@ fn the_elf_boots_to_180_mhz_and_answers_its_console() {
     assert!(status.starts_with("ok mode=stopped "), "{status:?}");
     let s = soc(&mut core);
     assert_eq!(s.tims[1].pwm_duty(0), 0.0, "the heater (TIM3 CH1) off");
+    // The camera's frames come through I2C1 and DMA: the regions read the field.
+    core.run_until(core.now() + 3 * TIME_HZ).unwrap();
+    let status = exchange(&mut core, "status", 0.2);
+    let field = |name: &str| -> f64 {
+        let at = status.find(&format!(" {name}=")).expect(name) + name.len() + 2;
+        status[at..].split(' ').next().unwrap().parse().unwrap()
+    };
+    for r in ["t1_k", "t2_k", "t5_k"] {
+        assert!((field(r) - 303.15).abs() < 0.5, "{r}: {status}");
+    }
+    // 8 Hz subpages, two a frame, for 3 s.
+    assert!(field("frame") >= 10.0, "{status}");
+    assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
     assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
 }

@@ -8,6 +8,9 @@
 //! RTC and backup registers, the CRC unit) are kept as plain registers that read back what
 //! was written, and listed in [`PLAIN`]; an address outside every window is a bus fault.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use super::adc::{ADC1_BASE, Adc};
 use super::dma::{BusFault, Controller, Dma, DmaBus, Serviced};
 use super::exti::Exti;
@@ -15,11 +18,15 @@ use super::flash::Flash;
 use super::gpio::Gpio;
 use super::i2c::{I2C1_BASE, I2c};
 use super::iwdg::Iwdg;
+use super::mlx_target::MlxTarget;
 use super::pwr::Pwr;
 use super::rcc::{Rcc, ResetCause};
 use super::syscfg::Syscfg;
 use super::tim::{TIM2, TIM3, TIM4, TIM5, TIM12, Tim};
 use super::usart::{USART2, Usart};
+use crate::sensor::sim_time::SimClock;
+use crate::sensor::virtual_mlx::VirtualMlx90640;
+
 use super::{
     Bus, Clocks, FLASH_BASE, FLASH_BYTES, IrqLines, Memory, Peripheral, SRAM_BASE, SRAM_BYTES,
     Size, Time,
@@ -78,6 +85,8 @@ pub struct Soc {
     flash_busy: bool,
     /// A reset the chip asks for (the watchdog).
     reset: Option<ResetCause>,
+    /// The clock of the sensor on I2C1, kept at the chip's time.
+    sensor_clock: Option<SimClock>,
 }
 
 impl Default for Soc {
@@ -105,7 +114,15 @@ impl Soc {
             plain: Vec::new(),
             flash_busy: false,
             reset: None,
+            sensor_clock: None,
         }
+    }
+
+    /// Put the virtual MLX90640 `device` (built on `clock`) on I2C1, at the chip's time.
+    pub fn attach_sensor(&mut self, device: Rc<RefCell<VirtualMlx90640>>, clock: SimClock) {
+        self.i2c1
+            .attach(Box::new(MlxTarget::new(device, clock.clone())));
+        self.sensor_clock = Some(clock);
     }
 
     /// A reset of the chip for `cause`: every peripheral to its reset state (the RCC keeps its
@@ -372,6 +389,12 @@ impl Bus for Soc {
             t.advance(now, &clocks);
         }
         self.usart2.advance(now, &clocks);
+        if let Some(c) = &self.sensor_clock {
+            let us = (u128::from(now) * 1_000_000 / u128::from(super::TIME_HZ)) as u64;
+            if us > c.now_us() {
+                c.advance_us(us - c.now_us());
+            }
+        }
         self.i2c1.advance(now, &clocks);
         self.adc1.advance(now, &clocks);
         for d in &mut self.dma {
