@@ -104,3 +104,48 @@ fn the_elf_boots_to_180_mhz_and_answers_its_console() {
     assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
     assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
 }
+
+/// A control loop stalled in the emulator (TIM12's interrupt, embassy's time, held low: the
+/// loop's tick never comes and nothing feeds the watchdog) is reset by the IWDG 0.5–1 s later;
+/// the board comes up saying why, and its springs' estimate continues from the memory kept in
+/// RAM instead of the power-up's hot assumption.
+#[test]
+fn a_stalled_loop_is_reset_by_the_watchdog_with_the_springs_memory_kept() {
+    let mut core = board();
+    core.run_until(8 * TIME_HZ).unwrap();
+    let spring_k = |status: &str| -> f64 {
+        let at = status.find(" spring_a_k=").expect("spring_a_k") + " spring_a_k=".len();
+        status[at..].split(' ').next().unwrap().parse().unwrap()
+    };
+    let before = spring_k(&exchange(&mut core, "status", 0.1));
+    let booted = 372.39;
+    assert!(
+        before < booted - 1.0,
+        "the estimate cooled since power-up: {before}"
+    );
+    let stall = core.now();
+    soc(&mut core).suppress_irq(43);
+    core.run_until(stall + TIME_HZ * 3 / 2).unwrap();
+    let resets = core.resets().to_vec();
+    assert_eq!(resets.len(), 1, "{resets:?}");
+    let after_s = (resets[0] - stall) as f64 / TIME_HZ as f64;
+    println!("the watchdog reset the stalled board {after_s:.3} s after the stall");
+    assert!(
+        (0.5..=1.0).contains(&after_s),
+        "reset {after_s} s after the stall"
+    );
+    let said: String = soc(&mut core)
+        .usart2
+        .take_transmitted()
+        .iter()
+        .map(|b| char::from(b.byte))
+        .collect();
+    assert!(said.contains("# warning: reset by watchdog"), "{said:?}");
+    let status = exchange(&mut core, "status", 0.1);
+    assert!(status.starts_with("ok mode=stopped "), "{status}");
+    let kept = spring_k(&status);
+    assert!(
+        (kept - before).abs() < 1.5 && kept < booted - 0.5,
+        "the springs' memory: {kept} K after the reset, {before} K before it"
+    );
+}

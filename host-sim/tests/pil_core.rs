@@ -51,6 +51,12 @@ impl Bus for TestBus {
     fn irqs(&self, line: &mut dyn FnMut(u16, bool)) {
         line(0, self.raised && !self.cleared);
     }
+
+    fn take_reset(&mut self) -> bool {
+        false
+    }
+
+    fn software_reset(&mut self) {}
 }
 
 /// What software wrote to the test peripheral.

@@ -111,6 +111,8 @@ struct State {
     instructions: u64,
     /// An interrupt may have become takeable in a register write: end the slice.
     recheck: bool,
+    /// When the chip reset.
+    resets: Vec<Time>,
 }
 
 impl State {
@@ -194,6 +196,7 @@ impl Core {
             faults: Vec::new(),
             instructions: 0,
             recheck: false,
+            resets: Vec::new(),
         };
         let core_err = |err| CpuError::Core { pc: 0, err };
         let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, state)
@@ -420,6 +423,10 @@ impl Core {
     pub fn run_until(&mut self, until: Time) -> Result<(), CpuError> {
         while self.now() < until {
             self.sync()?;
+            if self.take_reset() {
+                self.reset()?;
+                continue;
+            }
             let masks = self.masks();
             if let Some(e) = self.uc.get_data().nvic.to_take(masks) {
                 self.wake()?;
@@ -439,6 +446,29 @@ impl Core {
             self.slice(until)?;
         }
         Ok(())
+    }
+
+    /// A system reset the chip asks for (a watchdog) or the core did (SYSRESETREQ): its
+    /// time is recorded ([`Core::resets`]).
+    fn take_reset(&mut self) -> bool {
+        let now = self.now();
+        let st = self.uc.get_data_mut();
+        let bus = st.bus.as_mut().expect("the bus is present");
+        let reset = if st.nvic.take_reset_request() {
+            bus.software_reset();
+            true
+        } else {
+            bus.take_reset()
+        };
+        if reset {
+            st.resets.push(now);
+        }
+        reset
+    }
+
+    /// When the chip reset (not counting the power-up), in its time.
+    pub fn resets(&self) -> &[Time] {
+        &self.uc.get_data().resets
     }
 
     /// Advance the bus to now, hand its interrupt lines to the NVIC, and follow the system

@@ -206,6 +206,11 @@ pub trait Bus: std::any::Any {
     fn clocks(&self) -> Clocks;
     /// Each external interrupt line's level: `line(irq, high)`.
     fn irqs(&self, line: &mut dyn FnMut(u16, bool));
+    /// Whether the chip asks for a system reset of its own (a watchdog), taken; its
+    /// peripherals have been reset for it.
+    fn take_reset(&mut self) -> bool;
+    /// A software reset (AIRCR.SYSRESETREQ): reset the peripherals for it.
+    fn software_reset(&mut self);
 }
 
 /// The bits of `value` (a write of `size` at `offset`) merged into the 32-bit register at

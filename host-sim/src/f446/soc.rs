@@ -87,6 +87,9 @@ pub struct Soc {
     reset: Option<ResetCause>,
     /// The clock of the sensor on I2C1, kept at the chip's time.
     sensor_clock: Option<SimClock>,
+    /// Interrupt lines held low whatever their peripheral says (a stall made in the
+    /// emulator: [`Soc::suppress_irq`]); cleared by a chip reset.
+    suppressed: Vec<u16>,
 }
 
 impl Default for Soc {
@@ -115,7 +118,15 @@ impl Soc {
             flash_busy: false,
             reset: None,
             sensor_clock: None,
+            suppressed: Vec::new(),
         }
+    }
+
+    /// Hold interrupt line `irq` low until the next chip reset: what a stalled interrupt
+    /// source does to the firmware (TIM12's, 43, stops embassy's time: every timer wait, the
+    /// control loop's tick among them), made in the emulator, not in the firmware.
+    pub fn suppress_irq(&mut self, irq: u16) {
+        self.suppressed.push(irq);
     }
 
     /// Put the virtual MLX90640 `device` (built on `clock`) on I2C1, at the chip's time.
@@ -149,6 +160,7 @@ impl Soc {
         self.adc1.rcc_reset();
         self.plain.clear();
         self.reset = None;
+        self.suppressed.clear();
     }
 
     /// The reset the chip asks for (the independent watchdog expired), taken.
@@ -424,7 +436,23 @@ impl Bus for Soc {
         self.rcc.clocks()
     }
 
+    fn take_reset(&mut self) -> bool {
+        match self.reset.take() {
+            Some(cause) => {
+                self.chip_reset(cause);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn software_reset(&mut self) {
+        self.chip_reset(ResetCause::Software);
+    }
+
     fn irqs(&self, line: &mut dyn FnMut(u16, bool)) {
+        let suppressed = &self.suppressed;
+        let line = &mut |irq: u16, high: bool| line(irq, high && !suppressed.contains(&irq));
         self.rcc.irqs(line);
         self.flash.irqs(line);
         self.exti.irqs(line);
