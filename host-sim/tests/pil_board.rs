@@ -14,7 +14,7 @@ use std::rc::Rc;
 use host_sim::f446::cpu::Core;
 use host_sim::f446::gpio::Drive;
 use host_sim::f446::soc::Soc;
-use host_sim::f446::{TIME_HZ, Time};
+use host_sim::f446::{FLASH_BASE, TIME_HZ, Time};
 use host_sim::sensor::eeprom;
 use host_sim::sensor::sim_time::SimClock;
 use host_sim::sensor::virtual_mlx::VirtualMlx90640;
@@ -47,7 +47,13 @@ fn board() -> Core {
         soc.flash.load(*a, b).unwrap();
     }
     soc.gpio[2].set_input(13, Drive::High);
-    let mut core = Core::new(Box::new(soc), &img.flash, &img.code).unwrap();
+    start(soc, &img)
+}
+
+/// The core on `soc`, its flash as the chip's array holds it (the ELF and any record).
+fn start(soc: Soc, img: &host_sim::f446::elf::Image) -> Core {
+    let flash = vec![(FLASH_BASE, soc.flash.array().to_vec())];
+    let mut core = Core::new(Box::new(soc), &flash, &img.code).unwrap();
     core.reset().unwrap();
     core
 }
@@ -147,5 +153,103 @@ fn a_stalled_loop_is_reset_by_the_watchdog_with_the_springs_memory_kept() {
     assert!(
         (kept - before).abs() < 1.5 && kept < booted - 0.5,
         "the springs' memory: {kept} K after the reset, {before} K before it"
+    );
+}
+
+/// The chip's flash region 3 (sectors 5–7, 0x0802_0000, 384 KiB) as embassy's blocking flash
+/// gives it to the board's store: 4-byte writes over erased bytes only, 128 KiB erases.
+struct Region3(Vec<u8>);
+
+#[derive(Debug)]
+struct NorError;
+
+impl embedded_storage_async::nor_flash::NorFlashError for NorError {
+    fn kind(&self) -> embedded_storage_async::nor_flash::NorFlashErrorKind {
+        embedded_storage_async::nor_flash::NorFlashErrorKind::Other
+    }
+}
+
+impl embedded_storage_async::nor_flash::ErrorType for Region3 {
+    type Error = NorError;
+}
+
+impl embedded_storage_async::nor_flash::ReadNorFlash for Region3 {
+    const READ_SIZE: usize = 1;
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), NorError> {
+        let at = offset as usize;
+        bytes.copy_from_slice(self.0.get(at..at + bytes.len()).ok_or(NorError)?);
+        Ok(())
+    }
+    fn capacity(&self) -> usize {
+        self.0.len()
+    }
+}
+
+impl embedded_storage_async::nor_flash::NorFlash for Region3 {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = 128 * 1024;
+    async fn erase(&mut self, from: u32, to: u32) -> Result<(), NorError> {
+        self.0[from as usize..to as usize].fill(0xFF);
+        Ok(())
+    }
+    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), NorError> {
+        let at = offset as usize;
+        let dst = &mut self.0[at..at + bytes.len()];
+        if dst.iter().any(|&b| b != 0xFF) {
+            return Err(NorError);
+        }
+        dst.copy_from_slice(bytes);
+        Ok(())
+    }
+}
+
+/// Region 3's offset in the flash array, and the board's settings range within it
+/// (`SETTINGS_RANGE` in the board's code: sectors 6 and 7).
+const REGION3: std::ops::Range<usize> = 0x2_0000..0x8_0000;
+const SETTINGS: std::ops::Range<u32> = 0x2_0000..0x6_0000;
+
+/// `save` on the ELF writes a record the library's store reads back (the settings changed
+/// before it), and a record the library writes is what the ELF boots with.
+#[test]
+fn the_elfs_flash_record_and_the_librarys_are_the_same() {
+    use embassy_futures::block_on;
+    use thermorph::settings::Settings;
+    use thermorph::storage::FlashStore;
+
+    let mut core = board();
+    core.run_until(TIME_HZ).unwrap();
+    let set = exchange(&mut core, "set hot_k 361", 0.1);
+    assert!(set.starts_with("ok hot_k=361"), "{set:?}");
+    // A save writes (and may erase: 2 s a 128 KiB sector at the x8 parallelism embassy uses).
+    let saved = exchange(&mut core, "save", 6.0);
+    assert!(saved.starts_with("ok"), "{saved:?}");
+    let region = soc(&mut core).flash.array()[REGION3].to_vec();
+    let mut store = FlashStore::new(Region3(region), SETTINGS.clone()).unwrap();
+    let mut said = String::new();
+    let s = block_on(store.boot_settings(&mut said));
+    assert!(said.is_empty(), "{said}");
+    assert_eq!(s.hot_k, 361.0, "the library reads the ELF's record");
+    // And back: the library's record of other settings, placed in a fresh board's flash.
+    let mut mine = Settings::DEFAULT;
+    mine.hot_k = 362.0;
+    let mut store = FlashStore::new(Region3(vec![0xFF; REGION3.len()]), SETTINGS.clone()).unwrap();
+    block_on(store.write(&mine.encode())).unwrap();
+    let bytes = store.release().0;
+    let range = SETTINGS.start as usize..SETTINGS.end as usize;
+    let img = host_sim::f446::elf::load(&elf()).unwrap();
+    let mut soc_ = Soc::new();
+    for (a, b) in &img.flash {
+        soc_.flash.load(*a, b).unwrap();
+    }
+    // Sectors 6 and 7 only: sector 5 holds the program's end.
+    let at = FLASH_BASE + (REGION3.start + range.start) as u32;
+    soc_.flash.load(at, &bytes[range]).unwrap();
+    soc_.gpio[2].set_input(13, Drive::High);
+    let mut core = start(soc_, &img);
+    core.run_until(TIME_HZ).unwrap();
+    let got = exchange(&mut core, "get hot_k", 0.1);
+    assert!(
+        got.starts_with("ok hot_k=362"),
+        "the ELF boots with the library's: {got:?}"
     );
 }
