@@ -94,7 +94,7 @@ fn the_elf_boots_to_180_mhz_and_answers_its_console() {
     let status = exchange(&mut core, "status", 0.2);
     assert!(status.starts_with("ok mode=stopped "), "{status:?}");
     let s = soc(&mut core);
-    assert_eq!(s.tims[1].pwm_duty(0), 0.0, "the heater (TIM3 CH1) off");
+    assert_eq!(s.tims[1].pwm_duty(1), 0.0, "the heater (TIM3 CH1) off");
     // The camera's frames come through I2C1 and DMA: the regions read the field.
     core.run_until(core.now() + 3 * TIME_HZ).unwrap();
     let status = exchange(&mut core, "status", 0.2);
@@ -252,4 +252,30 @@ fn the_elfs_flash_record_and_the_librarys_are_the_same() {
         got.starts_with("ok hot_k=362"),
         "the ELF boots with the library's: {got:?}"
     );
+}
+
+/// The e-stop button (PC13, active low, EXTI13 on its falling edge) latches `estop` on the
+/// ELF within a tick, heater and fan off; released, `reset` clears it.
+#[test]
+fn the_button_latches_an_estop_through_exti() {
+    let mut core = board();
+    core.run_until(TIME_HZ).unwrap();
+    let standby = exchange(&mut core, "mode standby", 0.5);
+    assert!(standby.starts_with("ok mode standby"), "{standby:?}");
+    assert!(soc(&mut core).tims[1].pwm_duty(1) > 0.0, "standby heats");
+    let pressed = core.now();
+    soc(&mut core).gpio[2].set_input(13, Drive::Low);
+    core.run_until(pressed + TIME_HZ / 20).unwrap();
+    assert_eq!(
+        soc(&mut core).tims[1].pwm_duty(1),
+        0.0,
+        "heater off within a tick"
+    );
+    let status = exchange(&mut core, "status", 0.1);
+    assert!(status.contains("fault=estop"), "{status}");
+    soc(&mut core).gpio[2].set_input(13, Drive::High);
+    core.run_until(core.now() + TIME_HZ / 10).unwrap();
+    let reset = exchange(&mut core, "reset", 0.2);
+    assert!(reset.starts_with("ok"), "{reset:?}");
+    assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
 }
