@@ -39,8 +39,12 @@
 //!   input filters and prescalers, the option registers (OR);
 //! - input capture from pins (no pin drives a timer input here): only CCxG captures;
 //! - the timers' DMA requests (UDE, CCxDE, TDE, CCDS are stored, nothing is requested);
-//! - a counter written above ARR counts to its top (0xFFFF or 0xFFFF_FFFF) and wraps to 0
-//!   without an update event (RM0390 does not say; a compare match above ARR is reached then).
+//! - a counter written above ARR, counting up, counts to its top (0xFFFF or 0xFFFF_FFFF) and
+//!   wraps to 0 without an update event (RM0390 does not say; a compare match above ARR is
+//!   reached then); counting down it underflows at 0 as usual;
+//! - center-aligned, the details RM0390 leaves open: UG restarts the counter from 0 counting
+//!   up; a match at ARR counts as counting up, at 0 as counting down; the on-match OCxREF
+//!   modes act in both directions.
 //!
 //! Time: [`Peripheral::advance`] counts whole timer clock ticks at the clock it is given (a
 //! change of the timer clock is exact to one tick); [`Peripheral::next_event`] is the next
