@@ -13,7 +13,9 @@
 //! Modelled as RM0390 says:
 //! - the counter on the internal clock (the APB1 timer clock, [`Clocks::tim_apb1_hz`]): the
 //!   prescaler (PSC preloaded, taking effect at the next update event), edge-aligned up- and
-//!   downcounting (DIR), the auto-reload (ARR, preloaded when ARPE), a null ARR blocking the
+//!   downcounting (DIR), center-aligned counting (CMS: 0 up to ARR, an overflow, down to 0, an
+//!   underflow; DIR read-only, showing the direction; compare flags only counting down, only
+//!   up or both as CMS says), the auto-reload (ARR, preloaded when ARPE), a null ARR blocking the
 //!   counter, one-pulse mode (OPM clears CEN at the update event), UDIS and URS;
 //! - update events: overflow/underflow and EGR.UG (UG reinitialises the counter and the
 //!   prescaler counter; it loads PSC, ARR and CCRx into their shadows and sets UIF unless
@@ -32,14 +34,17 @@
 //!   wrapping after DBL + 1 transfers, reset by a DCR write) — TIM2–5 only.
 //!
 //! Not modelled (the board never uses them; the registers read back what was written):
-//! - center-aligned counting (CMS ≠ 0): the counter counts edge-aligned in DIR's direction;
 //! - the slave mode controller (SMCR: external clocks, trigger, gated and reset modes), the
 //!   master mode output (CR2.MMS), the TI1 XOR (CR2.TI1S), OCxREF clear (OCxCE), OCxFE, the
 //!   input filters and prescalers, the option registers (OR);
 //! - input capture from pins (no pin drives a timer input here): only CCxG captures;
 //! - the timers' DMA requests (UDE, CCxDE, TDE, CCDS are stored, nothing is requested);
-//! - a counter written above ARR counts to its top (0xFFFF or 0xFFFF_FFFF) and wraps to 0
-//!   without an update event (RM0390 does not say; a compare match above ARR is reached then).
+//! - a counter written above ARR, counting up, counts to its top (0xFFFF or 0xFFFF_FFFF) and
+//!   wraps to 0 without an update event (RM0390 does not say; a compare match above ARR is
+//!   reached then); counting down it underflows at 0 as usual;
+//! - center-aligned, the details RM0390 leaves open: UG restarts the counter from 0 counting
+//!   up; a match at ARR counts as counting up, at 0 as counting down; the on-match OCxREF
+//!   modes act in both directions.
 //!
 //! Time: [`Peripheral::advance`] counts whole timer clock ticks at the clock it is given (a
 //! change of the timer clock is exact to one tick); [`Peripheral::next_event`] is the next
@@ -318,7 +323,7 @@ impl Tim {
     /// of each period the output (OCxREF through the polarity CCxP) is high.
     ///
     /// PWM mode 1 upcounting: min(CCRx, ARR + 1) / (ARR + 1) (downcounting: min(CCRx + 1,
-    /// ARR + 1) / (ARR + 1)); PWM mode 2 its complement; forced active 1, forced inactive 0;
+    /// ARR + 1) / (ARR + 1); center-aligned: min(CCRx, ARR) / ARR); PWM mode 2 its complement; forced active 1, forced inactive 0;
     /// toggle on match 0.5 while a match is reached each period; frozen and active/inactive on
     /// match their present level. 0 when CCxE = 0 (the output is not driven), and for a
     /// channel configured as input or beyond the timer's channels. A stopped counter (CEN = 0)
@@ -335,7 +340,9 @@ impl Tim {
         let arr = u64::from(self.arr_active);
         let v = u64::from(self.ccr_active[ch]);
         let down = self.down();
-        let pwm1 = if down {
+        let pwm1 = if self.center() {
+            v.min(arr) as f64 / arr.max(1) as f64
+        } else if down {
             (v + 1).min(arr + 1) as f64 / (arr + 1) as f64
         } else {
             v.min(arr + 1) as f64 / (arr + 1) as f64
@@ -378,9 +385,37 @@ impl Tim {
         }
     }
 
-    /// Whether the counter counts down (DIR, edge-aligned).
+    /// Whether the counter counts down: DIR; center-aligned, up from 0 and down from ARR
+    /// whatever DIR says.
     fn down(&self) -> bool {
-        self.cr1 & DIR != 0
+        if self.center() {
+            self.cnt != 0 && (self.cnt == self.arr_active || self.cr1 & DIR != 0)
+        } else {
+            self.cr1 & DIR != 0
+        }
+    }
+
+    /// Center-aligned, DIR set to the direction the counter counts in (up from 0, down from
+    /// ARR).
+    fn settle_dir(&mut self) {
+        if self.center() {
+            if self.down() {
+                self.cr1 |= DIR;
+            } else {
+                self.cr1 &= !DIR;
+            }
+        }
+    }
+
+    /// Whether the counter is center-aligned (CMS ≠ 0).
+    fn center(&self) -> bool {
+        (self.cr1 >> 5) & 3 != 0
+    }
+
+    /// Counter ticks of one whole period (an edge-aligned ARR + 1, a center-aligned 2 · ARR).
+    fn period_ticks(&self) -> u64 {
+        let arr = u64::from(self.arr_active);
+        if self.center() { 2 * arr } else { arr + 1 }
     }
 
     /// CCxS of channel index `ch` (0: output).
@@ -404,7 +439,7 @@ impl Tim {
         let v = u64::from(self.ccr_active[ch]);
         let pwm1 = if u64::from(self.arr_active) < v {
             true
-        } else if self.down() {
+        } else if self.down() && !self.center() {
             c <= v
         } else {
             c < v
@@ -418,13 +453,21 @@ impl Tim {
         }
     }
 
-    /// Counter ticks from now to the counter's wrap (overflow, underflow or its top), or None
-    /// while the counter is blocked (ARR = 0).
+    /// Counter ticks from now to the counter's wrap (overflow, underflow or its top; center-
+    /// aligned, its turn at ARR or 0), or None while the counter is blocked (ARR = 0).
     fn ticks_to_wrap(&self) -> Option<u64> {
         let arr = u64::from(self.arr_active);
         let c = u64::from(self.cnt);
         if arr == 0 {
             None
+        } else if self.center() {
+            if self.down() {
+                Some(c)
+            } else if c < arr {
+                Some(arr - c)
+            } else {
+                Some(u64::from(self.top()) - c + 1)
+            }
         } else if self.down() {
             Some(c + 1)
         } else if c <= arr {
@@ -463,10 +506,47 @@ impl Tim {
             return false;
         };
         debug_assert!(d <= to_event);
+        self.settle_dir();
         let wrap = self.ticks_to_wrap() == Some(d);
+        let down = self.down();
         // Counting up from above ARR, the counter wraps at its top without an update;
         // counting down it always underflows at 0.
         let in_range = self.cnt <= self.arr_active;
+        if self.center() {
+            let cycle = wrap && down;
+            if wrap && down {
+                // The underflow at 0, then up.
+                self.cnt = 0;
+                self.cr1 &= !DIR;
+                self.overflow();
+            } else if wrap && in_range {
+                // The overflow at ARR, then down.
+                self.cnt = self.arr_active;
+                self.cr1 |= DIR;
+                self.overflow();
+            } else if wrap {
+                self.cnt = 0;
+            } else if down {
+                self.cnt -= d as u32;
+            } else {
+                self.cnt += d as u32;
+            }
+            if d == to_event || wrap {
+                // CMS 01: flags counting down only, 10 up only, 11 both.
+                let cms = (self.cr1 >> 5) & 3;
+                let flags = if down { cms & 1 != 0 } else { cms & 2 != 0 };
+                for ch in 0..self.inst.channels {
+                    if self.ccs(ch) == 0 && self.ccr_active[ch] == self.cnt {
+                        let sr = self.sr;
+                        self.compare_match(ch);
+                        if !flags {
+                            self.sr = sr;
+                        }
+                    }
+                }
+            }
+            return cycle;
+        }
         if wrap {
             if self.down() {
                 self.overflow();
@@ -521,11 +601,13 @@ impl Tim {
         }
     }
 
-    /// What a clean period must leave unchanged (flags, shadows, CR1).
+    /// What a clean period must leave unchanged (flags, shadows, CR1 but the direction a
+    /// center-aligned counter shows in DIR).
     fn state_key(&self) -> (u32, u32, u32, u32, [u32; 4]) {
+        let dir = if self.center() { DIR } else { 0 };
         (
             self.sr,
-            self.cr1,
+            self.cr1 & !dir,
             self.psc_active,
             self.arr_active,
             self.ccr_active,
@@ -538,7 +620,14 @@ impl Tim {
         let start = n;
         let mut seen_wrap = false;
         let mut changed = false;
+        let mut events = 0u32;
         while n > 0 && self.cr1 & CEN != 0 {
+            events += 1;
+            if stop_at_change && events > 100_000 {
+                // (Never in the cases tested: a period settles within a few. A wake to look
+                // again from here, not a change.)
+                return Run::Changed(start - n);
+            }
             let div = u64::from(self.psc_active) + 1;
             let pc = self.prescaler_count;
             let Some(d) = self.ticks_to_event() else {
@@ -568,7 +657,7 @@ impl Tim {
                     if stop_at_change {
                         return Run::Steady;
                     }
-                    let period = 2 * div * (u64::from(self.arr_active) + 1);
+                    let period = 2 * div * self.period_ticks();
                     n %= period;
                 }
                 seen_wrap = true;
@@ -596,7 +685,14 @@ impl Tim {
                     self.cr1 &= !CEN;
                 }
             }
-            self.cnt = if self.down() { self.arr_active } else { 0 };
+            if self.center() {
+                self.cr1 &= !DIR;
+                self.cnt = 0;
+            } else if self.cr1 & DIR != 0 {
+                self.cnt = self.arr_active;
+            } else {
+                self.cnt = 0;
+            }
         }
         for ch in 0..self.inst.channels {
             if egr & cc_bit(ch) != 0 {
@@ -689,11 +785,24 @@ impl Tim {
 
     /// A write of the whole 32-bit register at `offset` (word-aligned).
     fn write_reg(&mut self, offset: u32, value: u32) {
+        self.write_reg_raw(offset, value);
+        self.settle_dir();
+    }
+
+    /// [`Self::write_reg`] before DIR is settled.
+    fn write_reg_raw(&mut self, offset: u32, value: u32) {
         let m = self.masks();
         let top = self.top();
         let two = self.inst.channels == 2;
         match offset {
-            CR1 => self.cr1 = value & m.cr1,
+            CR1 => {
+                let old = self.cr1;
+                self.cr1 = value & m.cr1;
+                // DIR is read-only center-aligned (it shows the direction).
+                if self.center() && (old >> 5) & 3 != 0 {
+                    self.cr1 = (self.cr1 & !DIR) | (old & DIR);
+                }
+            }
             CR2 => self.cr2 = value & m.cr2,
             SMCR => self.smcr = value & m.smcr,
             DIER => self.dier = value & m.dier,
@@ -982,6 +1091,7 @@ mod tests {
                     }
                 }
                 let cr1 = CEN
+                    | (u32::from(rnd(3) == 0) * (rnd(4) << 5))
                     | (rnd(2) * ARPE)
                     | (rnd(2) * DIR)
                     | (rnd(2) * URS)
@@ -1268,6 +1378,46 @@ mod tests {
         t.advance(Clocks::time_of(500 + 151 + 16, 90_000_000), &BOARD);
         assert_eq!(r(&mut t, CNT), 0);
         assert_eq!(r(&mut t, SR) & UIF, 0);
+    }
+
+    #[test]
+    fn center_aligned_counting_turns_at_arr_and_0() {
+        let clk = |n: u64| Clocks::time_of(n, 90_000_000);
+        for (cms, up_flags, down_flags) in [(1, false, true), (2, true, false), (3, true, true)] {
+            let mut t = Tim::new(TIM3);
+            w(&mut t, ARR, 6);
+            w(&mut t, CCR1, 2);
+            w(&mut t, CCR1 + 4, 5);
+            w(&mut t, CCMR1, 0x6060); // PWM mode 1 on CH1 and CH2
+            w(&mut t, CCER, 0x11);
+            w(&mut t, CR1, (cms << 5) | CEN);
+            // Up: 2 and 5 pass, then the overflow at ARR (tick 6).
+            t.advance(clk(5), &BOARD);
+            let up = cc_bit(0) | cc_bit(1);
+            assert_eq!(r(&mut t, SR), if up_flags { up } else { 0 }, "CMS {cms}");
+            assert_eq!(r(&mut t, CR1) & DIR, 0);
+            t.advance(clk(6), &BOARD);
+            assert_eq!(r(&mut t, CNT), 6);
+            assert_eq!(r(&mut t, SR) & UIF, UIF);
+            assert_eq!(r(&mut t, CR1) & DIR, DIR, "DIR shows counting down");
+            // DIR is read-only now.
+            rmw(&mut t, CR1, |v| v & !DIR);
+            assert_eq!(r(&mut t, CR1) & DIR, DIR);
+            w(&mut t, SR, 0);
+            // Down: 5 at tick 7, 2 at tick 10, the underflow at 0 (tick 12).
+            t.advance(clk(10), &BOARD);
+            assert_eq!(r(&mut t, CNT), 2);
+            assert_eq!(r(&mut t, SR), if down_flags { up } else { 0 }, "CMS {cms}");
+            t.advance(clk(12), &BOARD);
+            assert_eq!(r(&mut t, CNT), 0);
+            assert_eq!(r(&mut t, SR) & UIF, UIF);
+            assert_eq!(r(&mut t, CR1) & DIR, 0);
+            t.advance(clk(13), &BOARD);
+            assert_eq!(r(&mut t, CNT), 1);
+            // PWM: high while CNT < CCR, both ways: CCR / ARR; a period of 2 · ARR ticks.
+            assert_eq!(t.pwm_duty(1), 2.0 / 6.0);
+            assert_eq!(t.pwm_duty(2), 5.0 / 6.0);
+        }
     }
 
     #[test]
