@@ -644,6 +644,57 @@ mod tests {
     }
 
     #[test]
+    fn embassys_interrupt_driven_transmission_streams_back_to_back() {
+        // BufferedUart's write: TXEIE set; its interrupt feeds DR from the ring while TXE,
+        // sets TCIE with the last byte, and on TC clears TC (SR read-modify-write) and TCIE.
+        let mut u = console();
+        let t0 = u.now;
+        let mut ring: VecDeque<u8> = b"ok\n".iter().copied().collect();
+        rmw(&mut u, CR1, |v| v | TXEIE);
+        let mut t = t0;
+        let mut interrupts = 0;
+        while t < t0 + 10 * FRAME {
+            u.advance(t, &BOARD);
+            if irq(&u) {
+                interrupts += 1;
+                let sr = r(&mut u, SR);
+                if sr & TC != 0 && r(&mut u, CR1) & TCIE != 0 {
+                    rmw(&mut u, SR, |v| v & !TC);
+                    rmw(&mut u, CR1, |v| v & !TCIE);
+                }
+                if r(&mut u, SR) & TXE != 0 {
+                    match ring.pop_front() {
+                        Some(b) => {
+                            rmw(&mut u, CR1, |v| v | TXEIE);
+                            if ring.is_empty() {
+                                rmw(&mut u, CR1, |v| v | TCIE);
+                            }
+                            w(&mut u, DR, u32::from(b));
+                        }
+                        None => rmw(&mut u, CR1, |v| v & !TXEIE),
+                    }
+                }
+                // Still pending: the handler runs again at once.
+                assert!(interrupts < 20);
+                continue;
+            }
+            t = u.next_event(t, &BOARD).unwrap_or(t + FRAME).min(t + FRAME);
+        }
+        let sent = u.take_transmitted();
+        let bytes: Vec<u8> = sent.iter().map(|s| s.byte).collect();
+        assert_eq!(bytes, b"ok\n");
+        // The shift register never idles between them: one frame apart.
+        assert_eq!(sent[0].end, t0 + FRAME);
+        assert_eq!(sent[1].end, t0 + 2 * FRAME);
+        assert_eq!(sent[2].end, t0 + 3 * FRAME);
+        assert!(!irq(&u), "all interrupts disabled again");
+        assert_eq!(r(&mut u, CR1) & (TXEIE | TCIE), 0);
+        // 'o' and 'k' at once (TDR and the shift register), '\n' a frame later, the ring
+        // empty (TXEIE off) after it, then TC.
+        assert_eq!(interrupts, 5);
+    }
+
+    #[test]
     fn setting_te_sends_an_idle_frame_first() {
         let mut u = Usart::new(USART2);
         u.advance(0, &BOARD);
