@@ -20,6 +20,9 @@ pub struct Image {
     pub code: Vec<(u32, Vec<u8>)>,
     /// The RTT control block's address (`_SEGGER_RTT`), if the ELF has one.
     pub rtt: Option<u32>,
+    /// The springs' memory kept across a reset (the board's `retained::WORDS`), if the ELF has
+    /// it.
+    pub spring_memory: Option<u32>,
     /// The initial stack pointer and reset handler (the vector table's first two words).
     pub vectors: (u32, u32),
 }
@@ -164,6 +167,10 @@ pub fn parse(data: &[u8], name: &str) -> Result<Image, ElfError> {
         .symbols()
         .find(|s| s.name() == Ok("_SEGGER_RTT"))
         .map(|s| s.address() as u32);
+    let spring_memory = elf
+        .symbols()
+        .find(|s| s.name().is_ok_and(|n| n.contains("8retained5WORDS")))
+        .map(|s| s.address() as u32);
     let word = |at: u32| -> Option<u32> {
         flash.iter().find_map(|(a, b): &(u32, Vec<u8>)| {
             let off = at.checked_sub(*a)? as usize;
@@ -188,6 +195,7 @@ pub fn parse(data: &[u8], name: &str) -> Result<Image, ElfError> {
         flash,
         code,
         rtt,
+        spring_memory,
         vectors: (sp, reset),
     })
 }

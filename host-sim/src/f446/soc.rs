@@ -87,6 +87,9 @@ pub struct Soc {
     reset: Option<ResetCause>,
     /// The clock of the sensor on I2C1, kept at the chip's time.
     sensor_clock: Option<SimClock>,
+    /// The spring channels' analog inputs for each state of the spring gates and the power
+    /// enable ([`Soc::set_spring_analog`]).
+    spring_analog: Option<Box<[[f64; 6]; 16]>>,
     /// Interrupt lines held low whatever their peripheral says (a stall made in the
     /// emulator: [`Soc::suppress_irq`]); cleared by a chip reset.
     suppressed: Vec<u16>,
@@ -118,8 +121,24 @@ impl Soc {
             flash_busy: false,
             reset: None,
             sensor_clock: None,
+            spring_analog: None,
             suppressed: Vec::new(),
         }
+    }
+
+    /// The spring channels' analog inputs (volts at PA0, PA1, PA4, PB0, PC1, PC0: ADC1 IN0,
+    /// IN1, IN4, IN8, IN11, IN10) for each state of the gates PA8, PB5, PB10 (bits 0–2) and
+    /// the power enable PA9 (bit 3): the ADC converts the row of the pins' state at each
+    /// conversion, so a gate's switch reaches the channels at once, as the circuit's does.
+    pub fn set_spring_analog(&mut self, table: Box<[[f64; 6]; 16]>) {
+        self.spring_analog = Some(table);
+    }
+
+    /// The spring gates' and the power enable's state as [`Soc::set_spring_analog`] indexes
+    /// it.
+    pub fn spring_pins(&self) -> usize {
+        let out = |port: usize, pin: usize| usize::from(self.gpio[port].output(pin) == Some(true));
+        out(0, 8) | out(1, 5) << 1 | out(1, 10) << 2 | out(0, 9) << 3
     }
 
     /// Hold interrupt line `irq` low until the next chip reset: what a stalled interrupt
@@ -408,6 +427,12 @@ impl Bus for Soc {
             }
         }
         self.i2c1.advance(now, &clocks);
+        if let Some(table) = &self.spring_analog {
+            let row = table[self.spring_pins()];
+            for (ch, v) in [0, 1, 4, 8, 11, 10].into_iter().zip(row) {
+                self.adc1.set_input_v(ch, v);
+            }
+        }
         self.adc1.advance(now, &clocks);
         for d in &mut self.dma {
             d.advance(now, &clocks);

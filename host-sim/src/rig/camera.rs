@@ -34,6 +34,41 @@ pub struct CameraFaults {
     pub view: Option<CameraFault>,
 }
 
+/// Render the block as `obs` has it, seen by a camera mounted at `azimuth_deg` (or what a
+/// camera fault shows instead), into a sensor's `field` (K): the view as `scene::render`
+/// draws it, without noise (the sensor adds its own). `layout` and `view_k` are the caller's
+/// cache and scratch (the layout is kept while the column's tilt stays).
+pub fn render_field(
+    obs: &Observation,
+    faults: CameraFaults,
+    azimuth_deg: f64,
+    layout: &mut Option<Layout>,
+    view_k: &mut [f64; IMG_PIXELS],
+    field: &mut [f32; IMG_PIXELS],
+) {
+    if faults.view == Some(CameraFault::Elsewhere) {
+        *field = [ELSEWHERE_K as f32; IMG_PIXELS];
+        return;
+    }
+    let mut temps = camera_temps(obs);
+    if faults.view == Some(CameraFault::BurningFilm) {
+        temps.heater_k = BURNING_FILM_K;
+    }
+    let geometry = Geometry {
+        tilt_deg: true_tilt_deg(obs, azimuth_deg),
+        springs: true,
+        ..Geometry::default()
+    };
+    let layout = match layout {
+        Some(l) if *l.geometry() == geometry => l,
+        slot => slot.insert(Layout::new(&geometry, CAMERA_SUBGRID)),
+    };
+    layout.image(&temps, view_k);
+    for (dst, &k) in field.iter_mut().zip(view_k.iter()) {
+        *dst = k as f32;
+    }
+}
+
 /// The camera chain: renderer → virtual MLX90640 → the firmware's sensing pipeline.
 pub struct Camera {
     clock: SimClock,
@@ -129,28 +164,14 @@ impl Camera {
     /// sensor's own fault is [`Camera::set_fault`]'s).
     pub fn show(&mut self, obs: &Observation, faults: CameraFaults) {
         let mut dev = self.bus.0.borrow_mut();
-        if faults.view == Some(CameraFault::Elsewhere) {
-            dev.field_k = [ELSEWHERE_K as f32; IMG_PIXELS];
-        } else {
-            let mut temps = camera_temps(obs);
-            if faults.view == Some(CameraFault::BurningFilm) {
-                temps.heater_k = BURNING_FILM_K;
-            }
-            let geometry = Geometry {
-                tilt_deg: true_tilt_deg(obs, self.azimuth_deg),
-                springs: true,
-                ..Geometry::default()
-            };
-            // The view as `scene::render` draws it (no noise: the sensor adds its own).
-            let layout = match &mut self.layout {
-                Some(l) if *l.geometry() == geometry => l,
-                slot => slot.insert(Layout::new(&geometry, CAMERA_SUBGRID)),
-            };
-            layout.image(&temps, &mut self.view_k);
-            for (dst, &k) in dev.field_k.iter_mut().zip(self.view_k.iter()) {
-                *dst = k as f32;
-            }
-        }
+        render_field(
+            obs,
+            faults,
+            self.azimuth_deg,
+            &mut self.layout,
+            &mut self.view_k,
+            &mut dev.field_k,
+        );
     }
 
     /// Run the sensing pipeline, with `hint`, until the sensor's clock reaches `until_us` or a

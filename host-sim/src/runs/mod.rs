@@ -11,6 +11,8 @@
 //! - [`plot`]: the PNG plots (of a run and of a desk recording).
 
 pub mod cycle_figures;
+#[cfg(feature = "pil")]
+pub mod elf_run;
 pub mod paper;
 pub mod plot;
 pub mod pose;

@@ -137,6 +137,14 @@ pub enum RunError {
     /// The scene is refused.
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
+    /// The board's ELF cannot play it (`--board`).
+    #[cfg(feature = "pil")]
+    #[error(transparent)]
+    Elf(#[from] crate::runs::elf_run::ElfRunError),
+    /// The emulated board could not be built (`--board`).
+    #[cfg(feature = "pil")]
+    #[error("the emulated board: {0}")]
+    Board(String),
     /// The simulated board could not be built.
     #[error(transparent)]
     Rig(#[from] RigError),
@@ -331,7 +339,13 @@ pub fn control_row(s: &Supervisor) -> ControlRow {
     }
 }
 
-fn summarise(scenario: &Scenario, rows: &[Row], wall_s: f64, camera: Option<&Camera>) -> Summary {
+/// The run's summary from its rows (the camera's statistics where it ran).
+pub(crate) fn summarise(
+    scenario: &Scenario,
+    rows: &[Row],
+    wall_s: f64,
+    camera: Option<&Camera>,
+) -> Summary {
     let f = scenario.fidelity;
     let fold = |get: &dyn Fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| {
         rows.iter().map(get).fold(init, op)
@@ -680,6 +694,11 @@ pub struct RunArgs {
     /// No progress bar and no summary on standard output.
     #[arg(long)]
     pub quiet: bool,
+    /// Play the scene with the board's own ELF (`thermorph-board`, release, thumbv7em) on the
+    /// emulated STM32F446 instead of the library's controller (needs a host-sim built with
+    /// `--features pil`; docs/pil.md).
+    #[arg(long, value_name = "ELF")]
+    pub board: Option<std::path::PathBuf>,
 }
 
 /// A progress bar on standard error, drawn only on a terminal and only once a run has taken
@@ -746,6 +765,25 @@ impl Progress {
     }
 }
 
+/// The scene with the board's ELF at `elf` ([`crate::runs::elf_run`]).
+#[cfg(feature = "pil")]
+fn run_board(
+    scenario: &Scenario,
+    elf: &Path,
+    progress: &mut dyn FnMut(f64),
+) -> anyhow::Result<RunResult> {
+    Ok(crate::runs::elf_run::run_elf(scenario, elf, progress)?)
+}
+
+/// Without `--features pil` there is no emulated chip to run the ELF on.
+#[cfg(not(feature = "pil"))]
+fn run_board(_: &Scenario, elf: &Path, _: &mut dyn FnMut(f64)) -> anyhow::Result<RunResult> {
+    anyhow::bail!(
+        "--board {}: this host-sim was built without the emulated STM32F446; build it with          `cargo run --release -p host-sim --features pil -- run SCENE --board ELF` (docs/pil.md)",
+        elf.display()
+    )
+}
+
 /// `host-sim run`: load the scene, run it with a progress bar, write the outputs, print the
 /// summary.
 pub fn cli(args: &RunArgs) -> anyhow::Result<()> {
@@ -755,7 +793,10 @@ pub fn cli(args: &RunArgs) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&scenario.name));
     let mut bar = Progress::new(!args.quiet);
-    let result = run(&scenario, &mut |f| bar.update(f));
+    let result = match &args.board {
+        None => run(&scenario, &mut |f| bar.update(f)).map_err(anyhow::Error::from),
+        Some(elf) => run_board(&scenario, elf, &mut |f| bar.update(f)),
+    };
     bar.finish();
     let result = result?;
     write_outputs(&result, &dir)?;

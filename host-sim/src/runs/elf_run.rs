@@ -1,0 +1,415 @@
+//! `host-sim run SCENE --board ELF` (`--features pil`): a scene played with the board's own ELF
+//! on the emulated STM32F446 in place of the library's controller — the same plant, the same
+//! camera view shown to the virtual MLX90640 on the chip's I2C1, the same injected faults, and
+//! the scene's console lines typed into the chip's USART2.
+//!
+//! What the ELF drives is read off its pins every 50 ms tick (TIM3 CH1's and TIM4 CH1's duty,
+//! the spring gates PA8/PB5/PB10 and the spring power enable PA9); the spring channels' ADC
+//! inputs are the plant's currents and supplies through the simulated front end
+//! (`rig::channels`). Its state for the time series comes from its own telemetry, which the
+//! harness turns on at power-up (`stream on 4`: its reply is not a scene's line and is not
+//! recorded); a latched fault is the telemetry's `fault=` turning from `none`.
+
+use std::cell::RefCell;
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::rc::Rc;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use thermorph::channels::FRONT_END;
+use thermorph::observer::Observer;
+use thermorph::posture::Bend;
+use thermorph::settings::Settings;
+use thermorph::supervisor::SpringMemory;
+
+use crate::f446::Peripheral;
+use crate::f446::cpu::Core;
+use crate::f446::gpio::Drive;
+use crate::f446::rcc::ResetCause;
+use crate::f446::soc::Soc;
+use crate::f446::{FLASH_BASE, TIME_HZ};
+use crate::imaging::view::Layout;
+use crate::plant::{Inputs, Plant};
+use crate::rig::camera::{CameraFaults, camera_temps, render_field};
+use crate::rig::{FaultRecord, RigError, apply_faults, channels};
+use crate::runs::run::{ReplyRecord, RunError, RunResult, WarningRecord, summarise};
+use crate::runs::scenario::Scenario;
+use crate::runs::series::{ControlRow, Row};
+use crate::sensor::eeprom;
+use crate::sensor::sim_time::SimClock;
+use crate::sensor::virtual_mlx::VirtualMlx90640;
+
+/// The board's control tick, µs: the harness reads the pins and steps the plant at it.
+const TICK_US: u64 = 50_000;
+
+/// The harness looks at the chip's pins this often within a tick, µs.
+const SUB_US: u64 = 1_000;
+
+/// Lines typed before this (the board's clocks, USART2 and tasks are up after ≈ 10 ms) wait
+/// for it, µs: bytes sent to a receiver not yet enabled would be lost, as on the board.
+const CONSOLE_UP_US: u64 = 100_000;
+
+/// Why the ELF cannot play a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum ElfRunError {
+    /// The ELF is refused.
+    #[error(transparent)]
+    Elf(#[from] crate::f446::elf::ElfError),
+    /// The emulated core stopped.
+    #[error(transparent)]
+    Core(#[from] crate::f446::cpu::CpuError),
+    /// The scene has no console line: the board only plays closed-loop scenes.
+    #[error(
+        "scene {0}: the board's ELF plays closed-loop scenes only (an open-loop scene drives the \
+         plant's inputs itself; give it `[[command]]` lines)"
+    )]
+    OpenLoop(String),
+}
+
+/// Intern a telemetry word as a `&'static str` (the time series' fields are static names).
+fn intern(word: &str) -> &'static str {
+    static NAMES: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
+    let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(&n) = names.get(word) {
+        return n;
+    }
+    let leaked: &'static str = Box::leak(word.to_string().into_boxed_str());
+    names.insert(leaked);
+    leaked
+}
+
+/// A telemetry line's `name=value` fields.
+fn field<'a>(line: &'a str, name: &str) -> Option<&'a str> {
+    line.split(' ')
+        .find_map(|w| w.strip_prefix(name).and_then(|r| r.strip_prefix('=')))
+}
+
+fn number(line: &str, name: &str) -> f64 {
+    field(line, name)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(f64::NAN)
+}
+
+/// The supervisor's state as the ELF's telemetry line gives it (the estimate's fields it
+/// carries; the others NaN).
+fn control_of(line: &str) -> ControlRow {
+    let mut e = Observer::new(&Settings::DEFAULT.observer_params(), f32::NAN).estimate();
+    let f = |n: &str| number(line, n) as f32;
+    e.frozen = f("frozen_pct") / 100.0;
+    e.frozen_std = f("frozen_std_pct") / 100.0;
+    e.layers_k[0] = f("inner_k");
+    e.layers_std_k[0] = f("inner_std_k");
+    e.ambient_k = f("ambient_est_k");
+    e.ambient_std_k = f("ambient_std_k");
+    for (i, s) in ["a", "b", "c"].iter().enumerate() {
+        e.springs_k[i] = f(&format!("spring_{s}_k"));
+        e.springs_std_k[i] = f(&format!("spring_{s}_std_k"));
+        e.austenite[i] = f(&format!("aus_{s}_pct")) / 100.0;
+        e.austenite_std[i] = f(&format!("aus_{s}_std_pct")) / 100.0;
+        e.springs_wire_k[i] = f32::NAN;
+    }
+    let fault = field(line, "fault").filter(|&f| f != "none").map(intern);
+    ControlRow {
+        estimate: e,
+        bend: Bend {
+            deg: f("bend_deg"),
+            sd_deg: f("bend_sd_deg"),
+        },
+        model_bend_deg: f64::NAN,
+        mode: intern(field(line, "mode").unwrap_or("-")),
+        phase: intern(field(line, "phase").unwrap_or("-")),
+        target_k: number(line, "target_k"),
+        tc_k: number(line, "tc_k"),
+        fault,
+        spring_a: [f64::NAN; 3],
+    }
+}
+
+/// The emulated board and the block it drives.
+struct ElfBoard {
+    plant: Plant,
+    core: Core,
+    faults: Vec<crate::rig::faults::FaultSpec>,
+    sensing: channels::Sensing,
+    /// The camera's sensor (None: the scene's camera is off, the board sees nothing).
+    device: Option<Rc<RefCell<VirtualMlx90640>>>,
+    azimuth_deg: f64,
+    layout: Option<Layout>,
+    view_k: Box<[f64; thermorph::mtts::IMG_PIXELS]>,
+    time_us: u64,
+    /// What the ELF drove at the last tick, before faults.
+    commanded: Inputs,
+    /// Bytes the ELF wrote that do not make a whole line yet.
+    partial: String,
+    /// Lines typed before the console is up ([`CONSOLE_UP_US`]).
+    typed: Vec<String>,
+}
+
+impl ElfBoard {
+    fn new(scenario: &Scenario, elf: &Path) -> Result<ElfBoard, RunError> {
+        let block = scenario.block();
+        let img = crate::f446::elf::load(elf).map_err(ElfRunError::from)?;
+        let plant = Plant::with_options(&block.plant, block.options).map_err(RigError::from)?;
+        let mut soc = Soc::new();
+        for (a, b) in &img.flash {
+            soc.flash
+                .load(*a, b)
+                .map_err(|why| RunError::Board(why.to_string()))?;
+        }
+        // The e-stop button released (B1 pulls PC13 high).
+        soc.gpio[2].set_input(13, Drive::High);
+        let device = if block.camera.enabled {
+            let clock = SimClock::new();
+            let words = eeprom::realistic(block.camera.seed)
+                .encode()
+                .map_err(|e| RunError::Board(e.to_string()))?;
+            let mut dev = VirtualMlx90640::new(words, clock.clone(), block.camera.seed)
+                .map_err(|e| RunError::Board(format!("{e:?}")))?;
+            dev.noise_k = block.camera.noise_k;
+            let dev = Rc::new(RefCell::new(dev));
+            soc.attach_sensor(dev.clone(), clock);
+            Some(dev)
+        } else {
+            None
+        };
+        // As the library's board in every run: springs at rest that the board knows of (a
+        // reset by its pin long after they were last driven, the memory kept in RAM), not a
+        // power-up's assumption of hot springs.
+        soc.rcc.write(0x74, crate::f446::Size::Word, 1 << 24);
+        soc.rcc.reset(ResetCause::Pin);
+        let flash = vec![(FLASH_BASE, soc.flash.array().to_vec())];
+        let mut core = Core::new(Box::new(soc), &flash, &img.code).map_err(ElfRunError::from)?;
+        if let Some(at) = img.spring_memory {
+            let words = SpringMemory::RESTED.to_words();
+            let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+            core.write_bytes(at, &bytes).map_err(ElfRunError::from)?;
+        }
+        core.reset().map_err(ElfRunError::from)?;
+        let seed = block.camera.seed;
+        let mut board = ElfBoard {
+            plant,
+            core,
+            faults: block.faults.clone(),
+            sensing: channels::Sensing::new(channels::SenseErrors::drawn(seed), seed),
+            device,
+            azimuth_deg: block.camera.azimuth_deg,
+            layout: None,
+            view_k: Box::new([0.0; thermorph::mtts::IMG_PIXELS]),
+            time_us: 0,
+            commanded: Inputs::default(),
+            partial: String::new(),
+            typed: Vec::new(),
+        };
+        board.show(CameraFaults::default());
+        board.analog(&Inputs::default());
+        Ok(board)
+    }
+
+    fn soc(&mut self) -> &mut Soc {
+        self.core.bus_as_mut::<Soc>().expect("built on the Soc")
+    }
+
+    /// Show the camera the plant now.
+    fn show(&mut self, faults: CameraFaults) {
+        let obs = self.plant.observe();
+        if let Some(dev) = &self.device {
+            let mut d = dev.borrow_mut();
+            d.set_fault(faults.sensor);
+            render_field(
+                &obs,
+                faults,
+                self.azimuth_deg,
+                &mut self.layout,
+                &mut self.view_k,
+                &mut d.field_k,
+            );
+        }
+    }
+
+    /// The spring channels' analog inputs for the plant's flows under `inputs`, for every
+    /// state of the gates and the power enable the ELF may switch to before the next look
+    /// (`Soc::set_spring_analog`): currents on ADC1 IN0/IN1/IN4, supplies on IN8/IN11/IN10
+    /// (`pins.rs`), through the simulated front end's counts.
+    fn analog(&mut self, inputs: &Inputs) {
+        // The pin's volts: the ADC's reference over its 4096 counts.
+        let v = f64::from(FRONT_END.adc_ref_v) / 4096.0;
+        let mut table = Box::new([[0.0; 6]; 16]);
+        for (state, row) in table.iter_mut().enumerate() {
+            let i = Inputs {
+                springs_on: [state & 1 != 0, state & 2 != 0, state & 4 != 0],
+                spring_power_off: state & 8 == 0,
+                ..*inputs
+            };
+            let flows = self.plant.channel_flows(&i);
+            let counts = self
+                .sensing
+                .scan(flows.map(|f| f.current_a), flows.map(|f| f.supply_v));
+            for k in 0..3 {
+                row[k] = f64::from(counts.current[k]) * v;
+                row[3 + k] = f64::from(counts.supply[k]) * v;
+            }
+        }
+        self.soc().set_spring_analog(table);
+    }
+
+    /// What the ELF drives now.
+    fn outputs(&mut self) -> Inputs {
+        let s = self.soc();
+        let pin = |port: usize, n: usize| s.gpio[port].output(n).unwrap_or(false);
+        Inputs {
+            heater_duty: s.tims[1].pwm_duty(1),
+            fan_duty: s.tims[2].pwm_duty(1),
+            springs_on: [pin(0, 8), pin(1, 5), pin(1, 10)],
+            spring_power_off: !pin(0, 9),
+            ..Inputs::default()
+        }
+    }
+
+    /// Type `line` on the console (once it is up).
+    fn type_line(&mut self, line: &str) {
+        self.typed.push(format!("{line}\r\n"));
+        if self.time_us >= CONSOLE_UP_US {
+            let bytes: String = self.typed.drain(..).collect();
+            self.soc().usart2.receive_bytes(bytes.as_bytes());
+        }
+    }
+
+    /// One tick: the chip to the next tick in steps of [`SUB_US`], its pins read after each
+    /// (the spring channels' analog inputs follow a gate at once, as the circuit does), the
+    /// plant run with what they drove.
+    fn tick(&mut self) -> Result<(Inputs, u32, CameraFaults, Vec<String>), RunError> {
+        let t_s = self.time_us as f64 * 1e-6;
+        if self.time_us >= CONSOLE_UP_US && !self.typed.is_empty() {
+            let bytes: String = self.typed.drain(..).collect();
+            self.soc().usart2.receive_bytes(bytes.as_bytes());
+        }
+        self.commanded = self.outputs();
+        let mut inputs = self.commanded;
+        let (mask, cam) = apply_faults(&self.faults, t_s, &mut inputs);
+        let first = inputs;
+        self.show(cam);
+        let next = self.time_us + TICK_US;
+        let mut held_from = self.time_us;
+        while self.time_us < next {
+            self.analog(&inputs);
+            let to = (self.time_us + SUB_US).min(next);
+            self.core
+                .run_until(to * (TIME_HZ / 1_000_000))
+                .map_err(ElfRunError::from)?;
+            self.time_us = to;
+            let mut now = self.outputs();
+            apply_faults(&self.faults, t_s, &mut now);
+            if now != inputs || to == next {
+                self.plant.step(&inputs, (to - held_from) as f64 * 1e-6);
+                held_from = to;
+                inputs = now;
+            }
+        }
+        let inputs = first;
+        let bytes = self.soc().usart2.take_transmitted();
+        self.partial
+            .extend(bytes.iter().map(|b| char::from(b.byte)));
+        let mut lines = Vec::new();
+        while let Some(at) = self.partial.find("\r\n") {
+            lines.push(self.partial[..at].to_string());
+            self.partial.drain(..at + 2);
+        }
+        Ok((inputs, mask, cam, lines))
+    }
+}
+
+/// Play `scenario` with the ELF at `elf`.
+pub fn run_elf(
+    scenario: &Scenario,
+    elf: &Path,
+    progress: &mut dyn FnMut(f64),
+) -> Result<RunResult, RunError> {
+    if scenario.commands.is_empty() {
+        return Err(ElfRunError::OpenLoop(scenario.name.clone()).into());
+    }
+    let started = Instant::now();
+    let mut b = ElfBoard::new(scenario, elf)?;
+    let period_us = ((scenario.period_s * 1e6).round() as u64).max(TICK_US);
+    let steps = (scenario.duration_s / scenario.period_s).round().max(1.0) as usize;
+    let mut rows = Vec::with_capacity(steps);
+    let mut replies: Vec<ReplyRecord> = Vec::new();
+    let mut waiting: Vec<(f64, String)> = Vec::new();
+    let mut warnings = Vec::new();
+    let mut faults: Vec<FaultRecord> = Vec::new();
+    let mut control: Option<ControlRow> = None;
+    let mut next_command = 0;
+    // The harness's own line: telemetry at the scene's rate is the time series' control state.
+    b.type_line("stream on 4");
+    let mut harness_replies = 1;
+    let mut inputs = (Inputs::default(), 0, CameraFaults::default());
+    for k in 0..steps {
+        let t1_us = (k as u64 + 1) * period_us;
+        let row_start = (inputs.0, inputs.1, b.commanded.springs_on, control);
+        while b.time_us < t1_us {
+            let t_s = b.time_us as f64 * 1e-6;
+            while let Some(c) = scenario
+                .commands
+                .get(next_command)
+                .filter(|c| c.at_s <= t_s + 1e-9)
+            {
+                b.type_line(&c.line);
+                waiting.push((c.at_s, c.line.clone()));
+                next_command += 1;
+            }
+            let (i, mask, cam, lines) = b.tick()?;
+            inputs = (i, mask, cam);
+            let now_s = b.time_us as f64 * 1e-6;
+            for line in lines {
+                if std::env::var_os("THERMORPH_PIL_CONSOLE").is_some() {
+                    eprintln!("{now_s:9.3} | {line}");
+                }
+                if let Some(t) = line.strip_prefix("# t_s=").map(|_| line.as_str()) {
+                    let c = control_of(t);
+                    if let (Some(code), None) = (c.fault, control.and_then(|p| p.fault)) {
+                        faults.push(FaultRecord {
+                            at_s: now_s,
+                            code: code.to_string(),
+                            reason: String::new(),
+                        });
+                    }
+                    control = Some(c);
+                } else if let Some(w) = line.strip_prefix("# warning: ") {
+                    warnings.push(WarningRecord {
+                        at_s: now_s,
+                        text: w.to_string(),
+                    });
+                } else if line.starts_with('#') {
+                } else if harness_replies > 0 {
+                    harness_replies -= 1;
+                } else if !waiting.is_empty() {
+                    let (at_s, l) = waiting.remove(0);
+                    replies.push(ReplyRecord {
+                        at_s,
+                        line: l,
+                        reply: line,
+                    });
+                }
+            }
+        }
+        let (inputs_at, mask, springs_cmd, control_at) = row_start;
+        let obs = b.plant.observe();
+        rows.push(Row {
+            inputs: inputs_at,
+            springs_cmd,
+            obs,
+            measured_k: None,
+            quality: None,
+            truth_k: camera_temps(&obs).regions(),
+            faults: mask,
+            control: control_at,
+        });
+        progress((k + 1) as f64 / steps as f64);
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+    let mut summary = summarise(scenario, &rows, wall_s, None);
+    summary.replies = replies;
+    summary.faults = faults;
+    summary.warnings = warnings;
+    Ok(RunResult { rows, summary })
+}
