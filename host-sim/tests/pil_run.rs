@@ -64,3 +64,40 @@ fn the_elf_plays_the_default_cycle_as_the_library_does() {
         );
     }
 }
+
+/// Bad input to `host-sim run --board` is one clear line on standard error and a non-zero
+/// exit: a missing ELF, an ELF for another machine, a scene the board cannot play.
+#[test]
+fn bad_input_to_the_board_run_is_one_clear_error() {
+    let exe = env!("CARGO_BIN_EXE_host-sim");
+    let board = elf();
+    let cases: [(&[&str], &str); 3] = [
+        (
+            &["run", "cycle", "--board", "/nonexistent/thermorph-board"],
+            "cannot read",
+        ),
+        (&["run", "cycle", "--board", exe], "not the STM32F446"),
+        (
+            &["run", "open-loop", "--board", board.to_str().unwrap()],
+            "closed-loop scenes only",
+        ),
+    ];
+    let out_dir = std::env::temp_dir().join("thermorph-pil-bad-input");
+    for (args, want) in cases {
+        let out = std::process::Command::new(exe)
+            .args(args)
+            .arg("--out")
+            .arg(&out_dir)
+            .arg("--quiet")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}: {err}");
+        let lines: Vec<&str> = err.lines().collect();
+        assert_eq!(lines.len(), 1, "{args:?}: {err}");
+        assert!(
+            lines[0].starts_with("error: ") && lines[0].contains(want),
+            "{args:?}: {err}"
+        );
+    }
+}
