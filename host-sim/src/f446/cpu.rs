@@ -113,6 +113,9 @@ struct State {
     recheck: bool,
     /// When the chip reset.
     resets: Vec<Time>,
+    /// Slices run and sleeps skipped (the emulation's own cost: [`Core::stats`]).
+    slices: u64,
+    sleeps: u64,
 }
 
 impl State {
@@ -197,6 +200,8 @@ impl Core {
             instructions: 0,
             recheck: false,
             resets: Vec::new(),
+            slices: 0,
+            sleeps: 0,
         };
         let core_err = |err| CpuError::Core { pc: 0, err };
         let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, state)
@@ -445,6 +450,9 @@ impl Core {
             }
             self.slice(until)?;
         }
+        // The peripherals stand at the time reached too: what the harness gives them next
+        // (bytes on a receive line, a pin's level) starts from there.
+        self.sync()?;
         Ok(())
     }
 
@@ -464,6 +472,13 @@ impl Core {
             st.resets.push(now);
         }
         reset
+    }
+
+    /// Slices the core ran and sleeps it skipped since power-up: what the emulation's speed
+    /// goes by.
+    pub fn stats(&self) -> (u64, u64) {
+        let st = self.uc.get_data();
+        (st.slices, st.sleeps)
     }
 
     /// When the chip reset (not counting the power-up), in its time.
@@ -516,6 +531,7 @@ impl Core {
     /// Sleep at `wfe`: skip to the next peripheral or SysTick event (or `until`).
     fn sleep_until(&mut self, until: Time) {
         let st = self.uc.get_data_mut();
+        st.sleeps += 1;
         let now = st.now();
         let bus = st.bus.as_ref().expect("the bus is present");
         let clocks = bus.clocks();
@@ -538,6 +554,7 @@ impl Core {
     /// [`MAX_SLICE`]), a `wfe` that sleeps, or an exception return.
     fn slice(&mut self, until: Time) -> Result<(), CpuError> {
         let st = self.uc.get_data_mut();
+        st.slices += 1;
         let now = st.now();
         let bus = st.bus.as_ref().expect("the bus is present");
         let clocks = bus.clocks();

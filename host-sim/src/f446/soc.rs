@@ -90,6 +90,11 @@ pub struct Soc {
     /// The spring channels' analog inputs for each state of the spring gates and the power
     /// enable ([`Soc::set_spring_analog`]).
     spring_analog: Option<Box<[[f64; 6]; 16]>>,
+    /// The instant the models were last advanced to.
+    advanced: Option<Time>,
+    /// The ADC's last conversion end, and the shortest time between two seen.
+    adc_last: Option<Time>,
+    adc_period: Option<Time>,
     /// Interrupt lines held low whatever their peripheral says (a stall made in the
     /// emulator: [`Soc::suppress_irq`]); cleared by a chip reset.
     suppressed: Vec<u16>,
@@ -122,6 +127,9 @@ impl Soc {
             reset: None,
             sensor_clock: None,
             spring_analog: None,
+            advanced: None,
+            adc_last: None,
+            adc_period: None,
             suppressed: Vec::new(),
         }
     }
@@ -179,6 +187,8 @@ impl Soc {
         self.adc1.rcc_reset();
         self.plain.clear();
         self.reset = None;
+        self.adc_last = None;
+        self.adc_period = None;
         self.suppressed.clear();
     }
 
@@ -285,6 +295,24 @@ impl Soc {
         }
     }
 
+    /// When the core must next look at the ADC: its next conversion's end, or — while DMA2
+    /// stream 0 or 4 takes its conversions — no later than halfway to the stream's end (its
+    /// half-transfer or transfer-complete flag, which may interrupt), by the shortest
+    /// conversion seen.
+    fn adc_wake(&self, now: Time, c: &Clocks) -> Option<Time> {
+        let next = self.adc1.next_event(now, c)?;
+        let fed = [0, 4]
+            .into_iter()
+            .find(|&st| self.dma[1].enabled(st) && self.dma[1].channel(st) == 0);
+        match (fed, self.adc_period) {
+            (Some(st), Some(p)) => {
+                let left = u64::from(self.dma[1].remaining(st)).max(1);
+                Some(next + (left / 2).saturating_sub(1) * p)
+            }
+            _ => Some(next),
+        }
+    }
+
     /// GPIO edges to EXTI, through SYSCFG's port selection.
     fn route_edges(&mut self) {
         let (mut rising, mut falling) = (0u32, 0u32);
@@ -388,12 +416,20 @@ impl Bus for Soc {
         } else {
             return false;
         }
-        // A write may start a transfer a request already asks for.
+        // A write may start a transfer a request already asks for, and changes what the next
+        // advance at this instant must see.
         self.serve_dma(mem);
+        self.advanced = None;
         true
     }
 
     fn advance(&mut self, now: Time, mem: &mut dyn Memory) {
+        // Many accesses fall at one instant (a block's are counted at its start): the models
+        // stood there already.
+        if self.advanced == Some(now) {
+            return;
+        }
+        self.advanced = Some(now);
         let clocks = self.rcc.clocks();
         self.rcc.advance(now, &clocks);
         let pll_on = self.rcc.peek(super::rcc::reg::CR) & (1 << 24) != 0;
@@ -433,10 +469,22 @@ impl Bus for Soc {
                 self.adc1.set_input_v(ch, v);
             }
         }
-        self.adc1.advance(now, &clocks);
         for d in &mut self.dma {
             d.advance(now, &clocks);
         }
+        self.serve_dma(mem);
+        // The ADC's conversions one by one, each handed to its DMA stream at its end (a scan
+        // into a circular buffer needs no core: `next_event` wakes it only near the stream's
+        // half and end).
+        while let Some(t) = self.adc1.next_event(0, &clocks).filter(|&t| t <= now) {
+            self.adc1.advance(t, &clocks);
+            self.serve_dma(mem);
+            if let Some(last) = self.adc_last.replace(t) {
+                let p = t - last;
+                self.adc_period = Some(self.adc_period.map_or(p, |q| q.min(p)));
+            }
+        }
+        self.adc1.advance(now, &clocks);
         self.serve_dma(mem);
     }
 
@@ -450,7 +498,7 @@ impl Bus for Soc {
             self.iwdg.next_event(now, &c),
             self.usart2.next_event(now, &c),
             self.i2c1.next_event(now, &c),
-            self.adc1.next_event(now, &c),
+            self.adc_wake(now, &c),
         ];
         all.extend(self.tims.iter().map(|t| t.next_event(now, &c)));
         all.extend(self.dma.iter().map(|d| d.next_event(now, &c)));

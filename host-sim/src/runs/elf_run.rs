@@ -292,6 +292,8 @@ impl ElfBoard {
         let next = self.time_us + TICK_US;
         let mut held_from = self.time_us;
         while self.time_us < next {
+            // The channels' inputs for every state of the pins (the pins' state picks the row
+            // at each conversion), with the front end's noise drawn anew each step.
             self.analog(&inputs);
             let to = (self.time_us + SUB_US).min(next);
             self.core
@@ -407,6 +409,13 @@ pub fn run_elf(
         progress((k + 1) as f64 / steps as f64);
     }
     let wall_s = started.elapsed().as_secs_f64();
+    if std::env::var_os("THERMORPH_PIL_CONSOLE").is_some() {
+        let (slices, sleeps) = b.core.stats();
+        eprintln!(
+            "{} instructions, {slices} slices, {sleeps} sleeps",
+            b.core.instructions()
+        );
+    }
     let mut summary = summarise(scenario, &rows, wall_s, None);
     summary.replies = replies;
     summary.faults = faults;
