@@ -177,7 +177,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             host_sim::imaging::decode::write_csv(&img, &mut out)?;
             Ok(())
         }
-        Command::Run(args) => host_sim::runs::run::cli(&args),
+        Command::Run(args) => match &args.board {
+            None => host_sim::runs::run::cli(&args),
+            Some(elf) => run_board(&args, elf),
+        },
         Command::Sweep(args) => host_sim::runs::sweep::cli(&args),
         Command::Console(args) => host_sim::console::sim::cli(&args),
         Command::Sensor(args) => host_sim::sensor::demo::run(&args),
@@ -220,4 +223,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
         } => host_sim::runs::paper::cli(json, !no_camera, out.as_deref()),
     }
+}
+
+/// `run --board ELF`: the scene with the board's own ELF on the emulated STM32F446.
+#[cfg(feature = "pil")]
+fn run_board(args: &host_sim::runs::run::RunArgs, elf: &std::path::Path) -> anyhow::Result<()> {
+    host_sim::runs::elf_run::cli(args, elf)
+}
+
+/// Without `--features pil` there is no emulated chip to run the ELF on.
+#[cfg(not(feature = "pil"))]
+fn run_board(_: &host_sim::runs::run::RunArgs, elf: &std::path::Path) -> anyhow::Result<()> {
+    anyhow::bail!(
+        "--board {}: this host-sim was built without the emulated STM32F446; build it with \
+         `cargo run --release -p host-sim --features pil -- run SCENE --board ELF` (docs/pil.md)",
+        elf.display()
+    )
 }

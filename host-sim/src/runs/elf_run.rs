@@ -59,6 +59,12 @@ pub enum ElfRunError {
     /// The emulated core stopped.
     #[error(transparent)]
     Core(#[from] crate::f446::cpu::CpuError),
+    /// The scene, the plant or the camera could not be built.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The emulated board could not be built.
+    #[error("the emulated board: {0}")]
+    Board(String),
     /// The scene has no console line: the board only plays closed-loop scenes.
     #[error(
         "scene {0}: the board's ELF plays closed-loop scenes only (an open-loop scene drives the \
@@ -147,15 +153,14 @@ struct ElfBoard {
 }
 
 impl ElfBoard {
-    fn new(scenario: &Scenario, elf: &Path) -> Result<ElfBoard, RunError> {
+    fn new(scenario: &Scenario, elf: &Path) -> Result<ElfBoard, ElfRunError> {
         let block = scenario.block();
-        let img = crate::f446::elf::load(elf).map_err(ElfRunError::from)?;
-        let plant = Plant::with_options(&block.plant, block.options).map_err(RigError::from)?;
+        let img = crate::f446::elf::load(elf)?;
+        let plant = Plant::with_options(&block.plant, block.options)
+            .map_err(|e| RunError::from(RigError::from(e)))?;
         let mut soc = Soc::new();
         for (a, b) in &img.flash {
-            soc.flash
-                .load(*a, b)
-                .map_err(|why| RunError::Board(why.to_string()))?;
+            soc.flash.load(*a, b).map_err(ElfRunError::Board)?;
         }
         // The e-stop button released (B1 pulls PC13 high).
         soc.gpio[2].set_input(13, Drive::High);
@@ -163,9 +168,9 @@ impl ElfBoard {
             let clock = SimClock::new();
             let words = eeprom::realistic(block.camera.seed)
                 .encode()
-                .map_err(|e| RunError::Board(e.to_string()))?;
+                .map_err(|e| ElfRunError::Board(e.to_string()))?;
             let mut dev = VirtualMlx90640::new(words, clock.clone(), block.camera.seed)
-                .map_err(|e| RunError::Board(format!("{e:?}")))?;
+                .map_err(|e| ElfRunError::Board(format!("{e:?}")))?;
             dev.noise_k = block.camera.noise_k;
             let dev = Rc::new(RefCell::new(dev));
             soc.attach_sensor(dev.clone(), clock);
@@ -179,13 +184,13 @@ impl ElfBoard {
         soc.rcc.write(0x74, crate::f446::Size::Word, 1 << 24);
         soc.rcc.reset(ResetCause::Pin);
         let flash = vec![(FLASH_BASE, soc.flash.array().to_vec())];
-        let mut core = Core::new(Box::new(soc), &flash, &img.code).map_err(ElfRunError::from)?;
+        let mut core = Core::new(Box::new(soc), &flash, &img.code)?;
         if let Some(at) = img.spring_memory {
             let words = SpringMemory::RESTED.to_words();
             let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-            core.write_bytes(at, &bytes).map_err(ElfRunError::from)?;
+            core.write_bytes(at, &bytes)?;
         }
-        core.reset().map_err(ElfRunError::from)?;
+        core.reset()?;
         let seed = block.camera.seed;
         let mut board = ElfBoard {
             plant,
@@ -278,7 +283,7 @@ impl ElfBoard {
     /// One tick: the chip to the next tick in steps of [`SUB_US`], its pins read after each
     /// (the spring channels' analog inputs follow a gate at once, as the circuit does), the
     /// plant run with what they drove.
-    fn tick(&mut self) -> Result<(Inputs, u32, CameraFaults, Vec<String>), RunError> {
+    fn tick(&mut self) -> Result<(Inputs, u32, CameraFaults, Vec<String>), ElfRunError> {
         let t_s = self.time_us as f64 * 1e-6;
         if self.time_us >= CONSOLE_UP_US && !self.typed.is_empty() {
             let bytes: String = self.typed.drain(..).collect();
@@ -296,9 +301,7 @@ impl ElfBoard {
             // at each conversion), with the front end's noise drawn anew each step.
             self.analog(&inputs);
             let to = (self.time_us + SUB_US).min(next);
-            self.core
-                .run_until(to * (TIME_HZ / 1_000_000))
-                .map_err(ElfRunError::from)?;
+            self.core.run_until(to * (TIME_HZ / 1_000_000))?;
             self.time_us = to;
             let mut now = self.outputs();
             apply_faults(&self.faults, t_s, &mut now);
@@ -326,9 +329,9 @@ pub fn run_elf(
     scenario: &Scenario,
     elf: &Path,
     progress: &mut dyn FnMut(f64),
-) -> Result<RunResult, RunError> {
+) -> Result<RunResult, ElfRunError> {
     if scenario.commands.is_empty() {
-        return Err(ElfRunError::OpenLoop(scenario.name.clone()).into());
+        return Err(ElfRunError::OpenLoop(scenario.name.clone()));
     }
     let started = Instant::now();
     let mut b = ElfBoard::new(scenario, elf)?;
@@ -421,4 +424,18 @@ pub fn run_elf(
     summary.faults = faults;
     summary.warnings = warnings;
     Ok(RunResult { rows, summary })
+}
+
+/// `host-sim run SCENE --board ELF`: load the scene, play it with the ELF (a progress bar),
+/// write the outputs and print the summary as `host-sim run` does.
+pub fn cli(args: &crate::runs::run::RunArgs, elf: &Path) -> anyhow::Result<()> {
+    let scenario = crate::runs::scenario::load(&args.scene)?;
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("runs").join(&scenario.name));
+    let mut bar = crate::runs::run::Progress::new(!args.quiet);
+    let result = run_elf(&scenario, elf, &mut |f| bar.update(f));
+    bar.finish();
+    crate::runs::run::finish(&result?, &dir, args.quiet)
 }

@@ -137,14 +137,7 @@ pub enum RunError {
     /// The scene is refused.
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
-    /// The board's ELF cannot play it (`--board`).
-    #[cfg(feature = "pil")]
-    #[error(transparent)]
-    Elf(#[from] crate::runs::elf_run::ElfRunError),
-    /// The emulated board could not be built (`--board`).
-    #[cfg(feature = "pil")]
-    #[error("the emulated board: {0}")]
-    Board(String),
+
     /// The simulated board could not be built.
     #[error(transparent)]
     Rig(#[from] RigError),
@@ -765,27 +758,9 @@ impl Progress {
     }
 }
 
-/// The scene with the board's ELF at `elf` ([`crate::runs::elf_run`]).
-#[cfg(feature = "pil")]
-fn run_board(
-    scenario: &Scenario,
-    elf: &Path,
-    progress: &mut dyn FnMut(f64),
-) -> anyhow::Result<RunResult> {
-    Ok(crate::runs::elf_run::run_elf(scenario, elf, progress)?)
-}
-
-/// Without `--features pil` there is no emulated chip to run the ELF on.
-#[cfg(not(feature = "pil"))]
-fn run_board(_: &Scenario, elf: &Path, _: &mut dyn FnMut(f64)) -> anyhow::Result<RunResult> {
-    anyhow::bail!(
-        "--board {}: this host-sim was built without the emulated STM32F446; build it with          `cargo run --release -p host-sim --features pil -- run SCENE --board ELF` (docs/pil.md)",
-        elf.display()
-    )
-}
-
 /// `host-sim run`: load the scene, run it with a progress bar, write the outputs, print the
-/// summary.
+/// summary. (`--board ELF` is `runs::elf_run::cli`'s, in a host-sim built with `--features
+/// pil`; without it the binary refuses the option.)
 pub fn cli(args: &RunArgs) -> anyhow::Result<()> {
     let scenario = crate::runs::scenario::load(&args.scene)?;
     let dir = args
@@ -793,14 +768,16 @@ pub fn cli(args: &RunArgs) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&scenario.name));
     let mut bar = Progress::new(!args.quiet);
-    let result = match &args.board {
-        None => run(&scenario, &mut |f| bar.update(f)).map_err(anyhow::Error::from),
-        Some(elf) => run_board(&scenario, elf, &mut |f| bar.update(f)),
-    };
+    let result = run(&scenario, &mut |f| bar.update(f));
     bar.finish();
     let result = result?;
-    write_outputs(&result, &dir)?;
-    if !args.quiet {
+    finish(&result, &dir, args.quiet)
+}
+
+/// Write a run's outputs into `dir` and, unless `quiet`, print its summary.
+pub fn finish(result: &RunResult, dir: &Path, quiet: bool) -> anyhow::Result<()> {
+    write_outputs(result, dir)?;
+    if !quiet {
         let stdout = std::io::stdout();
         let mut out = stdout.lock();
         print_summary(&result.summary, &mut out)?;
