@@ -7,8 +7,9 @@
 //! --bin thermorph-board` (`.ci/run` builds it before this test).
 #![cfg(feature = "pil")]
 
+mod pil_common;
+
 use std::cell::RefCell;
-use std::path::PathBuf;
 use std::rc::Rc;
 
 use host_sim::f446::cpu::Core;
@@ -18,21 +19,7 @@ use host_sim::f446::{FLASH_BASE, TIME_HZ, Time};
 use host_sim::sensor::eeprom;
 use host_sim::sensor::sim_time::SimClock;
 use host_sim::sensor::virtual_mlx::VirtualMlx90640;
-
-fn elf() -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target"),
-        PathBuf::from,
-    );
-    let p = target.join("thumbv7em-none-eabihf/release/thermorph-board");
-    assert!(
-        p.exists(),
-        "{} is missing: build it with `cargo build --release -p thermorph-firmware --target \
-         thumbv7em-none-eabihf --bin thermorph-board`",
-        p.display()
-    );
-    p
-}
+use pil_common::elf;
 
 /// The board powered up with the e-stop button released (PC13 high) and the camera on I2C1
 /// (a realistic sensor looking at a uniform 303 K field).

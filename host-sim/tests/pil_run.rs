@@ -4,26 +4,12 @@
 //! the bend within 2° of the library's at every row, and the cycle's figures alike.
 #![cfg(feature = "pil")]
 
-use std::path::PathBuf;
+mod pil_common;
 
 use host_sim::runs::elf_run::run_elf;
 use host_sim::runs::run::run;
 use host_sim::runs::scenario;
-
-fn elf() -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target"),
-        PathBuf::from,
-    );
-    let p = target.join("thumbv7em-none-eabihf/release/thermorph-board");
-    assert!(
-        p.exists(),
-        "{} is missing: build it with `cargo build --release -p thermorph-firmware --target \
-         thumbv7em-none-eabihf --bin thermorph-board`",
-        p.display()
-    );
-    p
-}
+use pil_common::elf;
 
 #[test]
 fn the_elf_plays_the_default_cycle_as_the_library_does() {
