@@ -103,8 +103,8 @@ struct State {
     sleeping: bool,
     /// The `wfe` it sleeps at (unicorn stops before executing it; waking steps past it).
     wfe_at: u32,
-    /// Instructions in each translated block (by its address and size).
-    blocks: HashMap<(u32, u32), u32>,
+    /// Instructions in each translated block.
+    blocks: Blocks,
     /// Accesses to nothing.
     faults: Vec<BusFault>,
     /// Every instruction run since power-up.
@@ -122,15 +122,12 @@ impl State {
     /// Hand the bus's interrupt lines to the NVIC (SEVONPEND: a newly pending one sets the
     /// event register).
     fn sync_lines(&mut self) {
-        let mut lines = Vec::new();
+        let nvic = &mut self.nvic;
+        let mut woke = false;
         self.bus
             .as_ref()
             .expect("the bus is present")
-            .irqs(&mut |irq, high| lines.push((irq, high)));
-        let mut woke = false;
-        for (irq, high) in lines {
-            woke |= self.nvic.set_line(irq, high);
-        }
+            .irqs(&mut |irq, high| woke |= nvic.set_line(irq, high));
         if woke && self.nvic.sev_on_pend() {
             self.event = true;
         }
@@ -139,6 +136,65 @@ impl State {
     fn now(&self) -> Time {
         self.slice_start + super::Clocks::time_of(self.slice_instructions, self.sysclk_hz)
     }
+}
+
+/// Instructions in each translated block, by its address and size: a table by halfword for
+/// the flash and its alias (where the code is; looked up at every block the core runs), a map
+/// for anywhere else.
+#[derive(Default)]
+struct Blocks {
+    /// By `(address % FLASH_BYTES) / 2`: `size << 16 | instructions`, 0 for none yet.
+    flash: Vec<u32>,
+    other: HashMap<(u32, u32), u32>,
+}
+
+impl Blocks {
+    fn slot(addr: u32, size: u32) -> Option<usize> {
+        let in_flash = addr < FLASH_BYTES || (FLASH_BASE..FLASH_BASE + FLASH_BYTES).contains(&addr);
+        (in_flash && size < 1 << 16).then_some(((addr % FLASH_BYTES) / 2) as usize)
+    }
+
+    fn get(&self, addr: u32, size: u32) -> Option<u32> {
+        match Self::slot(addr, size) {
+            Some(i) => {
+                let v = *self.flash.get(i)?;
+                (v != 0 && v >> 16 == size).then_some(v & 0xFFFF)
+            }
+            None => self.other.get(&(addr, size)).copied(),
+        }
+    }
+
+    fn insert(&mut self, addr: u32, size: u32, n: u32) {
+        match Self::slot(addr, size).filter(|_| n < 1 << 16) {
+            Some(i) => {
+                if self.flash.is_empty() {
+                    self.flash = vec![0; (FLASH_BYTES / 2) as usize];
+                }
+                self.flash[i] = size << 16 | n;
+            }
+            None => {
+                self.other.insert((addr, size), n);
+            }
+        }
+    }
+}
+
+/// The core's interrupt masks now.
+fn masks_of(uc: &Unicorn<'_, State>) -> Masks {
+    let reg = |r| uc.reg_read(r).unwrap_or(0) as u32;
+    Masks {
+        primask: reg(RegisterARM::PRIMASK) & 1 != 0,
+        faultmask: reg(RegisterARM::FAULTMASK) & 1 != 0,
+        basepri: reg(RegisterARM::BASEPRI) as u8,
+    }
+}
+
+/// Hand the bus's lines to the NVIC and say whether an exception is now to be taken.
+fn interrupt_due(uc: &mut Unicorn<'_, State>) -> bool {
+    let masks = masks_of(uc);
+    let st = uc.get_data_mut();
+    st.sync_lines();
+    st.nvic.to_take(masks).is_some()
 }
 
 /// The memories through unicorn, for the bus's DMA and the flash's programming.
@@ -195,7 +251,7 @@ impl Core {
             event: false,
             sleeping: false,
             wfe_at: 0,
-            blocks: HashMap::new(),
+            blocks: Blocks::default(),
             faults: Vec::new(),
             instructions: 0,
             recheck: false,
@@ -254,9 +310,8 @@ impl Core {
         )
         .map_err(core_err)?;
         uc.add_block_hook(1, 0, |uc, addr, size| {
-            let key = (addr as u32, size);
-            let n = match uc.get_data().blocks.get(&key) {
-                Some(&n) => n,
+            let n = match uc.get_data().blocks.get(addr as u32, size) {
+                Some(n) => n,
                 None => {
                     let mut buf = vec![0u8; size as usize];
                     let n = if uc.mem_read(addr, &mut buf).is_ok() {
@@ -264,7 +319,7 @@ impl Core {
                     } else {
                         1
                     };
-                    uc.get_data_mut().blocks.insert(key, n);
+                    uc.get_data_mut().blocks.insert(addr as u32, size, n);
                     n
                 }
             };
@@ -444,7 +499,7 @@ impl Core {
                     self.uc.get_data_mut().event = false;
                     self.wake()?;
                 } else {
-                    self.sleep_until(until);
+                    self.sleep_until(until)?;
                 }
                 continue;
             }
@@ -505,11 +560,7 @@ impl Core {
     }
 
     fn masks(&self) -> Masks {
-        Masks {
-            primask: self.reg(RegisterARM::PRIMASK) & 1 != 0,
-            faultmask: self.reg(RegisterARM::FAULTMASK) & 1 != 0,
-            basepri: self.reg(RegisterARM::BASEPRI) as u8,
-        }
+        masks_of(&self.uc)
     }
 
     /// Wake from `wfe`: it completes (the core goes on after it).
@@ -528,26 +579,53 @@ impl Core {
         Ok(())
     }
 
-    /// Sleep at `wfe`: skip to the next peripheral or SysTick event (or `until`).
-    fn sleep_until(&mut self, until: Time) {
-        let st = self.uc.get_data_mut();
-        st.sleeps += 1;
-        let now = st.now();
-        let bus = st.bus.as_ref().expect("the bus is present");
-        let clocks = bus.clocks();
-        let next = [
-            bus.next_event(now),
-            st.nvic.next_event(now, &clocks),
-            Some(until),
-        ]
-        .into_iter()
-        .flatten()
-        .filter(|&t| t > now)
-        .min()
-        .unwrap_or(until)
-        .min(until);
-        st.slice_start = next;
-        st.slice_instructions = 0;
+    /// Sleep at `wfe`: skip from event to event of the peripherals and SysTick until one
+    /// makes an exception takeable, sets the event register, or resets the chip, or `until`.
+    /// The interrupt masks cannot change while the core sleeps.
+    fn sleep_until(&mut self, until: Time) -> Result<(), CpuError> {
+        let masks = self.masks();
+        loop {
+            // The bus's own events that wake nothing, at once.
+            let st = self.uc.get_data();
+            let now = st.now();
+            let clocks = st.bus.as_ref().expect("the bus is present").clocks();
+            let systick = st.nvic.next_event(now, &clocks).filter(|&t| t > now);
+            let quiet_until = systick.map_or(until, |t| t.min(until));
+            let reached = with_bus(&mut self.uc, |bus, mem, now| {
+                bus.skip(now, quiet_until, mem)
+            });
+            let st = self.uc.get_data_mut();
+            if reached > now {
+                st.slice_start = reached;
+                st.slice_instructions = 0;
+                st.sync_lines();
+                if st.event || st.nvic.to_take(masks).is_some() {
+                    return Ok(());
+                }
+            }
+            st.sleeps += 1;
+            let now = st.now();
+            let bus = st.bus.as_ref().expect("the bus is present");
+            let clocks = bus.clocks();
+            let next = [bus.next_event(now), st.nvic.next_event(now, &clocks)]
+                .into_iter()
+                .flatten()
+                .filter(|&t| t > now)
+                .fold(until, Time::min);
+            st.slice_start = next;
+            st.slice_instructions = 0;
+            if next >= until {
+                return Ok(());
+            }
+            self.sync()?;
+            let st = self.uc.get_data();
+            if st.event || st.nvic.to_take(masks).is_some() || st.nvic.reset_requested() {
+                return Ok(());
+            }
+            if self.take_reset() {
+                return self.reset();
+            }
+        }
     }
 
     /// Run one slice of instructions: up to the next peripheral event (at most
@@ -825,9 +903,11 @@ fn map_windows(uc: &mut Unicorn<'static, State>) -> Result<(), uc_error> {
                     let ok = with_bus(uc, |bus, mem, now| {
                         bus.write(addr, size, value as u32, now, mem)
                     });
+                    // A write may raise an interrupt line or unmask one: the slice ends
+                    // at the block's end if an interrupt is now to be taken.
+                    let due = interrupt_due(uc);
                     let st = uc.get_data_mut();
-                    // A write may raise an interrupt line: look at the lines soon.
-                    st.recheck = true;
+                    st.recheck |= due;
                     if !ok {
                         st.faults.push(BusFault { addr, write: true });
                     }

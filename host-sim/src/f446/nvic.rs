@@ -171,6 +171,11 @@ impl Nvic {
         self.scr & (1 << 4) != 0
     }
 
+    /// AIRCR.SYSRESETREQ was written (with its key) and not yet taken.
+    pub fn reset_requested(&self) -> bool {
+        self.reset_requested
+    }
+
     /// AIRCR.SYSRESETREQ was written (with its key) since the last call.
     pub fn take_reset_request(&mut self) -> bool {
         core::mem::take(&mut self.reset_requested)

@@ -98,6 +98,9 @@ pub struct Soc {
     /// Interrupt lines held low whatever their peripheral says (a stall made in the
     /// emulator: [`Soc::suppress_irq`]); cleared by a chip reset.
     suppressed: Vec<u16>,
+    /// The RCC's clocks, found again after every advance and write (asked for at every
+    /// slice and sleep of the core).
+    clocks: std::cell::Cell<Option<Clocks>>,
 }
 
 impl Default for Soc {
@@ -131,6 +134,7 @@ impl Soc {
             adc_last: None,
             adc_period: None,
             suppressed: Vec::new(),
+            clocks: std::cell::Cell::new(None),
         }
     }
 
@@ -190,6 +194,7 @@ impl Soc {
         self.adc_last = None;
         self.adc_period = None;
         self.suppressed.clear();
+        self.clocks.set(None);
     }
 
     /// The reset the chip asks for (the independent watchdog expired), taken.
@@ -313,11 +318,47 @@ impl Soc {
         }
     }
 
+    /// Advance what an access at `addr` sees: a timer or USART2 alone (the most frequent
+    /// accesses: embassy's clock, the console's interrupt), I2C1 with DMA1 and the camera
+    /// (its transfers), anything else the whole chip. A model left behind keeps its time and
+    /// catches up at its next advance (none has an event before the core next looks: the
+    /// core's slices end at every event).
+    fn advance_for(&mut self, addr: u32, now: Time, mem: &mut dyn Memory) {
+        let c = self.clocks();
+        match addr {
+            0x4000_0000..=0x4000_0FFF => {
+                self.tims[((addr - 0x4000_0000) / 0x400) as usize].advance(now, &c)
+            }
+            0x4000_1800..=0x4000_1BFF => self.tims[4].advance(now, &c),
+            0x4000_4400..=0x4000_47FF => self.usart2.advance(now, &c),
+            0x4000_5400..=0x4000_57FF | 0x4002_6000..=0x4002_63FF => {
+                self.advance_sensor_clock(now);
+                self.i2c1.advance(now, &c);
+                self.dma[0].advance(now, &c);
+                self.serve_dma(mem);
+            }
+            _ => self.advance(now, mem),
+        }
+    }
+
+    /// The camera's clock to the chip's time `now`.
+    fn advance_sensor_clock(&mut self, now: Time) {
+        if let Some(c) = &self.sensor_clock {
+            let us = (u128::from(now) * 1_000_000 / u128::from(super::TIME_HZ)) as u64;
+            if us > c.now_us() {
+                c.advance_us(us - c.now_us());
+            }
+        }
+    }
+
     /// GPIO edges to EXTI, through SYSCFG's port selection.
     fn route_edges(&mut self) {
         let (mut rising, mut falling) = (0u32, 0u32);
         for port in 0..8 {
             let e = self.gpio[port].take_edges();
+            if e.rising | e.falling == 0 {
+                continue;
+            }
             for line in 0..16 {
                 if self.syscfg.exti_port(line) == port {
                     rising |= u32::from(e.rising >> line & 1) << line;
@@ -385,7 +426,7 @@ fn in_memory(a: u32) -> bool {
 
 impl Bus for Soc {
     fn read(&mut self, addr: u32, size: Size, now: Time, mem: &mut dyn Memory) -> Option<u32> {
-        self.advance(now, mem);
+        self.advance_for(addr, now, mem);
         if let Some((p, off)) = self.at(addr) {
             return Some(p.read(off, size));
         }
@@ -400,7 +441,7 @@ impl Bus for Soc {
         now: Time,
         mem: &mut dyn Memory,
     ) -> bool {
-        self.advance(now, mem);
+        self.advance_for(addr, now, mem);
         if (FLASH_BASE..FLASH_BASE + FLASH_BYTES).contains(&addr) {
             self.flash.program(addr, size, value, now);
             let word = addr & !3;
@@ -420,6 +461,9 @@ impl Bus for Soc {
         // advance at this instant must see.
         self.serve_dma(mem);
         self.advanced = None;
+        if (0x4002_3800..=0x4002_3BFF).contains(&addr) {
+            self.clocks.set(None);
+        }
         true
     }
 
@@ -432,6 +476,7 @@ impl Bus for Soc {
         self.advanced = Some(now);
         let clocks = self.rcc.clocks();
         self.rcc.advance(now, &clocks);
+        self.clocks.set(None);
         let pll_on = self.rcc.peek(super::rcc::reg::CR) & (1 << 24) != 0;
         self.pwr.set_pll_on(pll_on);
         self.pwr.advance(now, &clocks);
@@ -456,12 +501,7 @@ impl Bus for Soc {
             t.advance(now, &clocks);
         }
         self.usart2.advance(now, &clocks);
-        if let Some(c) = &self.sensor_clock {
-            let us = (u128::from(now) * 1_000_000 / u128::from(super::TIME_HZ)) as u64;
-            if us > c.now_us() {
-                c.advance_us(us - c.now_us());
-            }
-        }
+        self.advance_sensor_clock(now);
         self.i2c1.advance(now, &clocks);
         if let Some(table) = &self.spring_analog {
             let row = table[self.spring_pins()];
@@ -489,8 +529,8 @@ impl Bus for Soc {
     }
 
     fn next_event(&self, now: Time) -> Option<Time> {
-        let c = self.rcc.clocks();
-        let mut all: Vec<Option<Time>> = vec![
+        let c = self.clocks();
+        let fixed = [
             self.rcc.next_event(now, &c),
             self.pwr.next_event(now, &c),
             self.flash.next_event(now, &c),
@@ -500,13 +540,73 @@ impl Bus for Soc {
             self.i2c1.next_event(now, &c),
             self.adc_wake(now, &c),
         ];
-        all.extend(self.tims.iter().map(|t| t.next_event(now, &c)));
-        all.extend(self.dma.iter().map(|d| d.next_event(now, &c)));
-        all.into_iter().flatten().filter(|&t| t > now).min()
+        let tims = self.tims.iter().map(|t| t.next_event(now, &c));
+        let dma = self.dma.iter().map(|d| d.next_event(now, &c));
+        fixed
+            .into_iter()
+            .chain(tims)
+            .chain(dma)
+            .flatten()
+            .filter(|&t| t > now)
+            .min()
+    }
+
+    /// The camera's bytes: I2C1's transfer steps and the DMA streams they feed, one after
+    /// another, while they raise no interrupt (≈ 13 000 a second of frames that the core,
+    /// asleep, need not wake for).
+    fn skip(&mut self, now: Time, until: Time, mem: &mut dyn Memory) -> Time {
+        let c = self.clocks();
+        let others = [
+            self.rcc.next_event(now, &c),
+            self.pwr.next_event(now, &c),
+            self.flash.next_event(now, &c),
+            self.syscfg.next_event(now, &c),
+            self.iwdg.next_event(now, &c),
+            self.usart2.next_event(now, &c),
+            self.adc_wake(now, &c),
+        ]
+        .into_iter()
+        .chain(self.tims.iter().map(|t| t.next_event(now, &c)))
+        .flatten()
+        .filter(|&t| t > now)
+        .fold(until, Time::min);
+        let lines = |s: &Soc| {
+            let mut high = 0u128;
+            let mut add = |irq: u16, h: bool| high |= u128::from(h) << (irq % 128);
+            s.i2c1.irqs(&mut add);
+            s.dma.iter().for_each(|d| d.irqs(&mut add));
+            high
+        };
+        let before = lines(self);
+        let mut t = now;
+        loop {
+            let Some(step) = self.i2c1.next_event(t, &c).filter(|&s| s > t) else {
+                return t;
+            };
+            let dma = self.dma.iter().filter_map(|d| d.next_event(t, &c)).min();
+            if step >= others || dma.is_some_and(|d| d <= step) {
+                return t;
+            }
+            self.advance_sensor_clock(step);
+            self.i2c1.advance(step, &c);
+            for d in &mut self.dma {
+                d.advance(step, &c);
+            }
+            self.serve_dma(mem);
+            self.advanced = None;
+            t = step;
+            if lines(self) != before {
+                return t;
+            }
+        }
     }
 
     fn clocks(&self) -> Clocks {
-        self.rcc.clocks()
+        self.clocks.get().unwrap_or_else(|| {
+            let c = self.rcc.clocks();
+            self.clocks.set(Some(c));
+            c
+        })
     }
 
     fn take_reset(&mut self) -> bool {

@@ -257,6 +257,10 @@ pub struct Tim {
     oc_ref: [bool; 4],
     /// The time the model stands at.
     now: Time,
+    /// The last [`Peripheral::next_event`]'s answer: (asked at, the timer clock then, the
+    /// event). Between register writes the event found from one time holds from any later
+    /// time before it (nothing changes until then), so it is not looked for again.
+    next: std::cell::Cell<Option<(Time, u32, Option<Time>)>>,
 }
 
 impl Tim {
@@ -285,6 +289,7 @@ impl Tim {
             prescaler_count: 0,
             oc_ref: [false; 4],
             now: 0,
+            next: std::cell::Cell::new(None),
         }
     }
 
@@ -862,6 +867,7 @@ impl Peripheral for Tim {
             _ => self.read_reg(reg),
         };
         self.write_reg(reg, merge(old, offset, size, value));
+        self.next.set(None);
     }
 
     fn advance(&mut self, now: Time, clocks: &Clocks) {
@@ -878,6 +884,21 @@ impl Peripheral for Tim {
         if self.cr1 & CEN == 0 {
             return None;
         }
+        let hz = clocks.tim_apb1_hz;
+        if let Some((asked, at_hz, event)) = self.next.get() {
+            if at_hz == hz && now >= asked && event.is_none_or(|t| now < t) {
+                return event;
+            }
+        }
+        let event = self.find_next_event(now, clocks);
+        self.next.set(Some((now, hz, event)));
+        event
+    }
+}
+
+impl Tim {
+    /// The next time the timer's state changes after `now`, from a copy run ahead.
+    fn find_next_event(&self, now: Time, clocks: &Clocks) -> Option<Time> {
         let mut sim = self.clone();
         sim.advance(now, clocks);
         let hz = clocks.tim_apb1_hz;

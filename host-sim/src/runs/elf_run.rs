@@ -296,10 +296,11 @@ impl ElfBoard {
         self.show(cam);
         let next = self.time_us + TICK_US;
         let mut held_from = self.time_us;
+        // The channels' inputs for every state of the pins (the pins' state picks the row at
+        // each conversion), with the front end's noise drawn anew at each tick and wherever the
+        // plant runs (as the library's board draws it once a tick).
+        self.analog(&inputs);
         while self.time_us < next {
-            // The channels' inputs for every state of the pins (the pins' state picks the row
-            // at each conversion), with the front end's noise drawn anew each step.
-            self.analog(&inputs);
             let to = (self.time_us + SUB_US).min(next);
             self.core.run_until(to * (TIME_HZ / 1_000_000))?;
             self.time_us = to;
@@ -309,6 +310,9 @@ impl ElfBoard {
                 self.plant.step(&inputs, (to - held_from) as f64 * 1e-6);
                 held_from = to;
                 inputs = now;
+                if to < next {
+                    self.analog(&inputs);
+                }
             }
         }
         let inputs = first;
