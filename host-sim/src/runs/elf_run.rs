@@ -9,6 +9,8 @@
 //! (`rig::channels`). Its state for the time series comes from its own telemetry, which the
 //! harness turns on at power-up (`stream on 4`: its reply is not a scene's line and is not
 //! recorded); a latched fault is the telemetry's `fault=` turning from `none`.
+//! [`run_elf_with`] lets a script type lines as that state changes (`host-sim paper --board`,
+//! [`crate::runs::elf_paper`]).
 //!
 //! [`ElfConsole`] and [`replay_lines`] serve the ELF's console as `host-sim console` serves the
 //! library's: lines typed one at a time, each reply read back (`tests/pil_console.rs` replays
@@ -363,6 +365,26 @@ pub fn run_elf(
     elf: &Path,
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunResult, ElfRunError> {
+    run_elf_with(scenario, elf, progress, &mut |_, _| None)
+}
+
+/// Decides console lines from the board's state at a scene period's start (time s, its state
+/// from its latest telemetry line): [`run_elf_with`]'s counterpart of
+/// [`crate::runs::run::Reactor`].
+pub type ElfReactor<'a> = dyn FnMut(f64, &ControlRow) -> Option<String> + 'a;
+
+/// [`run_elf`], with `react` able to type console lines as the board's state changes, as
+/// [`crate::runs::run::run_with`]'s reactor does for the library: at each scene period's start
+/// (after the scene's lines due then) it sees the board's state as its latest telemetry line
+/// gave it (telemetry runs at 4 Hz, so up to a quarter second old; not called before the
+/// first), and a line it returns is typed at the next period's start, the reaction time of
+/// someone polling `status`, one scene period.
+pub fn run_elf_with(
+    scenario: &Scenario,
+    elf: &Path,
+    progress: &mut dyn FnMut(f64),
+    react: &mut ElfReactor<'_>,
+) -> Result<RunResult, ElfRunError> {
     if scenario.commands.is_empty() {
         return Err(ElfRunError::OpenLoop(scenario.name.clone()));
     }
@@ -381,9 +403,12 @@ pub fn run_elf(
     b.type_line("stream on 4");
     let mut harness_replies = 1;
     let mut inputs = (Inputs::default(), 0, CameraFaults::default());
+    // A line `react` decided at a period's start, typed at the next one's.
+    let mut reacted: Option<String> = None;
     for k in 0..steps {
         let t1_us = (k as u64 + 1) * period_us;
         let row_start = (inputs.0, inputs.1, b.commanded.springs_on, control);
+        let mut period_start = true;
         while b.time_us < t1_us {
             let t_s = b.time_us as f64 * 1e-6;
             while let Some(c) = scenario
@@ -394,6 +419,13 @@ pub fn run_elf(
                 b.type_line(&c.line);
                 waiting.push((c.at_s, c.line.clone()));
                 next_command += 1;
+            }
+            if std::mem::take(&mut period_start) {
+                if let Some(line) = reacted.take() {
+                    b.type_line(&line);
+                    waiting.push((t_s, line));
+                }
+                reacted = control.as_ref().and_then(|c| react(t_s, c));
             }
             let (i, mask, cam, lines) = b.tick()?;
             inputs = (i, mask, cam);
