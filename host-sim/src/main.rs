@@ -15,6 +15,8 @@
 //! - `host-sim scene [NAME]`: a rendered standard scene as an image file (no name: the list).
 //! - `host-sim plant-wp [--out FILE]`: the plant's work-precision table.
 //! - `host-sim mtts-wp [--m4 FILE] [--out FILE] [--seeds N]`: the MTTS work-precision table.
+//! - `host-sim paper [--json] [--no-camera] [--out DIR] [--board ELF]`: the thesis's figures
+//!   (with `--board`, from runs of the board's own ELF on the emulated STM32F446).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -131,6 +133,10 @@ enum Command {
         /// Also write each experiment's time series (CSV) into this folder.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Play the experiments with the board's own ELF on the emulated STM32F446 instead of
+        /// the library's supervisor (a host-sim built with `--features pil`; camera on).
+        #[arg(long, value_name = "ELF")]
+        board: Option<PathBuf>,
     },
 }
 
@@ -221,7 +227,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             no_camera,
             out,
-        } => host_sim::runs::paper::cli(json, !no_camera, out.as_deref()),
+            board,
+        } => match &board {
+            None => host_sim::runs::paper::cli(json, !no_camera, out.as_deref()),
+            Some(elf) => paper_board(json, !no_camera, out.as_deref(), elf),
+        },
     }
 }
 
@@ -237,6 +247,32 @@ fn run_board(_: &host_sim::runs::run::RunArgs, elf: &std::path::Path) -> anyhow:
     anyhow::bail!(
         "--board {}: this host-sim was built without the emulated STM32F446; build it with \
          `cargo run --release -p host-sim --features pil -- run SCENE --board ELF` (docs/pil.md)",
+        elf.display()
+    )
+}
+
+/// `paper --board ELF`: the thesis's experiments played by the board's own ELF.
+#[cfg(feature = "pil")]
+fn paper_board(
+    json: bool,
+    camera: bool,
+    out: Option<&std::path::Path>,
+    elf: &std::path::Path,
+) -> anyhow::Result<()> {
+    host_sim::runs::elf_paper::cli(json, camera, out, elf)
+}
+
+/// Without `--features pil` there is no emulated chip to run the ELF on.
+#[cfg(not(feature = "pil"))]
+fn paper_board(
+    _: bool,
+    _: bool,
+    _: Option<&std::path::Path>,
+    elf: &std::path::Path,
+) -> anyhow::Result<()> {
+    anyhow::bail!(
+        "--board {}: this host-sim was built without the emulated STM32F446; build it with \
+         `cargo run --release -p host-sim --features pil -- paper --board ELF` (docs/pil.md)",
         elf.display()
     )
 }

@@ -22,15 +22,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use thermorph::supervisor::report::TELEMETRY_FIELDS;
+mod transcripts;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn read(path: &Path) -> String {
-    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
+use transcripts::{block_after, mask_numbers, read, root, transcript, unescape};
 
 /// The README and every page in `docs/`, as paths relative to the workspace root.
 fn pages() -> Vec<PathBuf> {
@@ -175,60 +169,6 @@ fn every_relative_link_points_at_an_existing_file_and_heading() {
     }
 }
 
-/// A transcript: each line sent (`> `, `\xHH` unescaped) with the lines that came back.
-struct Exchange {
-    sent: Vec<u8>,
-    got: Vec<String>,
-}
-
-fn unescape(s: &str) -> Vec<u8> {
-    let b = s.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'\\' && b.get(i + 1) == Some(&b'x') {
-            out.push(u8::from_str_radix(&s[i + 2..i + 4], 16).unwrap());
-            i += 4;
-        } else if b[i] == b'\\' && b.get(i + 1) == Some(&b'\\') {
-            out.push(b'\\');
-            i += 2;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    out
-}
-
-fn transcript(block: &str) -> Vec<Exchange> {
-    let mut out: Vec<Exchange> = Vec::new();
-    for line in block.lines() {
-        if let Some(sent) = line.strip_prefix("> ") {
-            out.push(Exchange {
-                sent: unescape(sent),
-                got: Vec::new(),
-            });
-        } else {
-            out.last_mut()
-                .expect("a transcript starts with a line sent")
-                .got
-                .push(line.to_string());
-        }
-    }
-    out
-}
-
-/// The first fenced block after `marker` in `text` (and, with `end`, before it).
-fn block_after<'a>(text: &'a str, marker: &str, end: Option<&str>) -> &'a str {
-    let at = text.find(marker).unwrap_or_else(|| panic!("no {marker:?}"));
-    let rest = &text[at..];
-    let limit = end.map_or(rest.len(), |e| rest.find(e).expect(e));
-    let rest = &rest[..limit];
-    let open = rest.find("```text\n").expect("a ```text block") + 8;
-    let close = rest[open..].find("\n```").expect("the block's end");
-    &rest[open..open + close]
-}
-
 /// `host-sim console` (stdin/stdout, a fresh settings file) answering `lines`: what it wrote.
 fn replay(name: &str, lines: &[Vec<u8>]) -> Vec<String> {
     let dir = std::env::temp_dir().join(format!("thermorph-docs-{name}-{}", std::process::id()));
@@ -258,67 +198,12 @@ fn replay(name: &str, lines: &[Vec<u8>]) -> Vec<String> {
         .collect()
 }
 
-/// Every number in `s` as `N`.
-fn mask_numbers(s: &str) -> String {
-    let mut out = String::new();
-    let mut in_number = false;
-    for c in s.chars() {
-        let digit = c.is_ascii_digit() || (in_number && c == '.');
-        if digit && !in_number {
-            out.push('N');
-        } else if !digit {
-            out.push(c);
-        }
-        in_number = digit;
-    }
-    out
-}
-
-/// A `status` reply's states (mode, phase, springs, selection, fault): what a replay at
-/// another time must still answer (the measured fields differ, and before the first frame
-/// some are missing).
-fn status_shape(reply: &str) -> Vec<String> {
-    const STATES: [&str; 5] = ["mode", "phase", "springs", "select", "fault"];
-    reply
-        .split_whitespace()
-        .filter(|w| !w.contains('=') || STATES.contains(&w.split('=').next().unwrap()))
-        .map(String::from)
-        .collect()
-}
-
-/// Check a transcript against a replay of its lines; return how many replies were compared.
+/// Check a transcript against a replay of its lines through `host-sim console`
+/// ([`transcripts::differences`]); return how many replies were compared.
 fn check_transcript(name: &str, block: &str) -> usize {
     let session = transcript(block);
-    assert!(!session.is_empty(), "{name}: an empty transcript");
     let sent: Vec<Vec<u8>> = session.iter().map(|e| e.sent.clone()).collect();
-    let replayed: Vec<String> = replay(name, &sent)
-        .into_iter()
-        .filter(|l| !l.starts_with('#'))
-        .collect();
-    assert_eq!(replayed.len(), session.len(), "{name}: one reply per line");
-    let mut wrong = Vec::new();
-    for (e, now) in session.iter().zip(&replayed) {
-        let line = String::from_utf8_lossy(&e.sent);
-        let replies: Vec<&String> = e.got.iter().filter(|l| !l.starts_with('#')).collect();
-        let [then] = replies[..] else {
-            panic!("{name}: `{line}` got {:?}, not one reply", e.got);
-        };
-        for t in e.got.iter().filter(|l| l.starts_with("# t_s=")) {
-            let fields: Vec<&str> = t[2..]
-                .split_whitespace()
-                .map(|f| f.split('=').next().unwrap())
-                .collect();
-            assert_eq!(fields, TELEMETRY_FIELDS, "{name}: {t}");
-        }
-        let (a, b) = match line.split_whitespace().next() {
-            Some("status") => (status_shape(then).join(" "), status_shape(now).join(" ")),
-            Some("log") => (mask_numbers(then), mask_numbers(now)),
-            _ => (then.clone(), now.clone()),
-        };
-        if a != b {
-            wrong.push(format!("> {line}\n  page:  {then}\n  today: {now}"));
-        }
-    }
+    let wrong = transcripts::differences(name, "today", &session, &replay(name, &sent));
     assert!(
         wrong.is_empty(),
         "{name}: the firmware answers differently today (run `python3 scripts/record-session` \
@@ -341,11 +226,8 @@ fn console_examples_are_what_the_firmware_answers() {
     assert!(n >= 5, "{n}");
 
     let console = read(&root().join("docs/console.md"));
-    let block = block_after(
-        &console,
-        "<!-- session: begin",
-        Some("<!-- session: end -->"),
-    );
+    let block = transcripts::console_session();
+    let block = block.as_str();
     let n = check_transcript("session", block);
     assert!(n >= 15, "{n}");
     let lines: Vec<&str> = block.lines().collect();

@@ -161,6 +161,30 @@ fn a_bad_scene_is_one_clear_error_and_writes_nothing() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Without `--features pil` there is no emulated chip: `run --board` and `paper --board` are
+/// one error line naming the feature, and a non-zero exit (with it, `tests/pil_run.rs` and
+/// `tests/pil_paper.rs` check the bad input the emulated board refuses).
+#[cfg(not(feature = "pil"))]
+#[test]
+fn the_board_options_without_the_emulator_are_one_clear_error() {
+    for args in [
+        &["run", "cycle", "--board", "thermorph-board", "--quiet"][..],
+        &["paper", "--board", "thermorph-board"][..],
+        &["paper", "--json", "--board", "thermorph-board"][..],
+    ] {
+        let out = host_sim(args);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(out.stdout.is_empty(), "{args:?}: {out:?}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            err.starts_with("error: --board thermorph-board: this host-sim was built without")
+                && err.contains("--features pil"),
+            "{args:?}: {err}"
+        );
+    }
+}
+
 #[test]
 fn runs_are_deterministic_and_actions_reach_the_plant() {
     let scene = parse(

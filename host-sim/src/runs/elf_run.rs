@@ -9,6 +9,14 @@
 //! (`rig::channels`). Its state for the time series comes from its own telemetry, which the
 //! harness turns on at power-up (`stream on 4`: its reply is not a scene's line and is not
 //! recorded); a latched fault is the telemetry's `fault=` turning from `none`.
+//! [`run_elf_with`] lets a script type lines as that state changes (`host-sim paper --board`,
+//! [`crate::runs::elf_paper`]).
+//!
+//! [`ElfConsole`] and [`replay_lines`] serve the ELF's console as `host-sim console` serves the
+//! library's: lines typed one at a time, each reply read back (`tests/pil_console.rs` replays
+//! `docs/console.md`'s session with them). They are a function and not a `host-sim console
+//! --board` mode: the console paces simulated time by the wall clock, which an emulation at
+//! ≈ 10× real time cannot promise, while a replay in simulated time is the same every run.
 
 use std::cell::RefCell;
 use std::collections::BTreeSet;
@@ -65,6 +73,14 @@ pub enum ElfRunError {
     /// The emulated board could not be built.
     #[error("the emulated board: {0}")]
     Board(String),
+    /// A line typed on the console got no reply in [`REPLY_WITHIN_S`] of simulated time.
+    #[error("the board did not answer `{line}` within {after_s} s")]
+    NoReply {
+        /// The line typed (non-printable bytes escaped).
+        line: String,
+        /// How long it waited, s of simulated time.
+        after_s: f64,
+    },
     /// The scene has no console line: the board only plays closed-loop scenes.
     #[error(
         "scene {0}: the board's ELF plays closed-loop scenes only (an open-loop scene drives the \
@@ -148,12 +164,23 @@ struct ElfBoard {
     commanded: Inputs,
     /// Bytes the ELF wrote that do not make a whole line yet.
     partial: String,
-    /// Lines typed before the console is up ([`CONSOLE_UP_US`]).
-    typed: Vec<String>,
+    /// Bytes typed before the console is up ([`CONSOLE_UP_US`]).
+    typed: Vec<u8>,
+}
+
+/// How the emulated board starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// A reset by its pin, its RAM holding the springs' memory of springs at rest: as the
+    /// library's board starts in every run ([`run_elf`]).
+    PinRested,
+    /// A power-up (nothing kept in RAM: the ELF assumes the springs hot), as `host-sim
+    /// console` boots its block ([`ElfConsole`]).
+    PowerUp,
 }
 
 impl ElfBoard {
-    fn new(scenario: &Scenario, elf: &Path) -> Result<ElfBoard, ElfRunError> {
+    fn new(scenario: &Scenario, elf: &Path, start: Start) -> Result<ElfBoard, ElfRunError> {
         let block = scenario.block();
         let img = crate::f446::elf::load(elf)?;
         let plant = Plant::with_options(&block.plant, block.options)
@@ -178,14 +205,16 @@ impl ElfBoard {
         } else {
             None
         };
-        // As the library's board in every run: springs at rest that the board knows of (a
-        // reset by its pin long after they were last driven, the memory kept in RAM), not a
-        // power-up's assumption of hot springs.
-        soc.rcc.write(0x74, crate::f446::Size::Word, 1 << 24);
-        soc.rcc.reset(ResetCause::Pin);
+        if start == Start::PinRested {
+            // As the library's board in every run: springs at rest that the board knows of (a
+            // reset by its pin long after they were last driven, the memory kept in RAM), not
+            // a power-up's assumption of hot springs.
+            soc.rcc.write(0x74, crate::f446::Size::Word, 1 << 24);
+            soc.rcc.reset(ResetCause::Pin);
+        }
         let flash = vec![(FLASH_BASE, soc.flash.array().to_vec())];
         let mut core = Core::new(Box::new(soc), &flash, &img.code)?;
-        if let Some(at) = img.spring_memory {
+        if let (Start::PinRested, Some(at)) = (start, img.spring_memory) {
             let words = SpringMemory::RESTED.to_words();
             let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
             core.write_bytes(at, &bytes)?;
@@ -273,10 +302,16 @@ impl ElfBoard {
 
     /// Type `line` on the console (once it is up).
     fn type_line(&mut self, line: &str) {
-        self.typed.push(format!("{line}\r\n"));
+        self.type_bytes(line.as_bytes());
+    }
+
+    /// Type `line`'s bytes and CR LF on the console (once it is up).
+    fn type_bytes(&mut self, line: &[u8]) {
+        self.typed.extend_from_slice(line);
+        self.typed.extend_from_slice(b"\r\n");
         if self.time_us >= CONSOLE_UP_US {
-            let bytes: String = self.typed.drain(..).collect();
-            self.soc().usart2.receive_bytes(bytes.as_bytes());
+            let bytes: Vec<u8> = self.typed.drain(..).collect();
+            self.soc().usart2.receive_bytes(&bytes);
         }
     }
 
@@ -286,8 +321,8 @@ impl ElfBoard {
     fn tick(&mut self) -> Result<(Inputs, u32, CameraFaults, Vec<String>), ElfRunError> {
         let t_s = self.time_us as f64 * 1e-6;
         if self.time_us >= CONSOLE_UP_US && !self.typed.is_empty() {
-            let bytes: String = self.typed.drain(..).collect();
-            self.soc().usart2.receive_bytes(bytes.as_bytes());
+            let bytes: Vec<u8> = self.typed.drain(..).collect();
+            self.soc().usart2.receive_bytes(&bytes);
         }
         self.commanded = self.outputs();
         let mut inputs = self.commanded;
@@ -334,11 +369,31 @@ pub fn run_elf(
     elf: &Path,
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunResult, ElfRunError> {
+    run_elf_with(scenario, elf, progress, &mut |_, _| None)
+}
+
+/// Decides console lines from the board's state at a scene period's start (time s, its state
+/// from its latest telemetry line): [`run_elf_with`]'s counterpart of
+/// [`crate::runs::run::Reactor`].
+pub type ElfReactor<'a> = dyn FnMut(f64, &ControlRow) -> Option<String> + 'a;
+
+/// [`run_elf`], with `react` able to type console lines as the board's state changes, as
+/// [`crate::runs::run::run_with`]'s reactor does for the library: at each scene period's start
+/// (after the scene's lines due then) it sees the board's state as its latest telemetry line
+/// gave it (telemetry runs at 4 Hz, so up to a quarter second old; not called before the
+/// first), and a line it returns is typed at the next period's start, the reaction time of
+/// someone polling `status`, one scene period.
+pub fn run_elf_with(
+    scenario: &Scenario,
+    elf: &Path,
+    progress: &mut dyn FnMut(f64),
+    react: &mut ElfReactor<'_>,
+) -> Result<RunResult, ElfRunError> {
     if scenario.commands.is_empty() {
         return Err(ElfRunError::OpenLoop(scenario.name.clone()));
     }
     let started = Instant::now();
-    let mut b = ElfBoard::new(scenario, elf)?;
+    let mut b = ElfBoard::new(scenario, elf, Start::PinRested)?;
     let period_us = ((scenario.period_s * 1e6).round() as u64).max(TICK_US);
     let steps = (scenario.duration_s / scenario.period_s).round().max(1.0) as usize;
     let mut rows = Vec::with_capacity(steps);
@@ -352,9 +407,12 @@ pub fn run_elf(
     b.type_line("stream on 4");
     let mut harness_replies = 1;
     let mut inputs = (Inputs::default(), 0, CameraFaults::default());
+    // A line `react` decided at a period's start, typed at the next one's.
+    let mut reacted: Option<String> = None;
     for k in 0..steps {
         let t1_us = (k as u64 + 1) * period_us;
         let row_start = (inputs.0, inputs.1, b.commanded.springs_on, control);
+        let mut period_start = true;
         while b.time_us < t1_us {
             let t_s = b.time_us as f64 * 1e-6;
             while let Some(c) = scenario
@@ -365,6 +423,13 @@ pub fn run_elf(
                 b.type_line(&c.line);
                 waiting.push((c.at_s, c.line.clone()));
                 next_command += 1;
+            }
+            if std::mem::take(&mut period_start) {
+                if let Some(line) = reacted.take() {
+                    b.type_line(&line);
+                    waiting.push((t_s, line));
+                }
+                reacted = control.as_ref().and_then(|c| react(t_s, c));
             }
             let (i, mask, cam, lines) = b.tick()?;
             inputs = (i, mask, cam);
@@ -428,6 +493,110 @@ pub fn run_elf(
     summary.faults = faults;
     summary.warnings = warnings;
     Ok(RunResult { rows, summary })
+}
+
+/// How long [`ElfConsole::line`] waits for a reply, s of simulated time (a `save` that must
+/// erase a 128 KiB sector first stalls the board ≈ 2 s).
+pub const REPLY_WITHIN_S: f64 = 10.0;
+
+/// How long [`replay_lines`] runs on after the last reply, s of simulated time: a line answered
+/// twice would show its second reply here.
+pub const SETTLE_S: f64 = 0.5;
+
+/// The ELF's console on the emulated board, as `host-sim console` serves the library's: the
+/// scene's block (its plant, camera and injected faults; its timed duties and console lines
+/// are not played) behind the board, lines typed into USART2 one at a time.
+pub struct ElfConsole {
+    board: ElfBoard,
+}
+
+impl ElfConsole {
+    /// Start the board as `start` says on `scenario`'s block (`host-sim console` boots its own
+    /// as a [`Start::PowerUp`]) and run it until its console is up (0.1 s: bytes sent to a
+    /// receiver not yet enabled would be lost); returns the console and the lines the board
+    /// wrote meanwhile.
+    pub fn boot(
+        scenario: &Scenario,
+        elf: &Path,
+        start: Start,
+    ) -> Result<(ElfConsole, Vec<String>), ElfRunError> {
+        let mut console = ElfConsole {
+            board: ElfBoard::new(scenario, elf, start)?,
+        };
+        let mut said = Vec::new();
+        while console.board.time_us < CONSOLE_UP_US {
+            said.extend(console.tick()?);
+        }
+        Ok((console, said))
+    }
+
+    /// Simulated time since power-up, s.
+    pub fn time_s(&self) -> f64 {
+        self.board.time_us as f64 * 1e-6
+    }
+
+    fn tick(&mut self) -> Result<Vec<String>, ElfRunError> {
+        let lines = self.board.tick()?.3;
+        if std::env::var_os("THERMORPH_PIL_CONSOLE").is_some() {
+            for l in &lines {
+                eprintln!("{:9.3} | {l}", self.time_s());
+            }
+        }
+        Ok(lines)
+    }
+
+    /// Run `seconds` more (in whole control ticks); the lines the board wrote.
+    pub fn run_for(&mut self, seconds: f64) -> Result<Vec<String>, ElfRunError> {
+        let until = self.board.time_us + (seconds * 1e6).round() as u64;
+        let mut said = Vec::new();
+        while self.board.time_us < until {
+            said.extend(self.tick()?);
+        }
+        Ok(said)
+    }
+
+    /// Type `line` (its bytes, then CR LF) and run tick by tick until the board writes a line
+    /// that is not a `#` line (warnings, telemetry): its reply. Returns every line written
+    /// from the typing to the end of the tick the reply came in, the reply among them; no
+    /// reply within [`REPLY_WITHIN_S`] is [`ElfRunError::NoReply`].
+    pub fn line(&mut self, line: &[u8]) -> Result<Vec<String>, ElfRunError> {
+        self.board.type_bytes(line);
+        let until = self.board.time_us + (REPLY_WITHIN_S * 1e6) as u64;
+        let mut said = Vec::new();
+        while self.board.time_us < until {
+            let lines = self.tick()?;
+            let answered = lines.iter().any(|l| !l.starts_with('#'));
+            said.extend(lines);
+            if answered {
+                return Ok(said);
+            }
+        }
+        Err(ElfRunError::NoReply {
+            line: line.escape_ascii().to_string(),
+            after_s: REPLY_WITHIN_S,
+        })
+    }
+}
+
+/// A console session against the ELF: the board started as `start` says on `scenario`'s block
+/// (a [`Start::PowerUp`] as `host-sim console`'s), the first of `lines` typed once the console
+/// is up and each next one once the previous is answered (as a
+/// person, or `scripts/record-session`, waits at a terminal; lines typed faster would queue in
+/// the board and bytes typed while `save` stalls it could be lost, as on the board), then
+/// [`SETTLE_S`] more. Returns every line the board wrote, as `host-sim console` writes its
+/// block's on standard output: warnings and telemetry (`#`) and the replies.
+pub fn replay_lines(
+    scenario: &Scenario,
+    elf: &Path,
+    start: Start,
+    lines: &[Vec<u8>],
+) -> Result<Vec<String>, ElfRunError> {
+    let (mut console, mut said) = ElfConsole::boot(scenario, elf, start)?;
+    for l in lines {
+        said.extend(console.line(l)?);
+    }
+    said.extend(console.run_for(SETTLE_S)?);
+    Ok(said)
 }
 
 /// `host-sim run SCENE --board ELF`: load the scene, play it with the ELF (a progress bar),

@@ -13,7 +13,7 @@ use thermorph::supervisor::events::EventKind;
 
 use crate::plant::PlantScale;
 pub use crate::runs::cycle_figures::{CycleFigures, Figure, KEYS, judge, measure};
-use crate::runs::run::{RunError, run_with};
+use crate::runs::run::{RunError, RunResult, run_with};
 use crate::runs::scenario;
 use crate::runs::series::Row;
 
@@ -60,65 +60,105 @@ pub fn scene_with(
     scenario::parse(&text, "<paper>", "paper")
 }
 
+/// The two experiments, in the order the table is built from them: springs, duration (s).
+pub const EXPERIMENTS: [(&str, f64); 2] = [("AB", 700.0), ("A", 400.0)];
+
 /// Run the full cycle with `springs` at 298.15 K, the camera on or off; returns the rows.
 pub fn cycle(springs: &str, duration_s: f64, camera: bool) -> Result<Vec<Row>, RunError> {
     cycle_in(&scene(duration_s, 298.15, camera)?, springs)
 }
 
-/// Run the full cycle with `springs` in `sc` (from [`scene`]): power-up in standby,
-/// `mode step-large SPRINGS` at [`STEP_AT_S`], `mode form` once the stepping holds, `mode
-/// recover` once forming has handed back to standby. A mode that ends otherwise (a timeout, a
-/// fault) ends the script there.
-pub fn cycle_in(sc: &scenario::Scenario, springs: &str) -> Result<Vec<Row>, RunError> {
-    let mut stage = 0;
-    let mut react = |t: f64, s: &Supervisor| -> Option<String> {
-        let (mode, phase) = (s.mode().name(), s.mode().phase_name());
-        let line = match stage {
-            0 if t >= STEP_AT_S => format!("mode step-large {springs}"),
-            1 if mode == "step-large" && phase == "hold" => "mode form".into(),
-            2 if mode == "standby"
-                && s.events().iter().last().is_some_and(|e| {
-                    matches!(
-                        e.kind,
-                        EventKind::Mode {
-                            from: "form",
-                            to: "standby"
-                        }
-                    )
-                }) =>
-            {
-                "mode recover".into()
-            }
-            _ => return None,
-        };
-        stage += 1;
-        Some(line)
-    };
-    Ok(run_with(sc, &mut |_| {}, &mut react)?.rows)
+/// The experiments' script, as someone at the console would drive it, one decision a scene
+/// period from the board's state: power-up in standby, `mode step-large SPRINGS` at
+/// [`STEP_AT_S`], `mode form` once the stepping holds, `mode recover` once forming has handed
+/// back to standby. A mode that ends otherwise (a timeout, a fault) ends the script there.
+#[derive(Debug, Clone)]
+pub struct Script {
+    springs: String,
+    stage: u8,
 }
 
-/// Run both cycles (camera on, or off for a quick look with true temperatures) and build the
-/// table (keys in [`KEYS`] order).
+impl Script {
+    /// The script with `springs` (`AB`, `A`).
+    pub fn new(springs: &str) -> Script {
+        Script {
+            springs: springs.to_string(),
+            stage: 0,
+        }
+    }
+
+    /// The line to send after seeing, at `t_s`, the board in `mode` and `phase`; `formed`: the
+    /// board's last mode change was `form` → `standby`.
+    pub fn next(&mut self, t_s: f64, mode: &str, phase: &str, formed: bool) -> Option<String> {
+        let line = match self.stage {
+            0 if t_s >= STEP_AT_S => format!("mode step-large {}", self.springs),
+            1 if mode == "step-large" && phase == "hold" => "mode form".into(),
+            2 if mode == "standby" && formed => "mode recover".into(),
+            _ => return None,
+        };
+        self.stage += 1;
+        Some(line)
+    }
+}
+
+/// Run the full cycle with `springs` in `sc` (from [`scene`]) by the [`Script`]; returns the
+/// rows ([`play`]'s).
+pub fn cycle_in(sc: &scenario::Scenario, springs: &str) -> Result<Vec<Row>, RunError> {
+    Ok(play(sc, springs)?.rows)
+}
+
+/// Run the full cycle with `springs` in `sc` (from [`scene`]) by the [`Script`], the
+/// supervisor's state read every scene period (`formed`: its last event is the mode change
+/// `form` → `standby`); returns the run (its replies hold the script's lines and when they
+/// were sent).
+pub fn play(sc: &scenario::Scenario, springs: &str) -> Result<RunResult, RunError> {
+    let mut script = Script::new(springs);
+    let mut react = |t: f64, s: &Supervisor| -> Option<String> {
+        let formed = s.events().iter().last().is_some_and(|e| {
+            matches!(
+                e.kind,
+                EventKind::Mode {
+                    from: "form",
+                    to: "standby"
+                }
+            )
+        });
+        script.next(t, s.mode().name(), s.mode().phase_name(), formed)
+    };
+    run_with(sc, &mut |_| {}, &mut react)
+}
+
+/// Run both [`EXPERIMENTS`] (camera on, or off for a quick look with true temperatures) and
+/// build the table (keys in [`KEYS`] order).
 pub fn figures(camera: bool, out: Option<&std::path::Path>) -> Result<Vec<Figure>, RunError> {
-    let two_rows = cycle("AB", 700.0, camera)?;
-    let one_rows = cycle("A", 400.0, camera)?;
+    let [(two, two_s), (one, one_s)] = EXPERIMENTS;
+    let two_rows = cycle(two, two_s, camera)?;
+    let one_rows = cycle(one, one_s, camera)?;
+    table(&two_rows, &one_rows, out)
+}
+
+/// The table (keys in [`KEYS`] order) from the [`EXPERIMENTS`]' rows (two springs, then one);
+/// with `out`, both time series written into that folder first (`two-springs.csv`,
+/// `one-spring.csv`).
+pub fn table(
+    two_rows: &[Row],
+    one_rows: &[Row],
+    out: Option<&std::path::Path>,
+) -> Result<Vec<Figure>, RunError> {
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).map_err(|err| RunError::Write {
             path: dir.to_path_buf(),
             err,
         })?;
-        for (name, rows) in [
-            ("two-springs.csv", &two_rows),
-            ("one-spring.csv", &one_rows),
-        ] {
+        for (name, rows) in [("two-springs.csv", two_rows), ("one-spring.csv", one_rows)] {
             let path = dir.join(name);
             let mut buf = Vec::new();
             crate::runs::series::write_csv(rows, &mut buf).map_err(RunError::Csv)?;
             std::fs::write(&path, buf).map_err(|err| RunError::Write { path, err })?;
         }
     }
-    let two = measure(&two_rows);
-    let one = measure(&one_rows);
+    let two = measure(two_rows);
+    let one = measure(one_rows);
     Ok(judge(&two, Some(&one)))
 }
 
@@ -126,8 +166,18 @@ pub fn figures(camera: bool, out: Option<&std::path::Path>) -> Result<Vec<Figure
 /// and with `--out` write both experiments' time series (`two-springs.csv`, `one-spring.csv`);
 /// exit status 0 either way (the tests assert the passes).
 pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> anyhow::Result<()> {
-    let table = figures(camera, out)?;
+    print(&figures(camera, out)?, json, None)
+}
+
+/// Print `table` as `host-sim paper` does: a table, or with `json` one JSON object keyed by
+/// figure (`{thesis, sim, pass}`). `source`, when the figures are not the library's: a line
+/// saying whose they are, first in the table (on standard error with `json`, which keeps the
+/// object alone on standard output).
+pub fn print(table: &[Figure], json: bool, source: Option<&str>) -> anyhow::Result<()> {
     if json {
+        if let Some(s) = source {
+            eprintln!("{s}");
+        }
         let map: serde_json::Map<String, serde_json::Value> = table
             .iter()
             .map(|f| {
@@ -140,11 +190,14 @@ pub fn cli(json: bool, camera: bool, out: Option<&std::path::Path>) -> anyhow::R
         println!("{}", serde_json::to_string_pretty(&map)?);
         return Ok(());
     }
+    if let Some(s) = source {
+        println!("{s}");
+    }
     println!(
         "{:<30} {:>12} {:>22} {:>14}",
         "figure", "thesis", "simulated", "tolerance"
     );
-    for f in &table {
+    for f in table {
         println!(
             "{:<30} {:>12} {:>22} {:>14} {}",
             f.key,
