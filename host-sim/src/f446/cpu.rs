@@ -191,6 +191,11 @@ fn masks_of(uc: &Unicorn<'_, State>) -> Masks {
 
 /// Hand the bus's lines to the NVIC and say whether an exception is now to be taken.
 fn interrupt_due(uc: &mut Unicorn<'_, State>) -> bool {
+    // With PRIMASK set nothing configurable is taken: the lines are handed over at the
+    // slice's end (before any `wfe` sleeps), as they are after every slice.
+    if uc.reg_read(RegisterARM::PRIMASK).unwrap_or(0) & 1 != 0 {
+        return false;
+    }
     let masks = masks_of(uc);
     let st = uc.get_data_mut();
     st.sync_lines();

@@ -57,6 +57,8 @@ pub const CPUID: u32 = 0x410F_C241;
 #[derive(Clone, Debug)]
 pub struct Nvic {
     enabled: [bool; EXCEPTIONS],
+    /// [`Nvic::highest_pending`]'s answer until pending, enabled or priority change.
+    best: std::cell::Cell<Option<Option<u16>>>,
     pending: [bool; EXCEPTIONS],
     active: [bool; EXCEPTIONS],
     /// Each exception's priority byte (the implemented top nibble).
@@ -128,6 +130,7 @@ impl Nvic {
         }
         Nvic {
             enabled,
+            best: std::cell::Cell::new(None),
             pending: [false; EXCEPTIONS],
             active: [false; EXCEPTIONS],
             priority: [0; EXCEPTIONS],
@@ -191,6 +194,7 @@ impl Nvic {
         let e = (exc::IRQ0 + irq) as usize;
         if high && !self.active[e] && !self.pending[e] {
             self.pending[e] = true;
+            self.best.set(None);
             return true;
         }
         false
@@ -198,6 +202,7 @@ impl Nvic {
 
     /// Pend exception `e` (a system exception, or `IRQ0 + n`).
     pub fn pend(&mut self, e: u16) {
+        self.best.set(None);
         if let Some(p) = self.pending.get_mut(e as usize) {
             *p = true;
         }
@@ -256,6 +261,15 @@ impl Nvic {
     /// The pending, enabled exception of the highest priority (the lowest exception number
     /// among equals), whatever the masks.
     pub fn highest_pending(&self) -> Option<u16> {
+        if let Some(b) = self.best.get() {
+            return b;
+        }
+        let b = self.find_highest_pending();
+        self.best.set(Some(b));
+        b
+    }
+
+    fn find_highest_pending(&self) -> Option<u16> {
         let mut best: Option<(i16, u16)> = None;
         for e in 1..EXCEPTIONS as u16 {
             if self.pending[e as usize] && self.enabled[e as usize] {
@@ -277,6 +291,7 @@ impl Nvic {
 
     /// The core takes exception `e`: pending → active, innermost.
     pub fn acknowledge(&mut self, e: u16) {
+        self.best.set(None);
         self.pending[e as usize] = false;
         self.active[e as usize] = true;
         self.nesting.push(e);
@@ -285,6 +300,7 @@ impl Nvic {
     /// Exception `e` returns: no longer active; an interrupt whose line is still high pends
     /// again. Returns false if `e` was not active (an illegal return).
     pub fn complete(&mut self, e: u16) -> bool {
+        self.best.set(None);
         if !self.active.get(e as usize).copied().unwrap_or(false) {
             return false;
         }
@@ -331,6 +347,7 @@ impl Nvic {
             st.cvr = (u64::from(st.rvr & 0x00FF_FFFF) - after.min(period - 1)) as u32;
             if st.csr & 2 != 0 {
                 self.pending[exc::SYSTICK as usize] = true;
+                self.best.set(None);
             }
         } else {
             st.cvr = (cvr - elapsed) as u32;
@@ -349,6 +366,7 @@ impl Nvic {
 
     /// A read of the System Control Space at `offset` from [`SCS_BASE`].
     pub fn read(&mut self, offset: u32, size: Size) -> u32 {
+        self.best.set(None);
         let word = self.read_word(offset & !3);
         lanes(word, offset, size)
     }
@@ -356,6 +374,7 @@ impl Nvic {
     /// A write to the System Control Space at `offset` from [`SCS_BASE`]. The priority
     /// registers take byte writes; the others word writes (a narrower one is merged).
     pub fn write(&mut self, offset: u32, size: Size, value: u32) {
+        self.best.set(None);
         let aligned = offset & !3;
         // Bit-set and bit-clear registers: a narrower write sets or clears only its lanes.
         if matches!(aligned, 0x100..=0x11C | 0x180..=0x19C | 0x200..=0x21C | 0x280..=0x29C) {
@@ -561,6 +580,7 @@ impl Nvic {
     /// Record a fault for the fault status registers: `cfsr_bits` ORed into CFSR, and HFSR's
     /// FORCED (bit 30) when it escalates to a hard fault.
     pub fn record_fault(&mut self, cfsr_bits: u32, forced: bool) {
+        self.best.set(None);
         self.cfsr |= cfsr_bits;
         if forced {
             self.hfsr |= 1 << 30;
