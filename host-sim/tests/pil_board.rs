@@ -266,3 +266,85 @@ fn the_button_latches_an_estop_through_exti() {
     assert!(reset.starts_with("ok"), "{reset:?}");
     assert!(core.bus_faults().is_empty(), "{:?}", core.bus_faults());
 }
+
+/// `run SCENE --board ELF` reads the board's defmt frames off RTT up channel 0 and decodes
+/// them with the ELF's table into `defmt.log`: the boot's `info!` lines (`board.rs`: the
+/// version, the reset cause, the springs' memory kept, the camera configured) and a `warn!` for
+/// every notice the board also wrote on its console (`write_notice`), each with the board's
+/// uptime as its timestamp; the summary names the file.
+#[test]
+fn the_boards_defmt_frames_are_decoded_into_the_runs_log() {
+    use host_sim::runs::scenario;
+    use thermorph::supervisor::ResetCause;
+
+    let dir = std::env::temp_dir().join(format!("thermorph-pil-defmt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("boot.toml");
+    std::fs::write(
+        &scene,
+        "name = \"boot\"\nduration = \"2 s\"\nperiod = \"0.25 s\"\nambient = \"298.15 K\"\n\
+         [fidelity]\ncamera = true\n[camera]\nseed = 1\n[[command]]\nat = \"1 s\"\nline = \"status\"\n",
+    )
+    .unwrap();
+    scenario::load(scene.to_str().unwrap()).expect("a scene of the board's");
+    let out_dir = dir.join("out");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["run", scene.to_str().unwrap(), "--board"])
+        .arg(elf())
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains(&format!("{}/defmt.log", out_dir.display())),
+        "{stdout}"
+    );
+    let log = std::fs::read_to_string(out_dir.join("defmt.log")).unwrap();
+    // `   0.004321 INFO  message`: the board's uptime, the level, the message.
+    let lines: Vec<(f64, &str, &str)> = log
+        .lines()
+        .map(|l| {
+            let frame = || -> Option<(f64, &str, &str)> {
+                let t = l.get(..11)?.trim().parse().ok()?;
+                Some((t, l.get(12..17)?.trim(), l.get(18..)?))
+            };
+            frame().unwrap_or_else(|| panic!("not a frame: {l:?}\n{log}"))
+        })
+        .collect();
+    let has = |level: &str, text: &str| lines.iter().any(|l| l.1 == level && l.2 == text);
+    for text in [
+        format!("thermorph {} up", thermorph::VERSION),
+        format!("reset cause: {:?}", ResetCause::Pin),
+        "springs: memory kept across the reset".to_string(),
+        "MLX90640 calibrated and configured".to_string(),
+    ] {
+        assert!(has("INFO", &text), "no INFO {text:?} in\n{log}");
+    }
+    // Every console warning (`# warning: …`) is also a `warn!` of its notice.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    let warnings = summary["warnings"].as_array().unwrap();
+    assert!(!warnings.is_empty(), "the reset's notice: {summary}");
+    for w in warnings {
+        let text = format!("warning: {}", w["text"].as_str().unwrap());
+        assert!(has("WARN", &text), "no WARN {text:?} in\n{log}");
+    }
+    // The uptime is the run's time (less the few ms before embassy's time driver starts), in
+    // order.
+    assert!(
+        lines.windows(2).all(|w| w[0].0 <= w[1].0),
+        "timestamps out of order:\n{log}"
+    );
+    assert!(
+        lines.iter().all(|l| (0.0..2.0).contains(&l.0)),
+        "uptimes beyond the run:\n{log}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -8,12 +8,15 @@ use host_sim::f446::{Bus, Clocks, Memory, Size, TIME_HZ, Time};
 use unicorn_engine::RegisterARM;
 
 /// A peripheral at 0x4000_0000 whose interrupt line (IRQ 0) rises at `at` and falls when
-/// software writes its register; the writes are kept.
+/// software writes its register; the writes are kept. It asks for a chip reset (as a watchdog
+/// does) once, at `reset_at`.
 struct TestBus {
     at: Time,
     raised: bool,
     cleared: bool,
     writes: Vec<(u32, u32, Time)>,
+    reset_at: Time,
+    reset_due: bool,
 }
 
 impl Bus for TestBus {
@@ -34,10 +37,17 @@ impl Bus for TestBus {
         if now >= self.at {
             self.raised = true;
         }
+        if now >= self.reset_at {
+            self.reset_due = true;
+            self.reset_at = Time::MAX;
+        }
     }
 
     fn next_event(&self, now: Time) -> Option<Time> {
-        (now < self.at).then_some(self.at)
+        [self.at, self.reset_at]
+            .into_iter()
+            .filter(|&t| now < t)
+            .min()
     }
 
     fn clocks(&self) -> Clocks {
@@ -53,7 +63,7 @@ impl Bus for TestBus {
     }
 
     fn take_reset(&mut self) -> bool {
-        false
+        std::mem::take(&mut self.reset_due)
     }
 
     fn software_reset(&mut self) {}
@@ -93,6 +103,8 @@ fn core(main: &[u16], handler: &[u16], at: Time) -> Core {
         raised: false,
         cleared: false,
         writes: Vec::new(),
+        reset_at: Time::MAX,
+        reset_due: false,
     };
     let mut c = Core::new(Box::new(bus), &img, &code).unwrap();
     c.reset().unwrap();
@@ -220,4 +232,58 @@ fn an_access_to_nothing_is_a_recorded_bus_fault_or_an_error() {
     let mut c = core(&main, &HANDLER, Time::MAX);
     let err = c.run_until(TIME_HZ / 1000).unwrap_err();
     assert!(err.to_string().contains("stopped at pc"), "{err}");
+}
+
+/// The reset hook sees the RAM as the program left it, before the reset and the program's
+/// start-up code (which zeroes its counter, as a board's zeroes the RTT block's offsets).
+#[test]
+fn the_reset_hook_reads_the_ram_before_the_chip_resets() {
+    // r0 = 0x2000_0000; [r0] = 0; then [r0] += 1 forever.
+    let main = [
+        0x2020, // movs r0, #0x20
+        0x0600, // lsls r0, r0, #24
+        0x2100, // movs r1, #0
+        0x6001, // str r1, [r0]
+        0x6801, // ldr r1, [r0]
+        0x3101, // adds r1, #1
+        0x6001, // str r1, [r0]
+        0xE7FB, // b (the ldr)
+    ];
+    let img = image(&main, &HANDLER);
+    let code: Vec<(u32, Vec<u8>)> = img[1..].to_vec();
+    let reset_at = TIME_HZ / 1000;
+    let bus = TestBus {
+        at: Time::MAX,
+        raised: false,
+        cleared: false,
+        writes: Vec::new(),
+        reset_at,
+        reset_due: false,
+    };
+    let mut c = Core::new(Box::new(bus), &img, &code).unwrap();
+    c.reset().unwrap();
+    let seen = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    let hook_seen = seen.clone();
+    c.on_reset(Box::new(move |mem: &mut dyn Memory| {
+        let mut b = [0u8; 4];
+        assert!(mem.read(SRAM_BASE, &mut b));
+        hook_seen.borrow_mut().push(u32::from_le_bytes(b));
+    }));
+    let counter = |c: &Core| c.read_u32(SRAM_BASE).unwrap();
+    c.run_until(reset_at - TIME_HZ / 100_000).unwrap();
+    let before = counter(&c);
+    assert!(before > 1000, "{before}");
+    c.run_until(reset_at + TIME_HZ / 100_000).unwrap();
+    assert_eq!(c.resets().len(), 1);
+    let seen = seen.borrow().clone();
+    assert_eq!(seen.len(), 1, "one reset, one look");
+    assert!(
+        seen[0] > before,
+        "the count at the reset: {seen:?} after {before}"
+    );
+    let after = counter(&c);
+    assert!(
+        after < seen[0] / 10,
+        "the program started over after the hook: {after} after {seen:?}"
+    );
 }

@@ -232,9 +232,14 @@ fn with_bus<R>(
     r
 }
 
+/// What looks at the chip's memories just before a reset takes effect ([`Core::on_reset`]).
+pub type ResetHook = Box<dyn FnMut(&mut dyn Memory)>;
+
 /// The emulated core with its chip.
 pub struct Core {
     uc: Unicorn<'static, State>,
+    /// Called before each chip reset (a probe's last look at the RAM).
+    reset_hook: Option<ResetHook>,
 }
 
 impl Core {
@@ -363,7 +368,10 @@ impl Core {
                 }
             }
         }
-        Ok(Core { uc })
+        Ok(Core {
+            uc,
+            reset_hook: None,
+        })
     }
 
     /// The chip's reset: the core takes SP and PC from the vector table at the flash's base
@@ -479,6 +487,13 @@ impl Core {
             .map_err(|err| CpuError::Core { pc: addr, err })
     }
 
+    /// Call `hook` with the chip's memories just before each reset the chip takes (a watchdog,
+    /// SYSRESETREQ) while it runs: what a probe attached would still read before the start-up
+    /// code initialises the RAM again (the RTT buffers). One hook: a second call replaces it.
+    pub fn on_reset(&mut self, hook: ResetHook) {
+        self.reset_hook = Some(hook);
+    }
+
     /// Whether the core sleeps (at `wfe`, waiting for an event).
     pub fn sleeping(&self) -> bool {
         self.uc.get_data().sleeping
@@ -489,6 +504,9 @@ impl Core {
         while self.now() < until {
             self.sync()?;
             if self.take_reset() {
+                if let Some(hook) = self.reset_hook.as_mut() {
+                    hook(&mut UcMemory(&mut self.uc));
+                }
                 self.reset()?;
                 continue;
             }
@@ -831,6 +849,18 @@ impl Core {
         uc.reg_write(RegisterARM::PC, u64::from(w[6] & !1))
             .map_err(err)?;
         Ok(())
+    }
+}
+
+/// The chip's memories as the core reaches them (SRAM, the flash and its alias): a probe's
+/// reads and writes (the RTT buffers), which take no time.
+impl Memory for Core {
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> bool {
+        self.read_bytes(addr, buf).is_ok()
+    }
+
+    fn write(&mut self, addr: u32, bytes: &[u8]) -> bool {
+        self.write_bytes(addr, bytes).is_ok()
     }
 }
 

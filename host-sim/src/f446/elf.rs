@@ -90,12 +90,16 @@ pub enum ElfError {
 
 /// Read the ELF at `path` for the emulated chip.
 pub fn load(path: &Path) -> Result<Image, ElfError> {
-    let name = path.display().to_string();
-    let data = std::fs::read(path).map_err(|e| ElfError::Read {
-        path: name.clone(),
+    parse(&read(path)?, &path.display().to_string())
+}
+
+/// The bytes of the file at `path` (for [`parse`], and for what else reads the ELF: its defmt
+/// table).
+pub fn read(path: &Path) -> Result<Vec<u8>, ElfError> {
+    std::fs::read(path).map_err(|e| ElfError::Read {
+        path: path.display().to_string(),
         why: e.to_string(),
-    })?;
-    parse(&data, &name)
+    })
 }
 
 /// Read an ELF's bytes (`name` for the messages).

@@ -30,6 +30,7 @@ pub mod mlx_target;
 pub mod nvic;
 pub mod pwr;
 pub mod rcc;
+pub mod rtt;
 pub mod soc;
 pub mod syscfg;
 pub mod tim;

@@ -17,6 +17,11 @@
 //! `docs/console.md`'s session with them). They are a function and not a `host-sim console
 //! --board` mode: the console paces simulated time by the wall clock, which an emulation at
 //! ≈ 10× real time cannot promise, while a replay in simulated time is the same every run.
+//!
+//! The board's defmt log is read as a probe reads it: RTT up channel 0 (`f446::rtt`) after
+//! every millisecond of the chip's time and just before each chip reset (the start-up code
+//! clears the channel), decoded with the ELF's `.defmt` table (`runs::defmt_log`) into the
+//! run's `log` (written as `defmt.log`).
 
 use std::cell::RefCell;
 use std::collections::BTreeSet;
@@ -35,13 +40,15 @@ use crate::f446::Peripheral;
 use crate::f446::cpu::Core;
 use crate::f446::gpio::Drive;
 use crate::f446::rcc::ResetCause;
+use crate::f446::rtt::{RttError, RttUp};
 use crate::f446::soc::Soc;
 use crate::f446::{FLASH_BASE, TIME_HZ};
 use crate::imaging::view::Layout;
 use crate::plant::{Inputs, Plant};
 use crate::rig::camera::{CameraFaults, camera_temps, render_field};
 use crate::rig::{FaultRecord, RigError, apply_faults, channels};
-use crate::runs::run::{ReplyRecord, RunError, RunResult, WarningRecord, summarise};
+use crate::runs::defmt_log::DefmtLog;
+use crate::runs::run::{LogRecord, ReplyRecord, RunError, RunResult, WarningRecord, summarise};
 use crate::runs::scenario::Scenario;
 use crate::runs::series::{ControlRow, Row};
 use crate::sensor::eeprom;
@@ -148,6 +155,36 @@ fn control_of(line: &str) -> ControlRow {
     }
 }
 
+/// What a probe takes off the chip's RTT up channel 0: shared with the core's reset hook, which
+/// reads it once more before a reset clears it.
+struct Probe {
+    rtt: RttUp,
+    /// Bytes taken, not yet decoded.
+    bytes: Vec<u8>,
+    /// Why the last read found no usable channel (None: it read, or found none set up yet).
+    refused: Option<RttError>,
+}
+
+impl Probe {
+    /// Take what the board logged since the last read.
+    fn read(&mut self, mem: &mut dyn crate::f446::Memory) {
+        self.refused = match self.rtt.drain(mem, &mut self.bytes) {
+            Ok(_) | Err(RttError::NoControlBlock(_)) => None,
+            Err(e) => Some(e),
+        };
+    }
+}
+
+/// The board's defmt log as the run reads it.
+struct BoardLog {
+    probe: Rc<RefCell<Probe>>,
+    log: DefmtLog,
+    /// The refusal last noted in the log (noted again only when it changes).
+    noted: Option<RttError>,
+    /// Each record on standard error too (`THERMORPH_PIL_CONSOLE`).
+    echo: bool,
+}
+
 /// The emulated board and the block it drives.
 struct ElfBoard {
     plant: Plant,
@@ -166,6 +203,8 @@ struct ElfBoard {
     partial: String,
     /// Bytes typed before the console is up ([`CONSOLE_UP_US`]).
     typed: Vec<u8>,
+    /// The defmt log (None: the ELF has no RTT control block).
+    log: Option<BoardLog>,
 }
 
 /// How the emulated board starts.
@@ -182,7 +221,8 @@ pub enum Start {
 impl ElfBoard {
     fn new(scenario: &Scenario, elf: &Path, start: Start) -> Result<ElfBoard, ElfRunError> {
         let block = scenario.block();
-        let img = crate::f446::elf::load(elf)?;
+        let data = crate::f446::elf::read(elf)?;
+        let img = crate::f446::elf::parse(&data, &elf.display().to_string())?;
         let plant = Plant::with_options(&block.plant, block.options)
             .map_err(|e| RunError::from(RigError::from(e)))?;
         let mut soc = Soc::new();
@@ -220,6 +260,21 @@ impl ElfBoard {
             core.write_bytes(at, &bytes)?;
         }
         core.reset()?;
+        let log = img.rtt.map(|at| {
+            let probe = Rc::new(RefCell::new(Probe {
+                rtt: RttUp::new(at),
+                bytes: Vec::new(),
+                refused: None,
+            }));
+            let before_reset = probe.clone();
+            core.on_reset(Box::new(move |mem| before_reset.borrow_mut().read(mem)));
+            BoardLog {
+                probe,
+                log: DefmtLog::new(&data),
+                noted: None,
+                echo: std::env::var_os("THERMORPH_PIL_CONSOLE").is_some(),
+            }
+        });
         let seed = block.camera.seed;
         let mut board = ElfBoard {
             plant,
@@ -234,6 +289,7 @@ impl ElfBoard {
             commanded: Inputs::default(),
             partial: String::new(),
             typed: Vec::new(),
+            log,
         };
         board.show(CameraFaults::default());
         board.analog(&Inputs::default());
@@ -300,6 +356,33 @@ impl ElfBoard {
         }
     }
 
+    /// Read the board's RTT up channel as a probe does and decode what it logged.
+    fn read_log(&mut self) {
+        let Some(b) = &mut self.log else {
+            return;
+        };
+        let at_s = self.time_us as f64 * 1e-6;
+        let mut p = b.probe.borrow_mut();
+        p.read(&mut self.core);
+        if p.refused != b.noted {
+            if let Some(e) = &p.refused {
+                b.log.note(at_s, format!("RTT not read: {e}"));
+            }
+            b.noted = p.refused.clone();
+        }
+        if p.bytes.is_empty() {
+            return;
+        }
+        let bytes = std::mem::take(&mut p.bytes);
+        drop(p);
+        let records = b.log.push(&bytes, at_s);
+        if b.echo {
+            for r in records {
+                eprintln!("{at_s:9.3} defmt {r}");
+            }
+        }
+    }
+
     /// Type `line` on the console (once it is up).
     fn type_line(&mut self, line: &str) {
         self.type_bytes(line.as_bytes());
@@ -339,6 +422,7 @@ impl ElfBoard {
             let to = (self.time_us + SUB_US).min(next);
             self.core.run_until(to * (TIME_HZ / 1_000_000))?;
             self.time_us = to;
+            self.read_log();
             let mut now = self.outputs();
             apply_faults(&self.faults, t_s, &mut now);
             if now != inputs || to == next {
@@ -492,7 +576,9 @@ pub fn run_elf_with(
     summary.replies = replies;
     summary.faults = faults;
     summary.warnings = warnings;
-    Ok(RunResult { rows, summary })
+    let end_s = b.time_us as f64 * 1e-6;
+    let log: Vec<LogRecord> = b.log.map_or_else(Vec::new, |l| l.log.finish(end_s));
+    Ok(RunResult { rows, summary, log })
 }
 
 /// How long [`ElfConsole::line`] waits for a reply, s of simulated time (a `save` that must

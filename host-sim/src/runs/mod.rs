@@ -12,8 +12,12 @@
 //! - [`pose`]: `host-sim pose-table`, posture control over targets, springs and ambients.
 //! - [`sweep`]: `host-sim sweep`, a scene over a grid of overrides, in parallel.
 //! - [`plot`]: the PNG plots (of a run and of a desk recording).
+//! - `elf_run` and `defmt_log` (`--features pil`): a scene played by the board's own ELF on the
+//!   emulated STM32F446, and its defmt log.
 
 pub mod cycle_figures;
+#[cfg(feature = "pil")]
+pub mod defmt_log;
 #[cfg(feature = "pil")]
 pub mod elf_paper;
 #[cfg(feature = "pil")]

@@ -11,7 +11,8 @@
 //! [`write_outputs`] into one folder: `timeseries.csv` (one row a period,
 //! [`crate::runs::series`]), `summary.json` ([`Summary`]: run figures and the SPEC section 8
 //! figures that an open-loop scene shows, beside the thesis's) and `plot.png`
-//! ([`crate::runs::plot`]).
+//! ([`crate::runs::plot`]); a run of the board's ELF (`crate::runs::elf_run`, `--features pil`)
+//! adds `defmt.log`, the board's defmt log ([`LogRecord`]).
 //!
 //! This module owns the error type of runs and of the experiments built on them
 //! ([`crate::runs::paper`]), [`RunError`].
@@ -57,6 +58,39 @@ pub struct WarningRecord {
     pub text: String,
 }
 
+/// A line of the board's defmt log: a frame its ELF wrote to RTT, decoded with the ELF's
+/// `.defmt` table, or a note on bytes that did not decode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogRecord {
+    /// When the harness read it off the chip, s of the run (within a millisecond of its
+    /// writing).
+    pub at_s: f64,
+    /// The frame's own timestamp as defmt shows it (the board's: embassy's uptime in seconds,
+    /// `12.345678`, which starts again at a chip reset); None without one (a note).
+    pub timestamp: Option<String>,
+    /// The frame's level (`TRACE` … `ERROR`); None for a `println!` frame or a note.
+    pub level: Option<&'static str>,
+    /// The message.
+    pub text: String,
+}
+
+impl std::fmt::Display for LogRecord {
+    /// `   12.345678 WARN  message`; a line without a timestamp shows the run's time in
+    /// parentheses, one without a level `-`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let time = match &self.timestamp {
+            Some(t) => t.clone(),
+            None => format!("({:.3})", self.at_s),
+        };
+        write!(
+            f,
+            "{time:>11} {:<5} {}",
+            self.level.unwrap_or("-"),
+            self.text
+        )
+    }
+}
+
 /// Everything a run produced.
 #[derive(Clone, Debug)]
 pub struct RunResult {
@@ -64,6 +98,8 @@ pub struct RunResult {
     pub rows: Vec<Row>,
     /// The summary.
     pub summary: Summary,
+    /// The board's defmt log (a run of its ELF; empty for the library's board, which has none).
+    pub log: Vec<LogRecord>,
 }
 
 pub use crate::runs::cycle_figures::Figure;
@@ -293,7 +329,11 @@ pub fn run_with(
     summary.replies = replies;
     summary.faults = board.latched().to_vec();
     summary.warnings = warnings;
-    Ok(RunResult { rows, summary })
+    Ok(RunResult {
+        rows,
+        summary,
+        log: Vec::new(),
+    })
 }
 
 /// Empty what the board said since the last call, keeping its warnings (timed `at_s`, the
@@ -551,7 +591,8 @@ pub fn closed_loop_figures(rows: &[Row]) -> Vec<Figure> {
     }
 }
 
-/// Write `timeseries.csv`, `summary.json` and `plot.png` into `dir` (created if missing).
+/// Write `timeseries.csv`, `summary.json` and `plot.png` into `dir` (created if missing), and
+/// `defmt.log` (one [`LogRecord`] a line) if the run has a log.
 pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), RunError> {
     std::fs::create_dir_all(dir).map_err(|err| RunError::CreateDir {
         path: dir.to_path_buf(),
@@ -565,7 +606,13 @@ pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), RunError> {
         std::fs::write(&csv, &text).map_err(|err| RunError::Write { path: csv, err })?;
         let json = dir.join("summary.json");
         let summary = serde_json::to_string_pretty(&result.summary).map_err(RunError::Json)?;
-        std::fs::write(&json, summary + "\n").map_err(|err| RunError::Write { path: json, err })
+        std::fs::write(&json, summary + "\n").map_err(|err| RunError::Write { path: json, err })?;
+        if !result.log.is_empty() {
+            let log = dir.join("defmt.log");
+            let text: String = result.log.iter().map(|r| format!("{r}\n")).collect();
+            std::fs::write(&log, text).map_err(|err| RunError::Write { path: log, err })?;
+        }
+        Ok(())
     };
     let png = dir.join("plot.png");
     std::thread::scope(|s| {
@@ -783,8 +830,13 @@ pub fn finish(result: &RunResult, dir: &Path, quiet: bool) -> anyhow::Result<()>
         print_summary(&result.summary, &mut out)?;
         writeln!(
             out,
-            "wrote {0}/timeseries.csv, {0}/summary.json, {0}/plot.png",
-            dir.display()
+            "wrote {0}/timeseries.csv, {0}/summary.json, {0}/plot.png{1}",
+            dir.display(),
+            if result.log.is_empty() {
+                String::new()
+            } else {
+                format!(", {}/defmt.log", dir.display())
+            }
         )?;
     }
     Ok(())
