@@ -42,9 +42,11 @@ const WINDOWS: [(u32, u32); 4] = [
     (0xE000_0000, 0x0001_0000),
     (0xE004_2000, 0x0000_1000),
 ];
-/// The longest slice the core runs without looking at the interrupts, instructions (≈ 5.7 µs
-/// at 180 MHz: the latency a `cpsie` can add to a pending interrupt).
-const MAX_SLICE: u64 = 1024;
+/// The longest slice the core runs without looking at the interrupts, instructions (≈ 91 µs
+/// at 180 MHz). A slice also ends at the next peripheral event, after a write that makes an
+/// interrupt takeable, and after a `cpsie`/`msr` to a mask register with an interrupt pending:
+/// this bound is only for what none of those see.
+const MAX_SLICE: u64 = 16_384;
 /// Branches to at or above this are exception returns (EXC_RETURN's prefix).
 const EXC_RETURN_MIN: u32 = 0xF000_0000;
 
@@ -111,6 +113,8 @@ struct State {
     instructions: u64,
     /// An interrupt may have become takeable in a register write: end the slice.
     recheck: bool,
+    /// A write under PRIMASK did not hand the lines to the NVIC.
+    lines_stale: bool,
     /// When the chip reset.
     resets: Vec<Time>,
     /// Slices run and sleeps skipped (the emulation's own cost: [`Core::stats`]).
@@ -122,6 +126,7 @@ impl State {
     /// Hand the bus's interrupt lines to the NVIC (SEVONPEND: a newly pending one sets the
     /// event register).
     fn sync_lines(&mut self) {
+        self.lines_stale = false;
         let nvic = &mut self.nvic;
         let mut woke = false;
         self.bus
@@ -130,6 +135,18 @@ impl State {
             .irqs(&mut |irq, high| woke |= nvic.set_line(irq, high));
         if woke && self.nvic.sev_on_pend() {
             self.event = true;
+        }
+    }
+
+    /// An instruction that may unmask interrupts is about to run: the slice ends after its
+    /// block if one is pending (the lines handed over first if a write under PRIMASK left
+    /// them behind).
+    fn unmasking(&mut self) {
+        if self.lines_stale {
+            self.sync_lines();
+        }
+        if self.nvic.highest_pending().is_some() {
+            self.recheck = true;
         }
     }
 
@@ -179,6 +196,16 @@ impl Blocks {
     }
 }
 
+/// Whether the halfword `hw` and the next, `next`, are `MSR` to PRIMASK, BASEPRI,
+/// BASEPRI_MAX or FAULTMASK (ARMv7-M A7.7.83, T1: `F38n 88xx`, SYSm 0x10–0x13).
+fn is_msr_to_mask(hw: u16, next: Option<&[u8]>) -> bool {
+    let Some(&[a, b]) = next else {
+        return false;
+    };
+    let second = u16::from_le_bytes([a, b]);
+    hw & 0xFFF0 == 0xF380 && second & 0xFF00 == 0x8800 && (0x10..=0x13).contains(&(second & 0xFF))
+}
+
 /// The core's interrupt masks now.
 fn masks_of(uc: &Unicorn<'_, State>) -> Masks {
     let reg = |r| uc.reg_read(r).unwrap_or(0) as u32;
@@ -194,6 +221,7 @@ fn interrupt_due(uc: &mut Unicorn<'_, State>) -> bool {
     // With PRIMASK set nothing configurable is taken: the lines are handed over at the
     // slice's end (before any `wfe` sleeps), as they are after every slice.
     if uc.reg_read(RegisterARM::PRIMASK).unwrap_or(0) & 1 != 0 {
+        uc.get_data_mut().lines_stale = true;
         return false;
     }
     let masks = masks_of(uc);
@@ -265,6 +293,7 @@ impl Core {
             faults: Vec::new(),
             instructions: 0,
             recheck: false,
+            lines_stale: false,
             resets: Vec::new(),
             slices: 0,
             sleeps: 0,
@@ -279,8 +308,15 @@ impl Core {
             .map_err(core_err)?;
         uc.mem_map(0, u64::from(FLASH_BYTES), rx)
             .map_err(core_err)?;
-        uc.mem_map(u64::from(SRAM_BASE), u64::from(SRAM_BYTES), Prot::ALL)
-            .map_err(core_err)?;
+        // SRAM holds no code (the ELF's code is in flash): mapped without execute, unicorn
+        // lets a store to it take the fast path (a store to an executable page checks for
+        // translated code there, every time).
+        uc.mem_map(
+            u64::from(SRAM_BASE),
+            u64::from(SRAM_BYTES),
+            Prot::READ | Prot::WRITE,
+        )
+        .map_err(core_err)?;
         // The erased flash reads all ones.
         let erased = vec![0xFFu8; FLASH_BYTES as usize];
         uc.mem_write(u64::from(FLASH_BASE), &erased)
@@ -362,6 +398,12 @@ impl Core {
                     // SEV.
                     0xBF40 => {
                         uc.add_code_hook(at, at, |uc, _, _| uc.get_data_mut().event = true)
+                            .map_err(core_err)?;
+                    }
+                    // CPSIE I, or MSR to PRIMASK, BASEPRI, BASEPRI_MAX or FAULTMASK: the
+                    // masks may open for a pending interrupt.
+                    hw if hw == 0xB662 || is_msr_to_mask(hw, bytes.get(2 * i + 2..2 * i + 4)) => {
+                        uc.add_code_hook(at, at, |uc, _, _| uc.get_data_mut().unmasking())
                             .map_err(core_err)?;
                     }
                     _ => {}
