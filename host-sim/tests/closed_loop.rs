@@ -66,7 +66,7 @@ fn a_scene_with_commands_may_not_set_duties() {
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("x.toml") && e.contains("may not set duties"),
+        e.starts_with("x.toml:6: `action[1].heater`") && e.contains("may not set duties"),
         "{e}"
     );
     let text = "name = \"x\"\nduration = \"10 s\"\nambient = \"298 K\"\n[[command]]\nat = \"1 s\"\nline = \"mode fly\"\n";
@@ -887,4 +887,146 @@ fn a_cold_room_soak_is_announced_within_5_minutes() {
         w.text
     );
     assert!(r.summary.faults.is_empty(), "{:?}", r.summary.faults);
+}
+
+/// A scene's e-stop button (`[[action]]` `button`) as the board's loop sees it: a press in the
+/// middle of large stepping, between two ticks, latches `estop` in the period the press starts
+/// (the board's e-stop task wakes its loop at once) with the heater and both springs off from
+/// that instant; `reset` is refused while the button reads pressed, and clears the fault once it
+/// is released; a `mode` line then heats again.
+#[test]
+fn a_button_press_in_stepping_latches_estop_with_heater_and_springs_off_at_once() {
+    let text = "name = \"button\"\nduration = \"64 s\"\nambient = \"298.15 K\"\nperiod = \"0.05 s\"\n\
+                [fidelity]\ncamera = false\n\
+                [[command]]\nat = \"0 s\"\nline = \"mode step-large AB\"\n\
+                [[action]]\nat = \"58.013 s\"\nbutton = \"pressed\"\n\
+                [[command]]\nat = \"59 s\"\nline = \"reset\"\n\
+                [[action]]\nat = \"60 s\"\nbutton = \"released\"\n\
+                [[command]]\nat = \"61 s\"\nline = \"reset\"\n\
+                [[command]]\nat = \"62 s\"\nline = \"mode standby\"\n";
+    let sc = scenario::parse(text, "button", "button").unwrap();
+    let r = run(&sc, &mut |_| {}).unwrap();
+    let rows = &r.rows;
+    // The row of the 50 ms period that starts at `t`.
+    let from = |t: f64| {
+        rows.iter()
+            .find(|r| (r.obs.time_s - 0.05 - t).abs() < 1e-6)
+            .unwrap()
+    };
+    let before = from(58.0);
+    assert!(
+        mode(before) == "step-large"
+            && before.inputs.heater_duty > 0.0
+            && before.springs_cmd.iter().filter(|s| **s).count() == 2,
+        "stepping with A and B when the button goes down: {:?} {:?}",
+        before.inputs,
+        before.control.map(|c| c.phase)
+    );
+    let codes: Vec<(&str, f64)> = r
+        .summary
+        .faults
+        .iter()
+        .map(|f| (f.code.as_str(), f.at_s))
+        .collect();
+    assert!(
+        codes.len() == 1 && codes[0].0 == "estop" && (codes[0].1 - 58.013).abs() < 1e-9,
+        "latched at the press, to the ms: {codes:?}"
+    );
+    // The first row after the press (from 58.05 s, one tick at most) and every one until the
+    // reset: heater, springs and spring power off.
+    for r in rows
+        .iter()
+        .filter(|r| r.obs.time_s > 58.05 + 1e-6 && r.obs.time_s <= 61.0)
+    {
+        assert!(
+            safe(r) && r.inputs.spring_power_off && fault(r) == Some("estop"),
+            "{} s: {:?}",
+            r.obs.time_s,
+            r.inputs
+        );
+    }
+    let replies: Vec<(&str, &str)> = r
+        .summary
+        .replies
+        .iter()
+        .map(|x| (x.line.as_str(), x.reply.as_str()))
+        .collect();
+    assert!(
+        replies[1].1.starts_with("err cause-present: estop"),
+        "{replies:?}"
+    );
+    assert!(
+        replies[2].1.starts_with("ok fault cleared, stopped"),
+        "{replies:?}"
+    );
+    assert!(replies[3].1.starts_with("ok mode standby"), "{replies:?}");
+    assert_eq!(fault(from(61.0)), None);
+    assert_eq!(mode(from(62.0)), "standby", "a `mode` line is obeyed again");
+    println!(
+        "button pressed at 58.013 s in stepping: estop latched at {:.3} s, heater and springs off \
+         from then; reset refused while pressed, cleared after the release",
+        codes[0].1
+    );
+}
+
+/// The simulated board's button, stepped by hand: the press is a control period at its own
+/// instant (the outputs safe before the next tick), a tap released before the next tick still
+/// latches, and `reset` waits for the level to read released.
+#[test]
+fn the_simulated_board_reads_the_button_as_the_board_does() {
+    use host_sim::rig::store::SimFlash;
+    use host_sim::rig::{Said, SimBoard};
+    use thermorph::app::Line;
+    use thermorph::settings::Settings;
+
+    let sc = scene(
+        "b",
+        20.0,
+        false,
+        "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n",
+    );
+    let mut b =
+        SimBoard::new(&sc.block(), true, Settings::DEFAULT, SimFlash::Memory(None)).unwrap();
+    let mut said: Vec<Said> = Vec::new();
+    let line = |b: &mut SimBoard, l: &str| {
+        b.line(Line::Text(l), &mut Vec::new())
+            .unwrap()
+            .as_str()
+            .to_string()
+    };
+    assert!(line(&mut b, "mode standby").starts_with("ok"));
+    b.advance_to(5_013_000, &mut said);
+    assert!(b.commanded().heater_duty > 0.0, "standby heats");
+    // A tap between two ticks: down at 5.013 s, up at 5.020 s.
+    b.set_button(true, &mut said);
+    assert_eq!(b.commanded().heater_duty, 0.0, "off in the press's period");
+    assert_eq!(
+        b.supervisor().unwrap().fault().map(|f| f.code()),
+        Some("estop")
+    );
+    assert!(
+        (b.latched()[0].at_s - 5.013).abs() < 1e-9,
+        "{:?}",
+        b.latched()
+    );
+    b.set_button(false, &mut said);
+    b.advance_to(5_020_000, &mut said);
+    assert!(!b.button_pressed());
+    b.advance_to(6_000_000, &mut said);
+    let reset = line(&mut b, "reset");
+    assert!(reset.starts_with("ok fault cleared"), "{reset}");
+    assert!(line(&mut b, "mode standby").starts_with("ok"));
+    b.advance_to(7_000_000, &mut said);
+    // Held down: every period reads it, so `reset` is refused until the release; pressing a
+    // pressed button is no new edge (one latch).
+    b.set_button(true, &mut said);
+    b.set_button(true, &mut said);
+    b.advance_to(8_000_000, &mut said);
+    assert!(line(&mut b, "reset").starts_with("err cause-present"));
+    b.set_button(false, &mut said);
+    // The line's own period reads the level first, as the board's loop does.
+    let reset = line(&mut b, "reset");
+    assert!(reset.starts_with("ok fault cleared"), "{reset}");
+    let estops = b.latched().iter().filter(|f| f.code == "estop").count();
+    assert_eq!(estops, 2);
 }

@@ -57,7 +57,7 @@ pub struct ConsoleArgs {
 }
 
 /// The simulated block behind the console: a [`SimBoard`] of the scene (its plant, camera and
-/// injected faults; the scene's timed duties and lines are not played) with its controller.
+/// injected faults; the scene's timed actions and lines are not played) with its controller.
 pub struct Block {
     board: SimBoard,
 }
@@ -318,7 +318,7 @@ pub fn cli(args: &ConsoleArgs) -> anyhow::Result<()> {
         args.speed,
         store.path().display(),
         if ignored > 0 {
-            format!(" (the scene's {ignored} timed duties and lines are not played)")
+            format!(" (the scene's {ignored} timed actions and lines are not played)")
         } else {
             String::new()
         }

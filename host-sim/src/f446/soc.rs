@@ -15,7 +15,7 @@ use super::adc::{ADC1_BASE, Adc};
 use super::dma::{BusFault, Controller, Dma, DmaBus, Serviced};
 use super::exti::Exti;
 use super::flash::Flash;
-use super::gpio::Gpio;
+use super::gpio::{Drive, Gpio};
 use super::i2c::{I2C1_BASE, I2c};
 use super::iwdg::Iwdg;
 use super::mlx_target::MlxTarget;
@@ -160,11 +160,17 @@ impl Soc {
         self.suppressed.push(irq);
     }
 
-    /// Put the virtual MLX90640 `device` (built on `clock`) on I2C1, at the chip's time.
+    /// Put the virtual MLX90640 `device` (built on `clock`) on I2C1, at the chip's time, with
+    /// the bus's pull-ups: SCL (PB8) and SDA (PB9) read high wherever no one drives them low,
+    /// as the sensor's board pulls them up (a bus recovery clocks SCL and reads SDA through
+    /// GPIO: without them a released line would read low, and every recovery "bus stuck").
     pub fn attach_sensor(&mut self, device: Rc<RefCell<VirtualMlx90640>>, clock: SimClock) {
         self.i2c1
             .attach(Box::new(MlxTarget::new(device, clock.clone())));
         self.sensor_clock = Some(clock);
+        for pin in [8, 9] {
+            self.gpio[1].set_input(pin, Drive::High);
+        }
     }
 
     /// A reset of the chip for `cause`: every peripheral to its reset state (the RCC keeps its
@@ -638,5 +644,37 @@ impl Bus for Soc {
             d.irqs(line);
         }
         self.adc1.irqs(line);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::f446::gpio::reg;
+
+    /// The sensor's bus lines read high when released (its pull-ups), low where the chip drives
+    /// them low as open-drain outputs, as a bus recovery sees them.
+    #[test]
+    fn the_sensor_bus_lines_are_pulled_up() {
+        let mut soc = Soc::new();
+        let idr = |soc: &mut Soc| (soc.gpio[1].read(reg::IDR, Size::Word) >> 8) & 3;
+        // No sensor: floating inputs without a pull read low.
+        assert_eq!(idr(&mut soc), 0);
+        let words = crate::sensor::eeprom::realistic(1).encode().unwrap();
+        let clock = SimClock::new();
+        let dev = VirtualMlx90640::new(words, clock.clone(), 1).unwrap();
+        soc.attach_sensor(Rc::new(RefCell::new(dev)), clock);
+        assert_eq!(idr(&mut soc), 3, "released: both high");
+        // PB8 and PB9 open-drain outputs (recovery's GPIO), SDA driven low, SCL released.
+        let g = &mut soc.gpio[1];
+        g.write(reg::OTYPER, Size::Word, 3 << 8);
+        g.write(reg::ODR, Size::Word, 1 << 8);
+        g.write(reg::MODER, Size::Word, 0b0101 << 16);
+        assert_eq!(idr(&mut soc), 1, "SDA low, SCL high");
+        soc.gpio[1].write(reg::ODR, Size::Word, 3 << 8);
+        assert_eq!(idr(&mut soc), 3);
+        // A chip reset keeps the outside's drives.
+        soc.chip_reset(ResetCause::Pin);
+        assert_eq!(idr(&mut soc), 3);
     }
 }

@@ -3,11 +3,14 @@
 //!
 //! This module owns the order of simulated time. The board's control loop steps the
 //! controller every [`TICK_MS`] (the library's [`CONTROL_PERIOD_MS`]), on every frame the
-//! sensing task publishes and on every console line; so does [`SimBoard`]:
+//! sensing task publishes, on every console line and on every press of the e-stop button; so
+//! does [`SimBoard`]:
 //! [`SimBoard::advance_to`] runs the plant between those instants with the outputs of the last
 //! decision (and the active injected faults), runs the camera chain at the sensor's own 8 Hz
 //! subpage rate and steps the controller at each tick and at each frame's time;
-//! [`SimBoard::line`] is a console line at the board's present time. A fault is therefore made
+//! [`SimBoard::line`] is a console line at the board's present time, [`SimBoard::set_button`]
+//! the e-stop button pressed or released then (every period reports the button as the board's
+//! loop does: its level, or a press since the last period). A fault is therefore made
 //! safe at the same simulated time as on the board. Every simulator command — `host-sim run`,
 //! `paper`, `host-sim console` and the desk's end-to-end board — drives one `SimBoard`, and
 //! `save`/`load` are carried out here ([`store::SimFlash`]) and nowhere else.
@@ -175,6 +178,12 @@ pub struct SimBoard {
     seen_events: u32,
     /// The spring channels' sensing front end.
     sensing: channels::Sensing,
+    /// The e-stop button reads pressed (its level: every period reports it, as the board's
+    /// control loop reads PC13).
+    button_pressed: bool,
+    /// The button went down since the last period (the board's `ESTOP_TAPPED`): that period
+    /// reports it pressed even if it was released meanwhile.
+    button_tapped: bool,
 }
 
 impl SimBoard {
@@ -233,6 +242,8 @@ impl SimBoard {
             latched: Vec::new(),
             seen_events: 0,
             sensing,
+            button_pressed: false,
+            button_tapped: false,
         })
     }
 
@@ -359,6 +370,28 @@ impl SimBoard {
         }
     }
 
+    /// The e-stop button pressed (`true`) or released at the board's present time, as the
+    /// board sees it: a press is a falling edge on PC13, which its e-stop task turns into a
+    /// control period at once with the button reported pressed (the supervisor latches
+    /// `estop`, every output off in that period); after it, every period reports the button's
+    /// level, so `reset` is refused until a release. A press of a pressed button, or a release
+    /// of a released one, is no edge and changes nothing. Warnings and telemetry of the
+    /// period go to `said`. An open-loop board has no controller to read it: nothing happens.
+    pub fn set_button(&mut self, pressed: bool, said: &mut Vec<Said>) {
+        let edge = pressed && !self.button_pressed;
+        self.button_pressed = pressed;
+        if edge && self.control.is_some() {
+            self.button_tapped = true;
+            self.period(None, None, false, said);
+            self.hold_inputs();
+        }
+    }
+
+    /// Whether the e-stop button reads pressed now.
+    pub fn button_pressed(&self) -> bool {
+        self.button_pressed
+    }
+
     fn hint(&self) -> SensingHint {
         self.supervisor()
             .map_or_else(open_loop_hint, Supervisor::sensing_hint)
@@ -393,7 +426,11 @@ impl SimBoard {
             None
         };
         let c = self.control.as_mut()?;
-        let mut p = c.period(now, None, sense.as_ref(), frame, line);
+        // The button as the board's loop reports it: its level, or a press since the last
+        // period (a tap shorter than a period is not lost).
+        let tapped = std::mem::take(&mut self.button_tapped);
+        let button = self.button_pressed || tapped;
+        let mut p = c.period(now, Some(button), sense.as_ref(), frame, line);
         if let Some(req) = p.store.take() {
             // The heater and the springs are off through the flash operation (instant here).
             p.reply = Some(self.flash.carry_out(&req, c, now));

@@ -1,15 +1,17 @@
 //! `host-sim run SCENE --board ELF` (`--features pil`): a scene played with the board's own ELF
 //! on the emulated STM32F446 in place of the library's controller — the same plant, the same
-//! camera view shown to the virtual MLX90640 on the chip's I2C1, the same injected faults, and
-//! the scene's console lines typed into the chip's USART2.
+//! camera view shown to the virtual MLX90640 on the chip's I2C1, the same injected faults, the
+//! scene's console lines typed into the chip's USART2, and its e-stop button actions on PC13
+//! (low pressed, high released, at the action's time to the µs: an edge to EXTI13).
 //!
-//! What the ELF drives is read off its pins every 50 ms tick (TIM3 CH1's and TIM4 CH1's duty,
-//! the spring gates PA8/PB5/PB10 and the spring power enable PA9); the spring channels' ADC
-//! inputs are the plant's currents and supplies through the simulated front end
-//! (`rig::channels`). Its state for the time series comes from its own telemetry, which the
-//! harness turns on at power-up (`stream on 4`: its reply is not a scene's line and is not
-//! recorded); a latched fault is the telemetry's `fault=` turning from `none`.
-//! [`run_elf_with`] lets a script type lines as that state changes (`host-sim paper --board`,
+//! What the ELF drives is read off its pins every millisecond (TIM3 CH1's and TIM4 CH1's duty,
+//! the spring gates PA8/PB5/PB10 and the spring power enable PA9; every change is kept,
+//! [`ElfRun::outputs`]) and drives the plant from then; the spring channels' ADC inputs are the
+//! plant's currents and supplies through the simulated front end (`rig::channels`). Its state
+//! for the time series comes from its own telemetry, which the harness turns on at power-up
+//! (`stream on 4`: its reply is not a scene's line and is not recorded); a latched fault shows
+//! there as a change of `fault=`, and is dated by the board's own event log
+//! ([`run_elf_traced`]). [`run_elf_with`] lets a script type lines as that state changes (`host-sim paper --board`,
 //! [`crate::runs::elf_paper`]).
 //!
 //! [`ElfConsole`] and [`replay_lines`] serve the ELF's console as `host-sim console` serves the
@@ -205,6 +207,38 @@ struct ElfBoard {
     typed: Vec<u8>,
     /// The defmt log (None: the ELF has no RTT control block).
     log: Option<BoardLog>,
+    /// The scene's e-stop button from its actions: (µs, pressed), in time order, not yet
+    /// driven on PC13.
+    buttons: std::collections::VecDeque<(u64, bool)>,
+    /// Every change of what the ELF drives, as the harness saw it at its looks ([`SUB_US`]).
+    trace: Vec<OutputChange>,
+}
+
+/// What the ELF drove from a time on, as the harness read its pins (before injected faults).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OutputChange {
+    /// When the harness saw it, s: the pins changed within the [`SUB_US`] before.
+    pub at_s: f64,
+    /// The heater's and fan's duties, the spring gates and the spring power as driven.
+    pub outputs: Inputs,
+}
+
+impl OutputChange {
+    /// The heater off, every spring gate off and the spring power off.
+    pub fn heater_and_springs_off(&self) -> bool {
+        let o = &self.outputs;
+        o.heater_duty == 0.0 && !o.springs_on.iter().any(|s| *s) && o.spring_power_off
+    }
+}
+
+/// A scene played by the ELF: the run as `host-sim run` reports it, and what the ELF drove at
+/// the harness's resolution.
+#[derive(Clone, Debug)]
+pub struct ElfRun {
+    /// The time series and summary.
+    pub result: RunResult,
+    /// Every change of the ELF's outputs, with the first (at 0 s) what it drove from the start.
+    pub outputs: Vec<OutputChange>,
 }
 
 /// How the emulated board starts.
@@ -290,6 +324,12 @@ impl ElfBoard {
             partial: String::new(),
             typed: Vec::new(),
             log,
+            buttons: scenario
+                .actions
+                .iter()
+                .filter_map(|a| Some(((a.at_s * 1e6).round() as u64, a.button?)))
+                .collect(),
+            trace: Vec::new(),
         };
         board.show(CameraFaults::default());
         board.analog(&Inputs::default());
@@ -398,16 +438,44 @@ impl ElfBoard {
         }
     }
 
-    /// One tick: the chip to the next tick in steps of [`SUB_US`], its pins read after each
-    /// (the spring channels' analog inputs follow a gate at once, as the circuit does), the
-    /// plant run with what they drove.
-    fn tick(&mut self) -> Result<(Inputs, u32, CameraFaults, Vec<String>), ElfRunError> {
+    /// Drive PC13 for the scene's button actions due by now: low pressed (B1 shorts it to
+    /// ground), high released (the pull-up); a change is an edge to EXTI13.
+    fn press_due(&mut self) {
+        while let Some(&(at_us, pressed)) = self.buttons.front() {
+            if at_us > self.time_us {
+                break;
+            }
+            self.buttons.pop_front();
+            let drive = if pressed { Drive::Low } else { Drive::High };
+            self.soc().gpio[2].set_input(13, drive);
+        }
+    }
+
+    /// Record what the ELF drives now if it changed since the last look.
+    fn trace_outputs(&mut self) {
+        let outputs = self.outputs();
+        if self.trace.last().is_none_or(|c| c.outputs != outputs) {
+            self.trace.push(OutputChange {
+                at_s: self.time_us as f64 * 1e-6,
+                outputs,
+            });
+        }
+    }
+
+    /// One tick: the chip to the next tick in steps of [`SUB_US`] (and to each button action's
+    /// time, when PC13 changes), its pins read after each (the spring channels' analog inputs
+    /// follow a gate at once, as the circuit does), the plant run with what they drove; the
+    /// lines the ELF wrote, each with the time its last byte left the port, s.
+    #[allow(clippy::type_complexity)]
+    fn tick(&mut self) -> Result<(Inputs, u32, CameraFaults, Vec<(f64, String)>), ElfRunError> {
         let t_s = self.time_us as f64 * 1e-6;
         if self.time_us >= CONSOLE_UP_US && !self.typed.is_empty() {
             let bytes: Vec<u8> = self.typed.drain(..).collect();
             self.soc().usart2.receive_bytes(&bytes);
         }
+        self.press_due();
         self.commanded = self.outputs();
+        self.trace_outputs();
         let mut inputs = self.commanded;
         let (mask, cam) = apply_faults(&self.faults, t_s, &mut inputs);
         let first = inputs;
@@ -419,10 +487,15 @@ impl ElfBoard {
         // plant runs (as the library's board draws it once a tick).
         self.analog(&inputs);
         while self.time_us < next {
-            let to = (self.time_us + SUB_US).min(next);
+            let mut to = (self.time_us + SUB_US).min(next);
+            if let Some(&(at_us, _)) = self.buttons.front() {
+                to = to.min(at_us.max(self.time_us + 1));
+            }
             self.core.run_until(to * (TIME_HZ / 1_000_000))?;
             self.time_us = to;
             self.read_log();
+            self.press_due();
+            self.trace_outputs();
             let mut now = self.outputs();
             apply_faults(&self.faults, t_s, &mut now);
             if now != inputs || to == next {
@@ -436,15 +509,55 @@ impl ElfBoard {
         }
         let inputs = first;
         let bytes = self.soc().usart2.take_transmitted();
-        self.partial
-            .extend(bytes.iter().map(|b| char::from(b.byte)));
         let mut lines = Vec::new();
-        while let Some(at) = self.partial.find("\r\n") {
-            lines.push(self.partial[..at].to_string());
-            self.partial.drain(..at + 2);
+        for b in bytes {
+            self.partial.push(char::from(b.byte));
+            if let Some(line) = self.partial.strip_suffix("\r\n") {
+                lines.push((b.end as f64 / TIME_HZ as f64, line.to_string()));
+                self.partial.clear();
+            }
         }
         Ok((inputs, mask, cam, lines))
     }
+}
+
+/// A line typed on the ELF's console, waiting for its reply (the board replies in line order).
+enum Awaiting {
+    /// A scene's line: when it was due, s, and the line.
+    Scene(f64, String),
+    /// The harness's `stream on 4` (its reply is not recorded).
+    Stream,
+    /// The harness's `log` after a change of the latched fault (its reply dates it).
+    Log,
+}
+
+/// The fault events of a `log` reply (`ok events=N | 12.35 fault estop (emergency stop) | …`)
+/// with their place among all the board's events: (index, board time s, code, reason). `None`
+/// for a reply that is not a log.
+fn log_faults(reply: &str) -> Option<Vec<(u32, f64, String, String)>> {
+    let mut parts = reply.split(" | ");
+    let total: u32 = parts.next()?.strip_prefix("ok events=")?.parse().ok()?;
+    let events: Vec<&str> = parts.collect();
+    let first = total.checked_sub(events.len() as u32)?;
+    let mut faults = Vec::new();
+    for (i, e) in events.iter().enumerate() {
+        let (t, what) = e.split_once(' ')?;
+        let Some(fault) = what.strip_prefix("fault ") else {
+            continue;
+        };
+        let (code, reason) = fault.split_once(' ').unwrap_or((fault, ""));
+        let reason = reason
+            .strip_prefix('(')
+            .and_then(|r| r.strip_suffix(')'))
+            .unwrap_or(reason);
+        faults.push((
+            first + i as u32,
+            t.parse().ok()?,
+            code.to_string(),
+            reason.to_string(),
+        ));
+    }
+    Some(faults)
 }
 
 /// Play `scenario` with the ELF at `elf`.
@@ -473,6 +586,35 @@ pub fn run_elf_with(
     progress: &mut dyn FnMut(f64),
     react: &mut ElfReactor<'_>,
 ) -> Result<RunResult, ElfRunError> {
+    Ok(run_elf_traced_with(scenario, elf, progress, react)?.result)
+}
+
+/// [`run_elf`], with every change of what the ELF drove as the harness saw it (every
+/// [`SUB_US`]).
+///
+/// The run's latched faults are the board's own events: when its telemetry's `fault=`
+/// changes (a fault latched, or an e-stop over one), the harness types `log` (its reply is not
+/// recorded) and takes each new fault's code, reason and time from it — the same event the
+/// library's run records, to the log's 10 ms, on the board's clock (which starts when
+/// embassy's time driver does, a few ms after the chip's reset: the harness measures the
+/// difference from the telemetry lines' `t_s` and the times their bytes left the port, and
+/// adds it). Should a `log` reply not come before the scene ends, the fault stays as its
+/// telemetry showed it (code only, the line's time).
+pub fn run_elf_traced(
+    scenario: &Scenario,
+    elf: &Path,
+    progress: &mut dyn FnMut(f64),
+) -> Result<ElfRun, ElfRunError> {
+    run_elf_traced_with(scenario, elf, progress, &mut |_, _| None)
+}
+
+/// [`run_elf_traced`] with [`run_elf_with`]'s `react`.
+pub fn run_elf_traced_with(
+    scenario: &Scenario,
+    elf: &Path,
+    progress: &mut dyn FnMut(f64),
+    react: &mut ElfReactor<'_>,
+) -> Result<ElfRun, ElfRunError> {
     if scenario.commands.is_empty() {
         return Err(ElfRunError::OpenLoop(scenario.name.clone()));
     }
@@ -482,14 +624,23 @@ pub fn run_elf_with(
     let steps = (scenario.duration_s / scenario.period_s).round().max(1.0) as usize;
     let mut rows = Vec::with_capacity(steps);
     let mut replies: Vec<ReplyRecord> = Vec::new();
-    let mut waiting: Vec<(f64, String)> = Vec::new();
+    let mut waiting: std::collections::VecDeque<Awaiting> = std::collections::VecDeque::new();
     let mut warnings = Vec::new();
+    // Faults from the board's log, and those its telemetry showed that no log dated yet.
     let mut faults: Vec<FaultRecord> = Vec::new();
+    let mut undated: Vec<FaultRecord> = Vec::new();
+    let mut events_seen = 0u32;
+    // Harness time less the board's clock, s: at most each telemetry line's last byte's end
+    // less its bytes' time on the wire less its `t_s` (the line was written in the period it
+    // dates, no later than its first byte left); the least such bound, from a line that did
+    // not wait behind another, is within the clock's 1 ms of the truth.
+    let mut clock_offset_s = f64::INFINITY;
     let mut control: Option<ControlRow> = None;
     let mut next_command = 0;
+    let console = std::env::var_os("THERMORPH_PIL_CONSOLE").is_some();
     // The harness's own line: telemetry at the scene's rate is the time series' control state.
     b.type_line("stream on 4");
-    let mut harness_replies = 1;
+    waiting.push_back(Awaiting::Stream);
     let mut inputs = (Inputs::default(), 0, CameraFaults::default());
     // A line `react` decided at a period's start, typed at the next one's.
     let mut reacted: Option<String> = None;
@@ -505,48 +656,77 @@ pub fn run_elf_with(
                 .filter(|c| c.at_s <= t_s + 1e-9)
             {
                 b.type_line(&c.line);
-                waiting.push((c.at_s, c.line.clone()));
+                waiting.push_back(Awaiting::Scene(c.at_s, c.line.clone()));
                 next_command += 1;
             }
             if std::mem::take(&mut period_start) {
                 if let Some(line) = reacted.take() {
                     b.type_line(&line);
-                    waiting.push((t_s, line));
+                    waiting.push_back(Awaiting::Scene(t_s, line));
                 }
                 reacted = control.as_ref().and_then(|c| react(t_s, c));
             }
             let (i, mask, cam, lines) = b.tick()?;
             inputs = (i, mask, cam);
-            let now_s = b.time_us as f64 * 1e-6;
-            for line in lines {
-                if std::env::var_os("THERMORPH_PIL_CONSOLE").is_some() {
-                    eprintln!("{now_s:9.3} | {line}");
+            for (at_s, line) in lines {
+                if console {
+                    eprintln!("{at_s:9.4} | {line}");
                 }
                 if let Some(t) = line.strip_prefix("# t_s=").map(|_| line.as_str()) {
+                    let s = b.soc();
+                    if let Some(frame) = s.usart2.frame_time(&s.rcc.clocks()) {
+                        let wire_s = (line.len() + 2) as f64 * frame as f64 / TIME_HZ as f64;
+                        clock_offset_s = clock_offset_s.min(at_s - wire_s - number(t, "t_s"));
+                    }
                     let c = control_of(t);
-                    if let (Some(code), None) = (c.fault, control.and_then(|p| p.fault)) {
-                        faults.push(FaultRecord {
-                            at_s: now_s,
+                    let before = control.and_then(|p| p.fault);
+                    if let Some(code) = c.fault.filter(|&f| Some(f) != before) {
+                        undated.push(FaultRecord {
+                            at_s,
                             code: code.to_string(),
                             reason: String::new(),
                         });
+                        b.type_line("log");
+                        waiting.push_back(Awaiting::Log);
                     }
                     control = Some(c);
                 } else if let Some(w) = line.strip_prefix("# warning: ") {
                     warnings.push(WarningRecord {
-                        at_s: now_s,
+                        at_s,
                         text: w.to_string(),
                     });
                 } else if line.starts_with('#') {
-                } else if harness_replies > 0 {
-                    harness_replies -= 1;
-                } else if !waiting.is_empty() {
-                    let (at_s, l) = waiting.remove(0);
-                    replies.push(ReplyRecord {
-                        at_s,
-                        line: l,
-                        reply: line,
-                    });
+                } else {
+                    match waiting.pop_front() {
+                        Some(Awaiting::Scene(at_s, l)) => replies.push(ReplyRecord {
+                            at_s,
+                            line: l,
+                            reply: line,
+                        }),
+                        Some(Awaiting::Log) => {
+                            if let Some(events) = log_faults(&line) {
+                                for (index, board_s, code, reason) in events {
+                                    if index >= events_seen {
+                                        faults.push(FaultRecord {
+                                            at_s: board_s,
+                                            code,
+                                            reason,
+                                        });
+                                    }
+                                }
+                                events_seen = line
+                                    .strip_prefix("ok events=")
+                                    .and_then(|r| r.split(' ').next())
+                                    .and_then(|n| n.parse().ok())
+                                    .unwrap_or(events_seen);
+                                // This log dates the change that asked for it.
+                                if !undated.is_empty() {
+                                    undated.remove(0);
+                                }
+                            }
+                        }
+                        Some(Awaiting::Stream) | None => {}
+                    }
                 }
             }
         }
@@ -565,20 +745,36 @@ pub fn run_elf_with(
         progress((k + 1) as f64 / steps as f64);
     }
     let wall_s = started.elapsed().as_secs_f64();
-    if std::env::var_os("THERMORPH_PIL_CONSOLE").is_some() {
+    if console {
         let (slices, sleeps) = b.core.stats();
         eprintln!(
             "{} instructions, {slices} slices, {sleeps} sleeps",
             b.core.instructions()
         );
     }
+    let offset_s = if clock_offset_s.is_finite() {
+        clock_offset_s
+    } else {
+        0.0
+    };
+    if console {
+        eprintln!("the board's clock runs {offset_s:.4} s behind the harness's");
+    }
+    for f in &mut faults {
+        f.at_s += offset_s;
+    }
+    faults.append(&mut undated);
+    faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
     let mut summary = summarise(scenario, &rows, wall_s, None);
     summary.replies = replies;
     summary.faults = faults;
     summary.warnings = warnings;
     let end_s = b.time_us as f64 * 1e-6;
     let log: Vec<LogRecord> = b.log.map_or_else(Vec::new, |l| l.log.finish(end_s));
-    Ok(RunResult { rows, summary, log })
+    Ok(ElfRun {
+        result: RunResult { rows, summary, log },
+        outputs: b.trace,
+    })
 }
 
 /// How long [`ElfConsole::line`] waits for a reply, s of simulated time (a `save` that must
@@ -624,11 +820,11 @@ impl ElfConsole {
     fn tick(&mut self) -> Result<Vec<String>, ElfRunError> {
         let lines = self.board.tick()?.3;
         if std::env::var_os("THERMORPH_PIL_CONSOLE").is_some() {
-            for l in &lines {
-                eprintln!("{:9.3} | {l}", self.time_s());
+            for (at_s, l) in &lines {
+                eprintln!("{at_s:9.4} | {l}");
             }
         }
-        Ok(lines)
+        Ok(lines.into_iter().map(|(_, l)| l).collect())
     }
 
     /// Run `seconds` more (in whole control ticks); the lines the board wrote.
@@ -697,4 +893,32 @@ pub fn cli(args: &crate::runs::run::RunArgs, elf: &Path) -> anyhow::Result<()> {
     let result = run_elf(&scenario, elf, &mut |f| bar.update(f));
     bar.finish();
     crate::runs::run::finish(&result?, &dir, args.quiet)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_log_reply_gives_its_faults_with_their_place_among_all_events() {
+        // 18 events, the ring keeps the last 3: indices 15, 16, 17.
+        let reply = "ok events=18 | 4.10 fault sensor-loss (no valid measurement for 1.02 s) \
+                     | 4.10 mode standby -> fault | 5.01 fault estop (emergency stop)";
+        let faults = log_faults(reply).unwrap();
+        assert_eq!(
+            faults,
+            [
+                (
+                    15,
+                    4.1,
+                    "sensor-loss".to_string(),
+                    "no valid measurement for 1.02 s".to_string()
+                ),
+                (17, 5.01, "estop".to_string(), "emergency stop".to_string()),
+            ]
+        );
+        assert_eq!(log_faults("ok events=0").unwrap(), []);
+        assert!(log_faults("ok mode standby").is_none());
+        assert!(log_faults("ok events=1 | x.y fault estop (emergency stop)").is_none());
+    }
 }

@@ -3,8 +3,8 @@
 //!
 //! This module owns the run loop and its outputs. The scene drives one [`SimBoard`] (the plant,
 //! the camera chain, the injected faults and, closed loop, the firmware's controller stepped at
-//! the board's tick and on every frame): its timed duties and console lines go in at their
-//! times, and one [`Row`] is recorded per scene period (`period`, ≤ 0.5 s). With the camera on,
+//! the board's tick and on every frame): its timed duties, e-stop button and console lines go
+//! in at their times, and one [`Row`] is recorded per scene period (`period`, ≤ 0.5 s). With the camera on,
 //! the controller sees the block through the virtual MLX90640 and the firmware's sensing
 //! pipeline; camera off, the true region temperatures once per period; a sensor fault with the
 //! camera off means no measurement at all (`nan` in the CSV). Outputs, written by
@@ -219,7 +219,9 @@ pub type Reactor<'a> = dyn FnMut(f64, &Supervisor) -> Option<String> + 'a;
 ///
 /// The scene drives one [`SimBoard`]: its timed duties (open loop) and console lines go in at
 /// the first tick at or after their time (lines after that instant's control period, as the
-/// board takes a line that arrives with a tick), and one [`Row`] is recorded per scene period:
+/// board takes a line that arrives with a tick), the e-stop button (closed loop) at its own
+/// time to the µs ([`SimBoard::set_button`]: a press is a control period at once, as on the
+/// board), before that instant's lines, and one [`Row`] is recorded per scene period:
 /// the plant at its end, the supervisor's state and the inputs it gave the plant at its start
 /// (after that instant's lines).
 pub fn run_with(
@@ -252,27 +254,28 @@ pub fn run_with(
         let t1_us = (k as u64 + 1) * period_us;
         loop {
             let t_s = board.time_s();
-            let mut cmd = board.commanded();
-            let mut acted = false;
             while let Some(a) = scenario
                 .actions
                 .get(next_action)
                 .filter(|a| a.at_s <= t_s + 1e-9)
             {
-                if let Some(d) = a.heater_duty {
-                    cmd.heater_duty = d;
+                if a.sets_actuators() {
+                    let mut cmd = board.commanded();
+                    if let Some(d) = a.heater_duty {
+                        cmd.heater_duty = d;
+                    }
+                    if let Some(d) = a.fan_duty {
+                        cmd.fan_duty = d;
+                    }
+                    if let Some(s) = a.springs_on {
+                        cmd.springs_on = s;
+                    }
+                    board.set_inputs(cmd);
                 }
-                if let Some(d) = a.fan_duty {
-                    cmd.fan_duty = d;
+                if let Some(pressed) = a.button {
+                    board.set_button(pressed, &mut said);
                 }
-                if let Some(s) = a.springs_on {
-                    cmd.springs_on = s;
-                }
-                acted = true;
                 next_action += 1;
-            }
-            if acted {
-                board.set_inputs(cmd);
             }
             if closed_loop {
                 while let Some(l) = scenario
@@ -306,7 +309,20 @@ pub fn run_with(
             if now_us >= t1_us {
                 break;
             }
-            board.advance_to(board.next_tick_us().min(t1_us), &mut said);
+            let mut to_us = board.next_tick_us().min(t1_us);
+            // The e-stop button at its own time (to the µs), not at the next tick: the board's
+            // e-stop task wakes its control loop at the press.
+            if let Some(a) = scenario
+                .actions
+                .get(next_action)
+                .filter(|a| a.button.is_some())
+            {
+                let at_us = (a.at_s * 1e6).round() as u64;
+                if at_us > now_us {
+                    to_us = to_us.min(at_us);
+                }
+            }
+            board.advance_to(to_us, &mut said);
         }
         let ((inputs, faults, _), springs_cmd, control) =
             row_start.take().expect("set at the period's start");

@@ -40,6 +40,14 @@
 //! fan = "0 %"                    # fan PWM duty, 0–100 %
 //! springs = "AB"                 # the springs switched on: any of A, B, C, or "none"
 //!
+//! [[action]]                     # the e-stop button (closed-loop scenes only), alone in
+//! at = "30 s"                    # its action
+//! button = "pressed"             # pressed | released: the button's level from `at` on
+//!
+//! [[command]]                    # console lines (the scene then runs closed loop)
+//! at = "0 s"
+//! line = "mode standby"          # as typed on the board's console
+//!
 //! [[fault]]                      # injected faults, active from `at` until `until` (or the end)
 //! at = "60 s"
 //! until = "80 s"                 # optional
@@ -50,6 +58,17 @@
 //! sensor = "nack"                # sensor: nack | stuck | corrupt | frozen
 //! camera = "elsewhere"           # camera: elsewhere | burning-film
 //! ```
+//!
+//! An open-loop scene (no `[[command]]`) drives the plant's inputs with `heater`, `fan` and
+//! `springs` actions. A closed-loop scene runs the firmware's supervisor, which sets those
+//! itself: its only actions are the e-stop button's (B1 on PC13, active low), pressed or
+//! released at `at` as a hand on the board would. A press is the button's falling edge: the
+//! board's control loop runs a period at once with the button reported pressed, which latches
+//! `estop`; from then on every period reads its level, and `reset` is refused until it is
+//! released. Pressing a pressed button, or releasing a released one, changes nothing. A
+//! `button` in an action with `heater`, `fan` or `springs` is an error (the two kinds never
+//! play in the same scene), as are a duty action in a closed-loop scene and a button action in
+//! an open-loop one (no firmware is in that loop to read the button).
 //!
 //! A `camera` fault changes what the camera sees, not the plant; it needs `fidelity.camera =
 //! true` ([`CameraFault`] says what each shows). `[plant]` changes the simulated block only:
@@ -92,7 +111,9 @@ pub const AMBIENT_RANGE_K: (f64, f64) = (233.15, 353.15);
 /// Initial-temperature range, K.
 pub const INITIAL_RANGE_K: (f64, f64) = (233.15, 423.15);
 
-/// One timed change of the actuators; `None` leaves that actuator as it was.
+/// One timed change: of the actuators (open-loop scenes) or of the e-stop button (closed-loop
+/// scenes); `None` leaves that input as it was. An action sets the actuators or the button,
+/// never both.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Action {
     /// When, s from the start.
@@ -103,6 +124,15 @@ pub struct Action {
     pub fan_duty: Option<f64>,
     /// Spring MOSFETs A, B, C on.
     pub springs_on: Option<[bool; 3]>,
+    /// The e-stop button's level from `at_s` on: `true` pressed, `false` released.
+    pub button: Option<bool>,
+}
+
+impl Action {
+    /// Whether the action sets an actuator (heater, fan or springs).
+    pub fn sets_actuators(&self) -> bool {
+        self.heater_duty.is_some() || self.fan_duty.is_some() || self.springs_on.is_some()
+    }
 }
 
 /// One timed console line (the scene then runs the supervisor in the loop).
@@ -142,10 +172,12 @@ pub struct Scenario {
     /// Factors on the simulated block's heater power, wall capacity, spring cooling and spring
     /// supply (`[plant]`; default all 1.0).
     pub plant_scale: PlantScale,
-    /// Actions sorted by time (ties keep file order).
+    /// Actions sorted by time (ties keep file order): duties in an open-loop scene, the e-stop
+    /// button in a closed-loop one.
     pub actions: Vec<Action>,
     /// Console lines sorted by time (ties keep file order). A scene with any runs closed loop:
-    /// the firmware's supervisor drives the outputs, and `actions` must be empty.
+    /// the firmware's supervisor drives the outputs, and `actions` only press and release the
+    /// e-stop button.
     pub commands: Vec<CommandLine>,
     /// Injected faults.
     pub faults: Vec<FaultSpec>,
@@ -482,10 +514,14 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
     }
 
     let mut actions = Vec::new();
+    // The first duty action and the first button action, as the error each is in a scene of
+    // the other kind (which kind is known once the commands are read).
+    let mut first_duty: Option<ScenarioError> = None;
+    let mut first_button: Option<ScenarioError> = None;
     if let Some((k, item)) = root.get_key_value("action") {
         for (i, t) in tables(&cx, k, item, "action")?.into_iter().enumerate() {
             let p = format!("action[{}].", i + 1);
-            check_keys(&cx, t, &p, &["at", "heater", "fan", "springs"])?;
+            check_keys(&cx, t, &p, &["at", "heater", "fan", "springs", "button"])?;
             let at_s = match t.get_key_value("at") {
                 Some((k, v)) => time(&cx, k, v, &format!("{p}at"), (0.0, duration_s))?,
                 None => return Err(cx.err(t.span(), &format!("{p}at"), "missing")),
@@ -495,7 +531,52 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
                 heater_duty: None,
                 fan_duty: None,
                 springs_on: None,
+                button: None,
             };
+            let duty_key = ["heater", "fan", "springs"]
+                .into_iter()
+                .find_map(|key| t.get_key_value(key).map(|(k, _)| (key, k.span())));
+            if let Some((bk, bv)) = t.get_key_value("button") {
+                let key = format!("{p}button");
+                a.button = Some(choice(
+                    &cx,
+                    bk,
+                    bv,
+                    &key,
+                    &[("pressed", true), ("released", false)],
+                )?);
+                if let Some((duty, _)) = duty_key {
+                    return Err(cx.err(
+                        bk.span(),
+                        &key,
+                        format!(
+                            "a button action sets nothing else: give `{duty}` its own \
+                             [[action]] (the button is the firmware's input, closed loop; the \
+                             duties are an open-loop scene's)"
+                        ),
+                    ));
+                }
+                first_button.get_or_insert_with(|| {
+                    cx.err(
+                        bk.span(),
+                        &key,
+                        "the e-stop button is the firmware's input, and an open-loop scene has \
+                         no firmware in the loop (give the scene [[command]] lines to run the \
+                         supervisor)",
+                    )
+                });
+            }
+            if let Some((duty, span)) = duty_key {
+                first_duty.get_or_insert_with(|| {
+                    cx.err(
+                        span,
+                        &format!("{p}{duty}"),
+                        "a scene with console commands runs the supervisor and may not set \
+                         duties by hand: only the e-stop `button` may be timed in its \
+                         [[action]] tables",
+                    )
+                });
+            }
             if let Some((k, v)) = t.get_key_value("heater") {
                 a.heater_duty = Some(percent(&cx, k, v, &format!("{p}heater"))?);
             }
@@ -505,11 +586,11 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
             if let Some((k, v)) = t.get_key_value("springs") {
                 a.springs_on = Some(springs(&cx, k, v, &format!("{p}springs"))?);
             }
-            if a.heater_duty.is_none() && a.fan_duty.is_none() && a.springs_on.is_none() {
+            if !a.sets_actuators() && a.button.is_none() {
                 return Err(cx.err(
                     t.span(),
                     &format!("{p}at"),
-                    "the action sets nothing (give heater, fan or springs)",
+                    "the action sets nothing (give heater, fan or springs, or the button)",
                 ));
             }
             actions.push(a);
@@ -542,14 +623,10 @@ pub fn parse(text: &str, file: &str, default_name: &str) -> Result<Scenario, Sce
             };
             commands.push(CommandLine { at_s, line });
         }
-        if !actions.is_empty() {
-            return Err(cx.err(
-                item.span(),
-                "command",
-                "a scene with console commands runs the supervisor and may not set duties by \
-                 hand: remove its [[action]] tables",
-            ));
-        }
+    }
+    match (commands.is_empty(), first_duty, first_button) {
+        (false, Some(e), _) | (true, _, Some(e)) => return Err(e),
+        _ => {}
     }
     commands.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
 
@@ -1275,7 +1352,10 @@ mod tests {
             "{e}"
         );
         let e = err(&format!("{MINIMAL}[[action]]\nat = \"2 s\"\n"));
-        assert!(e.contains("`action[1].at`: the action sets nothing"), "{e}");
+        assert!(
+            e.contains("`action[1].at`: the action sets nothing (give heater, fan or springs, or the button)"),
+            "{e}"
+        );
         let e = err(&format!("{MINIMAL}[fidelity]\nthermal = \"medium\"\n"));
         assert!(
             e.contains("t.toml:4: `fidelity.thermal`: `medium` is not one of full, lumped"),
@@ -1337,6 +1417,86 @@ mod tests {
         assert!(s.faults[0].active(2.5) && !s.faults[0].active(3.0) && !s.faults[0].active(1.9));
         assert_eq!(s.faults[1].kind, Injection::Sensor(SensorFault::Frozen));
         assert!(s.faults[1].active(1e9));
+    }
+
+    #[test]
+    fn a_closed_loop_scene_times_the_button() {
+        let s = parse(
+            &format!(
+                "{MINIMAL}[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n\
+                 [[action]]\nat = \"6 s\"\nbutton = \"released\"\n\
+                 [[action]]\nat = \"5.013 s\"\nbutton = \"pressed\"\n"
+            ),
+            "t.toml",
+            "t",
+        )
+        .unwrap();
+        assert_eq!(s.actions.len(), 2);
+        assert_eq!(
+            (s.actions[0].at_s, s.actions[0].button),
+            (5.013, Some(true))
+        );
+        assert_eq!((s.actions[1].at_s, s.actions[1].button), (6.0, Some(false)));
+        assert!(s.actions.iter().all(|a| !a.sets_actuators()));
+        assert_eq!(s.commands.len(), 1);
+    }
+
+    #[test]
+    fn button_errors_name_file_line_and_key() {
+        let cmd = "[[command]]\nat = \"0 s\"\nline = \"mode standby\"\n";
+        // A duty in a closed-loop scene: named at its own line and key.
+        let e = err(&format!(
+            "{MINIMAL}{cmd}[[action]]\nat = \"1 s\"\nbutton = \"pressed\"\n\
+             [[action]]\nat = \"2 s\"\nfan = \"50 %\"\n"
+        ));
+        assert!(
+            e.starts_with("t.toml:11: `action[2].fan`: a scene with console commands")
+                && e.contains("may not set duties")
+                && e.contains("button"),
+            "{e}"
+        );
+        // The button in an open-loop scene.
+        let e = err(&format!(
+            "{MINIMAL}[[action]]\nat = \"0 s\"\nheater = \"50 %\"\n\
+             [[action]]\nat = \"2 s\"\nbutton = \"pressed\"\n"
+        ));
+        assert!(
+            e.starts_with(
+                "t.toml:8: `action[2].button`: the e-stop button is the firmware's input"
+            ) && e.contains("open-loop"),
+            "{e}"
+        );
+        // The button with a duty in one action, whatever the scene.
+        for scene in [MINIMAL.to_string(), format!("{MINIMAL}{cmd}")] {
+            let e = err(&format!(
+                "{scene}[[action]]\nat = \"2 s\"\nsprings = \"A\"\nbutton = \"pressed\"\n"
+            ));
+            assert!(
+                e.contains("`action[1].button`: a button action sets nothing else: give `springs`"),
+                "{e}"
+            );
+        }
+        let e = err(&format!(
+            "{MINIMAL}{cmd}[[action]]\nat = \"2 s\"\nbutton = \"down\"\n"
+        ));
+        assert!(
+            e.starts_with("t.toml:8: `action[1].button`: `down` is not one of pressed, released"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}{cmd}[[action]]\nat = \"2 s\"\nbutton = true\n"
+        ));
+        assert!(
+            e.contains("`action[1].button`: must be a string, one of pressed, released"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}{cmd}[[action]]\nat = \"12 s\"\nbutton = \"pressed\"\n"
+        ));
+        assert!(
+            e.contains("t.toml:7: `action[1].at`: 12 s is out of range [0, 10]"),
+            "{e}"
+        );
     }
 
     #[test]
