@@ -217,7 +217,7 @@ fn masks_of(uc: &Unicorn<'_, State>) -> Masks {
 }
 
 /// Hand the bus's lines to the NVIC and say whether an exception is now to be taken.
-fn interrupt_due(uc: &mut Unicorn<'_, State>) -> bool {
+fn interrupt_due(uc: &mut Unicorn<'_, State>, addr: u32) -> bool {
     // With PRIMASK set nothing configurable is taken: the lines are handed over at the
     // slice's end (before any `wfe` sleeps), as they are after every slice.
     if uc.reg_read(RegisterARM::PRIMASK).unwrap_or(0) & 1 != 0 {
@@ -226,7 +226,20 @@ fn interrupt_due(uc: &mut Unicorn<'_, State>) -> bool {
     }
     let masks = masks_of(uc);
     let st = uc.get_data_mut();
-    st.sync_lines();
+    if st.lines_stale {
+        st.sync_lines();
+    } else {
+        // Only the lines the write can have moved.
+        let nvic = &mut st.nvic;
+        let mut woke = false;
+        st.bus
+            .as_ref()
+            .expect("the bus is present")
+            .irqs_after_write(addr, &mut |irq, high| woke |= nvic.set_line(irq, high));
+        if woke && st.nvic.sev_on_pend() {
+            st.event = true;
+        }
+    }
     st.nvic.to_take(masks).is_some()
 }
 
@@ -982,7 +995,7 @@ fn map_windows(uc: &mut Unicorn<'static, State>) -> Result<(), uc_error> {
                     });
                     // A write may raise an interrupt line or unmask one: the slice ends
                     // at the block's end if an interrupt is now to be taken.
-                    let due = interrupt_due(uc);
+                    let due = interrupt_due(uc, addr);
                     let st = uc.get_data_mut();
                     st.recheck |= due;
                     if !ok {

@@ -216,6 +216,12 @@ pub trait Bus: std::any::Any {
     fn clocks(&self) -> Clocks;
     /// Each external interrupt line's level: `line(irq, high)`.
     fn irqs(&self, line: &mut dyn FnMut(u16, bool));
+    /// The levels of the lines a write at `addr` may have changed (at least those; a bus
+    /// that cannot tell gives them all).
+    fn irqs_after_write(&self, addr: u32, line: &mut dyn FnMut(u16, bool)) {
+        let _ = addr;
+        self.irqs(line);
+    }
     /// Whether the chip asks for a system reset of its own (a watchdog), taken; its
     /// peripherals have been reset for it.
     fn take_reset(&mut self) -> bool;

@@ -264,7 +264,12 @@ impl Soc {
     /// channel 1 are I2C1's RX and TX; streams 5 and 6 channel 4 USART2's; DMA2 streams 0/4
     /// channel 0 ADC1's).
     fn serve_dma(&mut self, mem: &mut dyn Memory) {
-        for c in 0..2 {
+        self.serve_dma_of(0..2, mem);
+    }
+
+    /// [`Soc::serve_dma`] for the controllers in `controllers` (0 DMA1, 1 DMA2).
+    fn serve_dma_of(&mut self, controllers: std::ops::Range<usize>, mem: &mut dyn Memory) {
+        for c in controllers {
             for s in 0..8 {
                 // At most a buffer's worth a call (a request that stays up is served again at
                 // the next advance).
@@ -580,25 +585,25 @@ impl Bus for Soc {
             let mut high = 0u128;
             let mut add = |irq: u16, h: bool| high |= u128::from(h) << (irq % 128);
             s.i2c1.irqs(&mut add);
-            s.dma.iter().for_each(|d| d.irqs(&mut add));
+            s.dma[0].irqs(&mut add);
             high
         };
         let before = lines(self);
+        // I2C1's requests go to DMA1 (streams 0/5 and 6/7): DMA2 is not touched here.
+        let dma2 = self.dma[1].next_event(now, &c);
         let mut t = now;
         loop {
             let Some(step) = self.i2c1.next_event(t, &c).filter(|&s| s > t) else {
                 return t;
             };
-            let dma = self.dma.iter().filter_map(|d| d.next_event(t, &c)).min();
+            let dma = self.dma[0].next_event(t, &c).into_iter().chain(dma2).min();
             if step >= others || dma.is_some_and(|d| d <= step) {
                 return t;
             }
             self.advance_sensor_clock(step);
             self.i2c1.advance(step, &c);
-            for d in &mut self.dma {
-                d.advance(step, &c);
-            }
-            self.serve_dma(mem);
+            self.dma[0].advance(step, &c);
+            self.serve_dma_of(0..1, mem);
             self.advanced = None;
             t = step;
             if lines(self) != before {
@@ -627,6 +632,28 @@ impl Bus for Soc {
 
     fn software_reset(&mut self) {
         self.chip_reset(ResetCause::Software);
+    }
+
+    /// A timer's write changes its own line; USART2's and I2C1's their own and, through the
+    /// DMA requests they raise (served at the write), the DMA streams'; anything else may
+    /// reach further (GPIO to EXTI, RCC's resets): every line.
+    fn irqs_after_write(&self, addr: u32, line: &mut dyn FnMut(u16, bool)) {
+        let suppressed = &self.suppressed;
+        let line = &mut |irq: u16, high: bool| line(irq, high && !suppressed.contains(&irq));
+        match addr {
+            0x4000_0000..=0x4000_0FFF => {
+                self.tims[((addr - 0x4000_0000) / 0x400) as usize].irqs(line);
+            }
+            0x4000_1800..=0x4000_1BFF => self.tims[4].irqs(line),
+            0x4000_4400..=0x4000_47FF | 0x4000_5400..=0x4000_57FF | 0x4002_6000..=0x4002_67FF => {
+                self.usart2.irqs(line);
+                self.i2c1.irqs(line);
+                for d in &self.dma {
+                    d.irqs(line);
+                }
+            }
+            _ => self.irqs(line),
+        }
     }
 
     fn irqs(&self, line: &mut dyn FnMut(u16, bool)) {
