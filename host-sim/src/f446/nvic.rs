@@ -374,16 +374,17 @@ impl Nvic {
     /// A write to the System Control Space at `offset` from [`SCS_BASE`]. The priority
     /// registers take byte writes; the others word writes (a narrower one is merged).
     pub fn write(&mut self, offset: u32, size: Size, value: u32) {
-        self.best.set(None);
         let aligned = offset & !3;
         // Bit-set and bit-clear registers: a narrower write sets or clears only its lanes.
         if matches!(aligned, 0x100..=0x11C | 0x180..=0x19C | 0x200..=0x21C | 0x280..=0x29C) {
             let v = merge(0, offset, size, value);
             self.write_word(aligned, v);
-            return;
+        } else {
+            // (Reading ICSR looks at the highest pending exception: forget it after the write.)
+            let old = self.read_word(aligned);
+            self.write_word(aligned, merge(old, offset, size, value));
         }
-        let old = self.read_word(aligned);
-        self.write_word(aligned, merge(old, offset, size, value));
+        self.best.set(None);
     }
 
     fn bits(&self, set: &[bool; EXCEPTIONS], word: u32) -> u32 {
