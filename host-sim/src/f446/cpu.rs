@@ -43,10 +43,13 @@ const WINDOWS: [(u32, u32); 4] = [
     (0xE004_2000, 0x0000_1000),
 ];
 /// The longest slice the core runs without looking at the interrupts, instructions (≈ 91 µs
-/// at 180 MHz). A slice also ends at the next peripheral event, after a write that makes an
-/// interrupt takeable, and after a `cpsie`/`msr` to a mask register with an interrupt pending:
-/// this bound is only for what none of those see.
+/// at 180 MHz). A slice also ends at the next peripheral event and after a write that makes
+/// an interrupt takeable; with an interrupt pending but masked it is [`MASKED_SLICE`] at most.
 const MAX_SLICE: u64 = 16_384;
+/// The longest slice while an interrupt is pending but masked, instructions (≈ 1.4 µs at
+/// 180 MHz: the latency a `cpsie` or an `msr` to PRIMASK or BASEPRI can add to it; the
+/// instructions that open the masks are not watched).
+const MASKED_SLICE: u64 = 256;
 /// Branches to at or above this are exception returns (EXC_RETURN's prefix).
 const EXC_RETURN_MIN: u32 = 0xF000_0000;
 
@@ -113,8 +116,6 @@ struct State {
     instructions: u64,
     /// An interrupt may have become takeable in a register write: end the slice.
     recheck: bool,
-    /// A write under PRIMASK did not hand the lines to the NVIC.
-    lines_stale: bool,
     /// When the chip reset.
     resets: Vec<Time>,
     /// Slices run and sleeps skipped (the emulation's own cost: [`Core::stats`]).
@@ -126,7 +127,6 @@ impl State {
     /// Hand the bus's interrupt lines to the NVIC (SEVONPEND: a newly pending one sets the
     /// event register).
     fn sync_lines(&mut self) {
-        self.lines_stale = false;
         let nvic = &mut self.nvic;
         let mut woke = false;
         self.bus
@@ -135,18 +135,6 @@ impl State {
             .irqs(&mut |irq, high| woke |= nvic.set_line(irq, high));
         if woke && self.nvic.sev_on_pend() {
             self.event = true;
-        }
-    }
-
-    /// An instruction that may unmask interrupts is about to run: the slice ends after its
-    /// block if one is pending (the lines handed over first if a write under PRIMASK left
-    /// them behind).
-    fn unmasking(&mut self) {
-        if self.lines_stale {
-            self.sync_lines();
-        }
-        if self.nvic.highest_pending().is_some() {
-            self.recheck = true;
         }
     }
 
@@ -196,16 +184,6 @@ impl Blocks {
     }
 }
 
-/// Whether the halfword `hw` and the next, `next`, are `MSR` to PRIMASK, BASEPRI,
-/// BASEPRI_MAX or FAULTMASK (ARMv7-M A7.7.83, T1: `F38n 88xx`, SYSm 0x10–0x13).
-fn is_msr_to_mask(hw: u16, next: Option<&[u8]>) -> bool {
-    let Some(&[a, b]) = next else {
-        return false;
-    };
-    let second = u16::from_le_bytes([a, b]);
-    hw & 0xFFF0 == 0xF380 && second & 0xFF00 == 0x8800 && (0x10..=0x13).contains(&(second & 0xFF))
-}
-
 /// The core's interrupt masks now.
 fn masks_of(uc: &Unicorn<'_, State>) -> Masks {
     let reg = |r| uc.reg_read(r).unwrap_or(0) as u32;
@@ -218,29 +196,27 @@ fn masks_of(uc: &Unicorn<'_, State>) -> Masks {
 
 /// Hand the bus's lines to the NVIC and say whether an exception is now to be taken.
 fn interrupt_due(uc: &mut Unicorn<'_, State>, addr: u32) -> bool {
-    // With PRIMASK set nothing configurable is taken: the lines are handed over at the
-    // slice's end (before any `wfe` sleeps), as they are after every slice.
-    if uc.reg_read(RegisterARM::PRIMASK).unwrap_or(0) & 1 != 0 {
-        uc.get_data_mut().lines_stale = true;
-        return false;
-    }
     let masks = masks_of(uc);
     let st = uc.get_data_mut();
-    if st.lines_stale {
-        st.sync_lines();
-    } else {
-        // Only the lines the write can have moved.
-        let nvic = &mut st.nvic;
-        let mut woke = false;
-        st.bus
-            .as_ref()
-            .expect("the bus is present")
-            .irqs_after_write(addr, &mut |irq, high| woke |= nvic.set_line(irq, high));
-        if woke && st.nvic.sev_on_pend() {
-            st.event = true;
-        }
+    // Only the lines the write can have moved.
+    let nvic = &mut st.nvic;
+    let mut woke = false;
+    st.bus
+        .as_ref()
+        .expect("the bus is present")
+        .irqs_after_write(addr, &mut |irq, high| woke |= nvic.set_line(irq, high));
+    if woke && st.nvic.sev_on_pend() {
+        st.event = true;
     }
-    st.nvic.to_take(masks).is_some()
+    if st.nvic.to_take(masks).is_some() {
+        return true;
+    }
+    // Pending but masked (PRIMASK in a critical section, BASEPRI, a handler's priority): the
+    // rest of the slice is short, so that it is taken soon after the masks open.
+    if st.nvic.highest_pending().is_some() {
+        st.slice_limit = st.slice_limit.min(st.slice_instructions + MASKED_SLICE);
+    }
+    false
 }
 
 /// The memories through unicorn, for the bus's DMA and the flash's programming.
@@ -306,7 +282,6 @@ impl Core {
             faults: Vec::new(),
             instructions: 0,
             recheck: false,
-            lines_stale: false,
             resets: Vec::new(),
             slices: 0,
             sleeps: 0,
@@ -411,12 +386,6 @@ impl Core {
                     // SEV.
                     0xBF40 => {
                         uc.add_code_hook(at, at, |uc, _, _| uc.get_data_mut().event = true)
-                            .map_err(core_err)?;
-                    }
-                    // CPSIE I, or MSR to PRIMASK, BASEPRI, BASEPRI_MAX or FAULTMASK: the
-                    // masks may open for a pending interrupt.
-                    hw if hw == 0xB662 || is_msr_to_mask(hw, bytes.get(2 * i + 2..2 * i + 4)) => {
-                        uc.add_code_hook(at, at, |uc, _, _| uc.get_data_mut().unmasking())
                             .map_err(core_err)?;
                     }
                     _ => {}
@@ -721,7 +690,14 @@ impl Core {
         let left = super::Clocks::ticks(next.saturating_sub(now), st.sysclk_hz);
         st.slice_start = now;
         st.slice_instructions = 0;
-        st.slice_limit = left.clamp(1, MAX_SLICE);
+        // An interrupt pending here is masked (the core would have taken it): short slices
+        // until the masks open.
+        let longest = if st.nvic.highest_pending().is_some() {
+            MASKED_SLICE
+        } else {
+            MAX_SLICE
+        };
+        st.slice_limit = left.clamp(1, longest);
         st.recheck = false;
         let pc = self.reg(RegisterARM::PC);
         match self.uc.emu_start(u64::from(pc | 1), 0xFFFF_FFFF, 0, 0) {
