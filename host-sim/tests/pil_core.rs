@@ -287,3 +287,53 @@ fn the_reset_hook_reads_the_ram_before_the_chip_resets() {
         "the program started over after the hook: {after} after {seen:?}"
     );
 }
+
+/// A load inside an IT block that misses the TLB (the first touch of an SRAM page) leaves no
+/// IT state behind: the code after the block, in the next translated block, runs
+/// unconditionally. (unicorn's TLB fill restores the missing instruction's IT bits; left
+/// there, the next block decoded as if inside the IT block, here skipping `movs r4, #9`.)
+#[test]
+fn a_tlb_miss_inside_an_it_block_leaves_no_it_state() {
+    let main = [
+        0x2220, // movs r2, #0x20
+        0x0612, // lsls r2, r2, #24   → 0x2000_0000, a page not touched yet
+        0x2000, // movs r0, #0
+        0x2800, // cmp r0, #0         (Z = 1)
+        0xBF04, // itt eq
+        0x6811, // ldreq r1, [r2]     (the TLB miss)
+        0x3101, // addeq r1, #1
+        0x2305, // movs r3, #5        (Z = 0)
+        0xE7FF, // b (the next instruction): the translated block ends here
+        0x2409, // movs r4, #9
+        0x2507, // movs r5, #7
+        0xE7FE, // b .
+    ];
+    let mut c = core(&main, &HANDLER, Time::MAX);
+    c.run_until(TIME_HZ / 10_000).unwrap();
+    assert_eq!(c.reg(RegisterARM::R1), 1, "the IT block ran");
+    assert_eq!(
+        (c.reg(RegisterARM::R4), c.reg(RegisterARM::R5)),
+        (9, 7),
+        "the code after the IT block ran unconditionally"
+    );
+    assert_eq!(c.reg(RegisterARM::XPSR) & 0x0600_FC00, 0, "no IT bits");
+}
+
+/// SRAM holds data, not code: a branch there stops the run with an error naming the address
+/// (the ELF's code is in flash; the harness maps SRAM execute-never, which lets unicorn store
+/// to it on its fast path).
+#[test]
+fn a_branch_into_sram_is_an_error() {
+    let main = [
+        0x2020, // movs r0, #0x20
+        0x0600, // lsls r0, r0, #24   → 0x2000_0000
+        0x3001, // adds r0, #1        (Thumb)
+        0x4700, // bx r0
+    ];
+    let mut c = core(&main, &HANDLER, Time::MAX);
+    let err = c.run_until(TIME_HZ / 10_000).unwrap_err();
+    assert!(
+        err.to_string().contains("stopped at pc 0x20000000"),
+        "{err}"
+    );
+}
