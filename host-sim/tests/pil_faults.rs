@@ -2,7 +2,8 @@
 //! STM32F446 and by the library's controller (`--features pil`; run in release: `cargo test
 //! --release -p host-sim --features pil --test pil_faults -- --nocapture` prints the numbers):
 //! a sensor that NACKs mid-stepping, a heater that goes open, the e-stop button over a latched
-//! fault and the button pressed mid-stepping. Both give the same faults (code, and time within
+//! fault, the button pressed mid-stepping, and the rest a scene can inject (frozen, corrupt
+//! and stopped frames, a spring's MOSFET failed short, a spring's wire open). Both give the same faults (code, and time within
 //! 0.3 s), the same verdict to every console line, the bend within 2° at every row, and heater
 //! and springs off within one control tick (50 ms) of every latch — for the ELF from its pins as
 //! the harness read them every millisecond, for the library from its rows (every 50 ms).
@@ -286,4 +287,45 @@ fn the_button_in_stepping_latches_estop_on_the_elf_within_a_tick() {
     );
     assert!(off - press_s < TICK_S, "off at {off} s");
     assert_eq!(driven_at(&board.outputs, off).outputs.fan_duty, 0.0);
+}
+
+#[test]
+fn frozen_corrupt_and_stopped_frames_and_the_spring_faults_latch_on_the_elf_as_in_the_library() {
+    let (lib, board) = play("pil-sensor-spring");
+    let codes: Vec<&str> = lib.summary.faults.iter().map(|f| f.code.as_str()).collect();
+    assert_eq!(
+        codes,
+        [
+            "sensor-loss",
+            "sensor-loss",
+            "sensor-loss",
+            "spring-stuck-on",
+            "spring-open"
+        ]
+    );
+    // Every reset accepted once its fault was gone, and each mode taken again.
+    assert!(
+        board
+            .result
+            .summary
+            .replies
+            .iter()
+            .all(|r| r.reply.starts_with("ok")),
+        "{:?}",
+        board.result.summary.replies
+    );
+    // The ELF switched spring A on (its wire open since 65 s) shortly before the latch: the
+    // check is not vacuous.
+    let open_s = board.result.summary.faults[4].at_s;
+    let on_s = board
+        .outputs
+        .iter()
+        .find(|c| c.at_s > 65.0 && c.outputs.springs_on[0])
+        .expect("spring A switched on")
+        .at_s;
+    println!("  the ELF switched spring A on at {on_s:.3} s");
+    assert!(
+        on_s < open_s && open_s - on_s <= 0.2,
+        "on {on_s} s, latched {open_s} s"
+    );
 }
