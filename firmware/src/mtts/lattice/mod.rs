@@ -1,0 +1,656 @@
+//! Lattice separation (SPEC section 3, "beyond clustering"): T1 (heater area) and T2 (SMP
+//! surface) by least squares on the region-mix forward model of the cylinder's core, with a
+//! bound and a per-frame quality (resolved, ambiguous, merged, fallback).
+//!
+//! Constants (weights, thresholds, spreads, grid) were tuned on the scene family's seen seeds
+//! only (`host_sim::imaging::view_family::SEEN`): periods 4–16 px, exposed fractions
+//! 0.2–0.85, optics from the footprint alone to σ 0.6 px, tilt ±35°, broken and hot pixels.
+//!
+//! Model. Along the axis coordinate t the core shows a square wave: stripes of the hotter
+//! target, a fraction h of each period P, on the colder one. A sensor pixel integrates its
+//! footprint (a unit square, projected on the tilted axis: two boxes of widths cos α and
+//! sin α) through the optics' spread (a Gaussian; the datasheet gives no numeric profile, so
+//! its σ is a nuisance parameter fitted over the grid [`PSF_SIGMAS_PX`], from none — an
+//! MLX90640 pixel may be as sharp as its footprint — to 0.6 px), so its value is
+//! `a + b·f(t)` with f the square wave seen through that transfer function H:
+//! `f(t) = h + Σ_k 2·sin(πkh)/(πk)·H(k/P)·cos(2πk(t − c)/P)`, a the colder temperature, b the
+//! gap (≥ 0) and c the centre of a hot stripe. The frame is linear in (a, b) once (P, c, h)
+//! are known:
+//! 1. P: the periodogram peak of the core's axial profile (periods [`PERIOD_MIN_PX`]…
+//!    [`PERIOD_MAX_PX`]; narrowed to ±12 % of the previous frame's), looked at half a grid
+//!    step either side before the parabola (a core showing under two periods peaks between
+//!    the grid's first points), refined by a Gauss–Newton step of the least-squares fit of the
+//!    mean and the fundamental (near the minimum from as far as the peak may lie), then one of
+//!    the mean and the first three harmonics (a thin stripe's harmonics pull the fundamental's
+//!    minimum off by several percent where the core shows under two periods);
+//! 2. the core pixels are fitted by least squares with the mean and the first harmonics of P
+//!    that lie below 0.75 cycles per pixel (at most five, six for a design of stripes under a
+//!    quarter of the period, `harmonics_for`; fewer if ill-conditioned: a thin stripe — the
+//!    thesis's 1.4 px SMP strips — lives in the higher ones); c is the fundamental's phase;
+//! 3. for each h on a grid and each spread, the (a, b) whose square wave best matches the
+//!    core's pixels give a misfit χ² (the per-pixel least squares, through the normal matrix
+//!    of the fit's basis extended, for a lattice of short period, to the harmonics the design
+//!    needs below [`MODEL_BAND_CPP`], 1.5 cycles per pixel — five, ten for a design of
+//!    stripes under a quarter of the period, `model_for`: a thin stripe's higher harmonics,
+//!    which the free fit cannot hold apart, are the model's own and not noise; each ¼ px bin
+//!    of the profile gives its pixels' mean and, where they lie at several places along the
+//!    axis, their slope: see `FINE`), with the noise
+//!    estimated from the best candidate's residual. The exposed fraction is thus fitted per
+//!    frame, and so is the spread: T1, T2 and h are their posterior means over the chosen
+//!    hypothesis's window and the spreads (likelihood e^(−χ²/2), flat over the spreads,
+//!    a Gaussian prior on the exposed fraction about the design, [`EXPOSED_PRIOR_SD`]; on half
+//!    steps of h, a sharp row by its χ² parabola's vertex). A thin stripe's level trades
+//!    against its width and the spread along a valley of nearly equal χ², whose minimum the
+//!    noise moves from end to end: the mean over it errs far less than the grid's best point
+//!    (unseen family members, |gap| ≥ 3 K, every frame, with the lone-pixel rule below:
+//!    mean |T1|, |T2| 0.13, 0.19 → 0.08, 0.14 K; `bash scripts/work-precision`).
+//!
+//! The core's profile leaves out a lone pixel more than [`LONE_PIXEL_K`] beyond every other
+//! (a hot or dead pixel the EEPROM does not flag): one such pixel moves its bin by its whole
+//! excess, and the fit's harmonics with it. A bad pixel that is not the core's extreme (a hot
+//! pixel on a cold stripe) is left out too when it lies beyond both its row neighbours by more
+//! than 5 % of the frame's range, and at least [`LONE_PIXEL_K`]: if at most four core pixels
+//! do. More are the lattice's own — a thin stripe crossing the rows at a slant puts single
+//! pixels beyond both neighbours — and stay (the first four are noted as the pass goes; the
+//! rest of the pass is as without the rule). Unseen family members, |gap| ≥ 3 K: mean |T1|,
+//! |T2| 0.073, 0.108 → 0.070, 0.104 K; exposed 0.75–0.85 at 6–10 px, T2 0.44 → 0.36 K.
+//!
+//! The candidates' model of a thin-stripe design reaches the tenth harmonic within
+//! [`MODEL_BAND_CPP`] (`model_for`): a thin stripe's spectrum 2·sin(πkh)/(πk) still holds a few
+//! percent of its gap past the fit's sixth (6.6 % at the seventh for h = 0.18), which a model
+//! stopping short reads as noise, and its misfit goes flatter along the stripe's level and
+//! width (unseen member 1000411, exposed 0.84 at 6.4 px, no spread, 0.05 K of noise: |T2| 0.76
+//! → 0.44 K with a seventh; 1000632, 0.82 at 9.5 px: 0.44 → 0.27 K). Seen family members,
+//! |gap| ≥ 3 K, mean |T1|, |T2|: 0.0760, 0.1064 K with six, 0.0753, 0.1043 K with seven,
+//! 0.0752, 0.1023 K with ten up to 1.5 cycles per pixel; unseen 0.069, 0.101 → 0.068, 0.096 →
+//! 0.068, 0.091 K (a throwaway host experiment over the first 1 000 members; the cells in
+//! `bash scripts/work-precision`). The thesis's block keeps five (`model_for`).
+//!
+//! A candidate's products cost the model's length, not its square: per spread, the Gram
+//! matrix's harmonics' block is folded once into sums over cos πnh (`Spread`), so each
+//! candidate is three dot products with its h's sines and cosines (`Trig`); and a surface-hot
+//! candidate 1 − h, the heater-hot candidate h's mirror, takes the same terms split by parity.
+//! A model of ten costs a thin-stripe design's first frame fewer instructions than the
+//! quadratic form of seven did (`bash scripts/bench-m4`).
+//!
+//! A broken pixel the pipeline filled in from its neighbours ([`super::inpaint`]) is left out
+//! too: it is no measurement of its place, and across a stripe a pixel wide it is the mean of
+//! both targets (unseen member 1000995, two in its core: |T2| 2.10 → 0.77 K). Unseen members,
+//! |gap| ≥ 3 K: mean |T1|, |T2| 0.070, 0.104 → 0.069, 0.101 K, the 6–10 px cell 0.36 →
+//! 0.33 K; seen 0.0771, 0.1055 → 0.0760, 0.1064 K. The filled pixels are dropped after the
+//! pass (a frame has few), which costs nothing on a frame without.
+//!
+//! Which target is hotter: hot stripes of fraction h are the heater if the exposed fraction
+//! d = h, or the surface if d = 1 − h. The block's design fixes d within
+//! [`EXPOSED_TOLERANCE`] ([`super::Config::exposed_pct`]: the lattice's gap over its unit; the
+//! view and the lattice's waviness move it a little), so each hypothesis has its own h window
+//! and best χ², and the image decides whenever heater and surface stripes differ in width:
+//! the thesis's block (71 % exposed) shows hot stripes 0.71 of the period wide while heating
+//! and 0.29 wide once forming has inverted the hot zone. A best χ² lower by at least
+//! [`AMBIGUOUS_CHI2`] is a clear spatial verdict and stands whatever the prior says. Only
+//! between hypotheses the image both allows — a block built near 50 % exposed, whose heater
+//! and surface stripes are equally wide, or a lattice too faint to tell — does the supervisor's
+//! [`Prior`] (or, without one, the previous frame's decision, [`CONTINUITY_CHI2`]) pick, and
+//! then the bound spans both hypotheses: a pick the image did not make is resolved only when
+//! either answer lies within a small bound (a small gap), so a wrong prior is never a
+//! confident error. A decided frame whose bound is not small (a pick only the prior made, or
+//! thin stripes whose level trades against their width) is [`Quality::Ambiguous`]: T1 and T2
+//! the fit's, the bound honest. With nothing to pick between two allowed hypotheses the frame
+//! is [`Quality::Merged`].
+//!
+//! The bound: the spread of T1 and T2 over the (h, σ) whose χ² is within [`CONFIDENCE_CHI2`]
+//! of the best (in both hypotheses when the image allows both; χ² with the best candidate's
+//! residual variance, which includes the model's own mismatch)
+//! and over the best candidates of the neighbouring spreads (σ is a grid; the truth lies
+//! between two of its values), plus two standard errors of (a, b) from the pixel noise (the
+//! scatter within ¼ px bins); scaled by [`BOUND_SCALE`] and floored by [`BOUND_FLOOR_K`], so
+//! that ≥ 95 % of resolved frames lie within it (measured on the unseen seeds). A frame
+//! is resolved when the hypothesis is decided and the bound is at most [`RESOLVED_BOUND_K`] or
+//! at most [`RESOLVED_FRACTION`] of the estimated gap; else merged: both targets carry the core's
+//! area-weighted mean, with the bound on how far either may lie from it. Before any lattice
+//! was ever found (a cold uniform block at power-up) both are the core's mean: fallback.
+
+use super::Quality;
+use super::regions::{CORE_U, Coords, Geometry};
+use super::{FilledRows, IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
+use crate::fmath::{clamp, floor, max, min, sin_cos_turns};
+
+mod candidates;
+mod free_fit;
+mod period;
+mod posterior;
+mod profile;
+mod transfer;
+
+use candidates::*;
+use free_fit::*;
+use period::*;
+use posterior::*;
+use profile::*;
+pub use profile::LONE_PIXEL_K;
+pub use transfer::{lattice_core_u, transfer};
+use transfer::*;
+
+/// Smallest exposed (heater) fraction of a lattice unit the view can show.
+pub const EXPOSED_MIN: f32 = 0.15;
+/// Largest exposed fraction.
+pub const EXPOSED_MAX: f32 = 0.9;
+/// How far the exposed fraction a frame shows may lie from the block's design
+/// ([`super::Config::exposed_pct`]): the lattice's waviness and the view angle.
+pub const EXPOSED_TOLERANCE: f32 = 0.06;
+/// The prior on the exposed fraction a frame shows: a Gaussian about the block's design of
+/// this standard deviation (half of [`EXPOSED_TOLERANCE`]: the window spans ±2 sd), added to
+/// each candidate's χ². Where a thin stripe's level trades against its width and the optics'
+/// spread, χ² alone is nearly flat to the window's ends; the prior weighs the valley toward
+/// the design (seen family members, |gap| ≥ 3 K: mean |T2| 0.122 → 0.118 K, confidently
+/// wrong 11 → 8 frames, exposed 0.75–0.85 at 6–10 px 0.52 → 0.48 K). Other widths, on the
+/// same members: 0.04 kept less (6–10 px 0.49 K), 0.023 gave 0.117 K but the 10–16 px thin
+/// stripes 0.23 → 0.24 K, 0.015 made 15 frames confidently wrong.
+pub const EXPOSED_PRIOR_SD: f32 = 0.5 * EXPOSED_TOLERANCE;
+/// The spreads the fit tries (a nuisance parameter: the datasheet gives the field of view but
+/// no numeric pixel-sensitivity profile), pixels: from the footprint alone to a blur wider
+/// than a pixel's half.
+pub const PSF_SIGMAS_PX: [f32; 7] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+/// The step of [`PSF_SIGMAS_PX`] (its values are 0, 1, 2… steps), pixels.
+const PSF_STEP_PX: f32 = 0.1;
+/// Shortest lattice period searched, pixels.
+pub const PERIOD_MIN_PX: f32 = 2.9;
+/// Longest lattice period searched, pixels.
+pub const PERIOD_MAX_PX: f32 = 24.0;
+/// Least fundamental amplitude of the axial profile to (re)detect the lattice, K.
+pub const MIN_LATTICE_K: f32 = 0.3;
+/// χ² bonus of the hypothesis the supervisor's prior expects: more than [`AMBIGUOUS_CHI2`], so
+/// between hypotheses the image both allows the prior always picks.
+pub const PRIOR_CHI2: f32 = 60.0;
+/// χ² bonus of the previous frame's hypothesis when there is no prior.
+pub const CONTINUITY_CHI2: f32 = 4.0;
+/// χ² margin within which two hypotheses are both allowed by the image.
+pub const AMBIGUOUS_CHI2: f32 = 16.0;
+/// χ² margin of the confidence set over h.
+pub const CONFIDENCE_CHI2: f32 = 4.0;
+/// Largest fraction of the estimated gap |T1 − T2| the bound of a resolved frame may reach
+/// (when it exceeds [`RESOLVED_BOUND_K`]): the targets stand apart by several bounds.
+pub const RESOLVED_FRACTION: f32 = 0.35;
+/// Factor on the bound's statistical part (the confidence set and two standard errors), for
+/// what the model leaves out: calibrated for ≥ 95 % coverage on the seen seeds.
+pub const BOUND_SCALE: f32 = 1.3;
+/// Least bound, K: the model's floor (the core's straight edges, the footprint as two boxes).
+pub const BOUND_FLOOR_K: f32 = 0.1;
+/// Bound up to which a decided frame is resolved whatever its gap, K.
+pub const RESOLVED_BOUND_K: f32 = 1.0;
+
+/// Harmonics fitted at most (a design of thin stripes, [`harmonics_for`]).
+const FIT_HARMONICS: usize = 6;
+/// Harmonics fitted at most whatever the design ([`harmonics_for`]), and the candidates' model
+/// of a design of stripes no thinner than a quarter of the period ([`model_for`]).
+const BASE_HARMONICS: usize = 5;
+/// Harmonics of the candidates' model at most (a design of thin stripes, [`model_for`]): an
+/// even count ([`Spread::products`] splits them by parity).
+const HARMONICS: usize = 10;
+/// The candidates' products' length for a model of the base harmonics: an even count.
+const BASE_PAIRS: usize = BASE_HARMONICS + BASE_HARMONICS % 2;
+/// Unknowns of the harmonic fit at most.
+const NP: usize = 1 + 2 * FIT_HARMONICS;
+/// Entries of the fit's right-hand side: the mean and each of the model's harmonics.
+const RHS: usize = 1 + 2 * HARMONICS;
+/// Least pixel noise the fits assume, K.
+const NOISE_FLOOR_K: f32 = 0.05;
+/// A candidate's model in the basis (the mean and each harmonic's unit at the phase).
+const U: usize = 1 + HARMONICS;
+/// Highest frequency the candidates' model of the profile reaches, cycles per pixel: past the
+/// free fit's 0.75 (whose coefficients a few periods of samples cannot all tell apart), up to
+/// the harmonics the design's thinner stripe needs (`model_for`): a lattice of short period,
+/// whose 0.75 cycles per pixel stop the free fit before them, keeps them in the model, where a
+/// thin stripe's width and level shape them and where, left out, they weigh in the misfit as
+/// noise and hide what tells the stripe's width from the spread. Seen family members, |gap| ≥
+/// 3 K: mean |T2| 0.118 → 0.116 K at 1.0 (confidently wrong 8 → 9 frames), the thesis's
+/// lattice 0.208 → 0.178 K. Why 1.5 and not 1.25: a pixel's footprint, a box a pixel wide,
+/// passes a first sidelobe between 1 and 2 cycles per pixel whose largest gain (0.22) lies at
+/// 1.43, and a tilted axis samples the profile at every ¼ px, so a thin stripe's harmonics there
+/// reach the bins attenuated, not gone: a band of 1.25 cuts the sidelobe before its peak and
+/// reads that part as noise. With a thin-stripe design's ten harmonics the seen members tie
+/// (1.25: 0.0750, 0.1019 K; 1.5: 0.0752, 0.1023 K; thin stripes at 4–16 px 0.297 and 0.300 K);
+/// unseen members exposed 0.75–0.85 at 6–10 px 0.316 → 0.297 K (a throwaway host experiment).
+/// The thesis's block is not changed: its model stops at five, which any period ≥ 4 px holds
+/// below either band. A model past the design's harmonics for the thesis's block (at most
+/// seven below 1.25) gained the seen members (0.110 K) but lost the camera-on cycle (mean |T2|
+/// 0.063 → 0.095 K) and the standard scenes' T1 (0.010 → 0.031 K), as a sixth harmonic had
+/// (`harmonics_for`).
+pub const MODEL_BAND_CPP: f32 = 1.5;
+/// Parameters the best candidate fits (a, b, h and the spread): the degrees of freedom its
+/// misfit loses, for the noise it estimates.
+const MODEL_PARAMETERS: f32 = 4.0;
+/// Axial profile bins (one per pixel of axial length).
+const BINS: usize = 48;
+/// Frequency step of the first frame's periodogram, cycles per pixel.
+const FREQ_STEP: f32 = 0.03;
+/// Harmonics of the frequency's refinement ([`gn_step`]) at most.
+const REFINE_HARMONICS: usize = 3;
+/// Largest relative change of the frequency by its refinement.
+const REFINE_LIMIT: f32 = 0.1;
+/// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
+const H_FIRST: f32 = 0.1;
+const H_STEP: f32 = 0.025;
+const H_COUNT: usize = 33;
+/// Spreads tried.
+const PSFS: usize = PSF_SIGMAS_PX.len();
+/// Most h grid points in one hypothesis's window (2·[`EXPOSED_TOLERANCE`] / `H_STEP` + 1,
+/// rounded up).
+const SLOTS: usize = 6;
+const _: () = assert!((((2.0 * EXPOSED_TOLERANCE + 2e-4) / H_STEP) as usize) < SLOTS);
+/// Candidates kept: each window's h under every spread.
+const CANDIDATES: usize = 2 * SLOTS * PSFS;
+
+/// Result of one frame's separation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Separation {
+    /// T1 estimate, K.
+    pub t1_k: f32,
+    /// T2 estimate, K.
+    pub t2_k: f32,
+    /// Area-weighted mean of the core (heater and surface), K.
+    pub mean_k: f32,
+    /// Bound on |T1 − truth| and |T2 − truth|, K.
+    pub bound_k: f32,
+    /// Resolved, ambiguous, merged or fallback.
+    pub quality: Quality,
+}
+
+/// The core's reference value, mean and range, K.
+struct Core {
+    reference: f32,
+    mean: f32,
+    lo: f32,
+    hi: f32,
+}
+
+/// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
+/// cylinder geometry `g` (its lattice fields are updated), with the coordinates `xy` of `g`;
+/// `range_k` is the frame's range (hottest less coldest pixel, K), which scales the test for
+/// bad pixels (the module docs); the pixels of `filled` were broken and filled in, and are left
+/// out of the fit.
+pub fn separate(
+    img: &[f32; IMG_PIXELS],
+    xy: &Coords,
+    g: &mut Geometry,
+    prior: Prior,
+    design_exposed: f32,
+    range_k: f32,
+    filled: &FilledRows,
+) -> Separation {
+    let bad_k = max(LONE_PIXEL_K, BAD_RANGE_FRACTION * range_k);
+    let win = window(design_exposed);
+    let u_core = lattice_core_u(g.half_width_px);
+    let Some(prof) = Profile::of(img, xy, g, u_core, bad_k, filled) else {
+        // No core pixel at all (cannot happen with a positive half-width): the image mean.
+        let m = img.iter().sum::<f32>() / IMG_PIXELS as f32;
+        return Separation {
+            t1_k: m,
+            t2_k: m,
+            mean_k: m,
+            bound_k: 0.0,
+            quality: Quality::Fallback,
+        };
+    };
+    let core = Core {
+        reference: prof.reference,
+        mean: prof.reference + prof.mean_dev,
+        lo: prof.lo,
+        hi: prof.hi,
+    };
+    let fallback = Separation {
+        t1_k: core.mean,
+        t2_k: core.mean,
+        mean_k: core.mean,
+        bound_k: 0.5 * (core.hi - core.lo),
+        quality: Quality::Fallback,
+    };
+    let length = prof.length() as f32;
+    let p_max = min(PERIOD_MAX_PX, length / 1.2);
+    let (lo, hi, step) = if g.lattice_known {
+        let nu = 1.0 / g.period_px;
+        (0.88 * nu, 1.12 * nu, 0.004)
+    } else {
+        (1.0 / p_max, 1.0 / PERIOD_MIN_PX, FREQ_STEP)
+    };
+    let coarse = Coarse::of(&prof);
+    let found = find_frequency(
+        &coarse,
+        max(lo, 1.0 / p_max),
+        min(hi, 1.0 / PERIOD_MIN_PX),
+        step,
+    )
+    .filter(|&(_, amp)| amp >= MIN_LATTICE_K);
+    // Not seen this frame (too little contrast): the previous lattice measures, unchanged.
+    let kept = *g;
+    let nu = match (found, g.lattice_known) {
+        (Some((nu, _)), _) => nu,
+        (None, true) => 1.0 / g.period_px,
+        (None, false) => return fallback,
+    };
+    // The periodogram's peak is biased when the core shows few periods, the more so when its
+    // stripes are thin (their harmonics, which the periodogram leaves out, pull the fundamental's
+    // peak): a Gauss–Newton step of the frequency in the least-squares fit of the mean and the
+    // fundamental, which converges from farther, then one in the fit with three harmonics.
+    let mut nu = nu;
+    let mut angles = [(0f32, 0f32); FINE_BINS];
+    for k in [1, REFINE_HARMONICS] {
+        if let Some(d) = gn_step(&prof, nu, ((0.75 / nu) as usize).clamp(1, k), &mut angles) {
+            nu += clamp(d, -REFINE_LIMIT * nu, REFINE_LIMIT * nu);
+        }
+    }
+    // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile
+    // at many sub-pixel positions); fewer when the fit is ill-conditioned (an untilted axis
+    // aliases them onto each other).
+    let mut harmonics = ((0.75 / nu) as usize).clamp(1, harmonics_for(design_exposed));
+    // The candidates' model reaches further (MODEL_BAND_CPP): its sums come from the same pass.
+    let model = ((MODEL_BAND_CPP / nu) as usize).clamp(harmonics, model_for(design_exposed));
+    let fit = loop {
+        match harmonic_fit(&prof, nu, harmonics, model) {
+            Some(f) => break Some(f),
+            None if harmonics > 1 => harmonics -= 1,
+            None => break None,
+        }
+    };
+    let Some(fit) = fit else {
+        return if g.lattice_known {
+            Separation {
+                quality: Quality::Merged,
+                ..fallback
+            }
+        } else {
+            fallback
+        };
+    };
+    let (a1, b1) = (fit.theta[1], fit.theta[2]);
+    let r1 = max(1e-12, crate::fmath::sqrt(a1 * a1 + b1 * b1));
+    let (cpsi, spsi) = (a1 / r1, b1 / r1);
+    let mut mtf = [[0f32; HARMONICS]; PSFS];
+    transfers(nu, g.axis_slope, model, &mut mtf);
+    let g00 = fit.cs[0];
+    let r0 = fit.rhs[0];
+    // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
+    // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k), k up to the
+    // model's harmonics: the Gram matrix m = uᵀ·N·u and uᵀ·rhs, computed once, make each
+    // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
+    let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
+    gram(&fit, model, nu, (cpsi, spsi), &mut m, &mut ur);
+    // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
+    let (range_a, range_b) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
+    // Only the two windows' candidates are computed and kept: key = spread·2·SLOTS + the
+    // window's base (0 heater hot, SLOTS surface hot) + the h's place in the window (a few
+    // hundred bytes of stack, not the whole grid's). Windows that overlap (a design near 50 %)
+    // compute their common h twice.
+    let base_of = |hyp: Hyp| match hyp {
+        Hyp::HeaterHot => 0,
+        Hyp::SurfaceHot => SLOTS,
+    };
+    let range_of = |hyp: Hyp| match hyp {
+        Hyp::HeaterHot => range_a.clone(),
+        Hyp::SurfaceHot => range_b.clone(),
+    };
+    // A key's hypothesis and its h's place in that hypothesis's window.
+    let slot_of = |key: usize| {
+        let w = key % (2 * SLOTS);
+        if w < SLOTS {
+            (Hyp::HeaterHot, w)
+        } else {
+            (Hyp::SurfaceHot, w - SLOTS)
+        }
+    };
+    // Keys outside the windows keep an infinite misfit (the passes below run over all).
+    let mut cand = [Candidate {
+        chi2: f32::INFINITY,
+        ..Candidate::default()
+    }; CANDIDATES];
+    // Per place of the heater-hot window, the stripe's harmonics' sines sin(πkh), k = 1…, and
+    // the cosines cos(πnh), n = 0…, of its h: with each spread's sums below, a candidate's
+    // products are three dot products, and its mirror's (1 − h, the surface-hot window's) the
+    // same sums split by parity ([`Spread`]).
+    let mut trig = [Trig::default(); SLOTS];
+    for (t, i) in trig.iter_mut().zip(range_a.clone()) {
+        *t = Trig::of(h_at(i));
+    }
+    // Each candidate's misfit Σ w·r² first, its χ² once the noise is known.
+    let mut rss_min = f32::INFINITY;
+    // The design's prior, z² per place of the two windows: the exposed fraction a candidate
+    // says the frame shows, against the design.
+    let inv_prior_sd = 1.0 / EXPOSED_PRIOR_SD;
+    let mut prior_chi2 = [0f32; 2 * SLOTS];
+    for hyp in [Hyp::HeaterHot, Hyp::SurfaceHot] {
+        for (k, i) in range_of(hyp).enumerate() {
+            let exposed = if hyp == Hyp::HeaterHot {
+                h_at(i)
+            } else {
+                1.0 - h_at(i)
+            };
+            let z = (exposed - design_exposed) * inv_prior_sd;
+            prior_chi2[base_of(hyp) + k] = z * z;
+        }
+    }
+    // The products run to an even length: the model's harmonics, or a base model's rounded up
+    // (its sums past the model are zero).
+    let base_model = model <= BASE_PAIRS;
+    let fit_yy = fit.yy + fit.slope_yy;
+    let na = range_a.len();
+    for psf in 0..PSFS {
+        let spread = if base_model {
+            Spread::of::<BASE_PAIRS>(&m, &ur, &mtf[psf], model)
+        } else {
+            Spread::of::<HARMONICS>(&m, &ur, &mtf[psf], model)
+        };
+        let first = psf * 2 * SLOTS;
+        for (slot, i) in range_a.clone().enumerate() {
+            let t = &trig[slot];
+            let h = h_at(i);
+            let [pa, pb] = if base_model {
+                spread.products::<BASE_PAIRS>(h, t)
+            } else {
+                spread.products::<HARMONICS>(h, t)
+            };
+            // The heater-hot candidate h, and its mirror 1 − h: the surface-hot window's place
+            // na − 1 − slot.
+            for (key, products) in [(first + slot, pa), (first + SLOTS + na - 1 - slot, pb)] {
+                let c = Candidate::of(g00, r0, fit_yy, products);
+                if c.chi2 < rss_min {
+                    rss_min = c.chi2;
+                }
+                cand[key] = c;
+            }
+        }
+    }
+    // The noise: the best candidate's misfit per degree of freedom (the model holds the
+    // stripes' harmonics to the model's band; what is left is the pixels' noise, and what the
+    // model still misses), floored as the fit's.
+    let sigma2 = (rss_min / (fit.bins + fit.slope_bins - MODEL_PARAMETERS).max(1.0))
+        .max(NOISE_FLOOR_K * NOISE_FLOOR_K);
+    let inv_sigma2 = 1.0 / sigma2;
+    for row in cand.chunks_exact_mut(2 * SLOTS) {
+        for (c, z2) in row.iter_mut().zip(&prior_chi2) {
+            c.chi2 = c.chi2 * inv_sigma2 + z2;
+        }
+    }
+    // The best candidate (its key) of a hypothesis at the spreads `psfs`.
+    let best_in = |hyp: Hyp, psfs: core::ops::Range<usize>| {
+        let mut best: Option<usize> = None;
+        let (base, nh) = (base_of(hyp), range_of(hyp).len());
+        for psf in psfs {
+            let first = psf * 2 * SLOTS + base;
+            for j in first..first + nh {
+                if best.is_none_or(|b| cand[j].chi2 < cand[b].chi2) {
+                    best = Some(j);
+                }
+            }
+        }
+        best
+    };
+    let (ia, ib) = (
+        best_in(Hyp::HeaterHot, 0..PSFS),
+        best_in(Hyp::SurfaceHot, 0..PSFS),
+    );
+    let chi2_of = |i: Option<usize>| i.map_or(f32::INFINITY, |i| cand[i].chi2);
+    let (ca, cb) = (chi2_of(ia), chi2_of(ib));
+    let (bonus_a, bonus_b, informed) = match (prior, g.heater_hotter) {
+        (Prior::HeaterHotter, _) => (PRIOR_CHI2, 0.0, true),
+        (Prior::SurfaceHotter, _) => (0.0, PRIOR_CHI2, true),
+        (Prior::Unknown, Some(true)) => (CONTINUITY_CHI2, 0.0, true),
+        (Prior::Unknown, Some(false)) => (0.0, CONTINUITY_CHI2, true),
+        (Prior::Unknown, None) => (0.0, 0.0, false),
+    };
+    // A clear spatial verdict stands whatever the prior says; between hypotheses the image
+    // both allows, the prior (or the previous frame) picks.
+    let clear = libm::fabsf(ca - cb) >= AMBIGUOUS_CHI2;
+    let hyp = if clear {
+        if ca <= cb {
+            Hyp::HeaterHot
+        } else {
+            Hyp::SurfaceHot
+        }
+    } else if ca - bonus_a <= cb - bonus_b {
+        Hyp::HeaterHot
+    } else {
+        Hyp::SurfaceHot
+    };
+    let decided = informed || clear;
+    // (T1, T2) of a candidate under a hypothesis, K.
+    let temps = |c: &Candidate, hyp: Hyp| {
+        let (hot, cold) = (core.reference + c.a + c.b, core.reference + c.a);
+        match hyp {
+            Hyp::HeaterHot => (hot, cold),
+            Hyp::SurfaceHot => (cold, hot),
+        }
+    };
+    // At least one hypothesis has a window (the design is within EXPOSED_MIN…EXPOSED_MAX).
+    let chosen = if hyp == Hyp::HeaterHot { ia } else { ib };
+    let ibest = chosen.or(ia).or(ib).unwrap_or(0);
+    // The estimate: the posterior mean over the hypothesis's window (h) and the spreads (σ),
+    // not the grid's best point. Along the valley where a thin stripe's level trades against
+    // its width and the optics' spread, χ² is nearly flat, and its minimum wanders with the
+    // noise to the window's or the spreads' ends; where it is sharp, the grid's steps are
+    // coarse against it. See [`posterior`].
+    let (hyp_best, _) = slot_of(ibest);
+    let post = {
+        let (base, nh) = (base_of(hyp_best), range_of(hyp_best).len());
+        // A hypothesis's candidates at one spread lie side by side, in h order.
+        let row = |psf: usize| &cand[psf * 2 * SLOTS + base..][..nh];
+        // χ² is against the best candidate's residual variance, which holds the model's
+        // mismatch as well as the pixels' noise (their scatter within a fine bin); the
+        // posterior takes the noise, but no less than 1/POSTERIOR_SHARPEN of the residual
+        // variance.
+        let ratio = sigma2 / fit.noise2;
+        posterior(
+            row,
+            nh,
+            if ratio < POSTERIOR_SHARPEN {
+                ratio
+            } else {
+                POSTERIOR_SHARPEN
+            },
+        )
+    };
+    let best = Candidate {
+        a: post.a,
+        b: post.b,
+        ..cand[ibest]
+    };
+    let (t1, t2) = temps(&best, hyp);
+    let mean = core.reference + fit.theta[0];
+    // Envelopes over the confidence sets: around the estimate, and around the mean.
+    let mut spread = 0f32;
+    let mut merged_spread = 0f32;
+    for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
+        let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
+        let (base, nh) = (base_of(hy), range_of(hy).len());
+        for j in (0..PSFS).flat_map(|psf| psf * 2 * SLOTS + base..psf * 2 * SLOTS + base + nh) {
+            let c = &cand[j];
+            if c.chi2 > cmin + CONFIDENCE_CHI2 {
+                continue;
+            }
+            let (x1, x2) = temps(c, hy);
+            let sd = crate::fmath::sqrt(fit.noise2 * c.var);
+            let m = max(libm::fabsf(x1 - mean), libm::fabsf(x2 - mean)) + 2.0 * sd;
+            if m > merged_spread {
+                merged_spread = m;
+            }
+            // The chosen hypothesis's set, and, when the image allows the other one too (no
+            // clear verdict: the prior or the previous frame picked), the other's: a wrong
+            // pick lies within that.
+            if hy == hyp || !clear {
+                let e = max(libm::fabsf(x1 - t1), libm::fabsf(x2 - t2)) + 2.0 * sd;
+                spread = max(spread, e);
+            }
+        }
+    }
+    // The spread is a grid: the truth lies between two of its values. What the best candidate
+    // would be at the neighbouring spreads (each one's best h in the hypothesis) is within the
+    // bound too.
+    let psf_best = ibest / (2 * SLOTS);
+    for psf in [psf_best.wrapping_sub(1), psf_best + 1] {
+        if psf >= PSFS {
+            continue;
+        }
+        if let Some(j) = best_in(hyp, psf..psf + 1) {
+            let (x1, x2) = temps(&cand[j], hyp);
+            let e = max(libm::fabsf(x1 - t1), libm::fabsf(x2 - t2));
+            if e > spread {
+                spread = e;
+            }
+        }
+    }
+    // Calibrated on the seen seeds: what the grids and the model's approximations (the core's
+    // straight edges, the footprint's two boxes) add.
+    let spread = BOUND_SCALE * spread + BOUND_FLOOR_K;
+    let merged_spread = BOUND_SCALE * merged_spread + BOUND_FLOOR_K;
+    // The lattice as zones see it: the heater stripes start at `phase`.
+    let period = 1.0 / nu;
+    let h = h_at(range_of(hyp_best).start) + post.h_steps * H_STEP;
+    let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period;
+    let (exposed, start) = match hyp {
+        Hyp::HeaterHot => (h, centre - 0.5 * h * period),
+        Hyp::SurfaceHot => (1.0 - h, centre + 0.5 * h * period),
+    };
+    g.period_px = period;
+    g.phase_px = start - floor(start / period) * period;
+    g.exposed = exposed;
+    g.lattice_known = true;
+    if decided {
+        g.heater_hotter = Some(hyp == Hyp::HeaterHot);
+    }
+    if found.is_none() {
+        *g = kept;
+    }
+    // A period the refinement took past the longest searched (the periodogram peaked at the
+    // search's end: no lattice the core shows, a trend or a hot pixel) never resolves.
+    let in_range = period <= p_max;
+    let small = |b: f32| {
+        in_range && (b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
+    };
+    if decided {
+        // T1 and T2 are the fit's: resolved when the bound (spanning both assignments where
+        // the image allowed both) is small, else ambiguous — the fit's values with that
+        // bound, still far closer than the mean the merged frame gives both.
+        let quality = if small(spread) {
+            Quality::Resolved
+        } else {
+            Quality::Ambiguous
+        };
+        Separation {
+            t1_k: t1,
+            t2_k: t2,
+            mean_k: mean,
+            bound_k: spread,
+            quality,
+        }
+    } else {
+        Separation {
+            t1_k: mean,
+            t2_k: mean,
+            mean_k: mean,
+            bound_k: merged_spread,
+            quality: Quality::Merged,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
