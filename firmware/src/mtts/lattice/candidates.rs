@@ -358,3 +358,169 @@ pub(super) fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize>
         Hyp::SurfaceHot => H_COUNT - heater_hot.end..H_COUNT - heater_hot.start,
     }
 }
+
+/// The candidates of one frame: each hypothesis's window of h (about the design, heater hot,
+/// and its mirror, surface hot) under every spread, with its χ² (the misfit over the noise,
+/// plus the design's prior on the exposed fraction).
+pub(super) struct Grid {
+    /// Key = spread·2·[`SLOTS`] + the window's base (0 heater hot, [`SLOTS`] surface hot) + the
+    /// h's place in the window; keys outside the windows keep an infinite χ².
+    pub(super) cand: [Candidate; CANDIDATES],
+    /// The heater-hot hypothesis's window on the h grid.
+    range_a: core::ops::Range<usize>,
+    /// The surface-hot hypothesis's.
+    range_b: core::ops::Range<usize>,
+    /// The fundamental's phase: (cos ψ, sin ψ).
+    pub(super) psi: (f32, f32),
+    /// The pixels' noise variance the χ² are against (the best candidate's misfit per degree
+    /// of freedom), K².
+    pub(super) sigma2: f32,
+}
+
+impl Grid {
+    /// The candidates of the free fit `fit` at frequency `nu` along an axis of slope `slope`,
+    /// the model reaching `model` harmonics, for a block of design `design_exposed`.
+    pub(super) fn of(
+        fit: &HarmonicFit,
+        nu: f32,
+        slope: f32,
+        model: usize,
+        design_exposed: f32,
+    ) -> Grid {
+        let win = window(design_exposed);
+        let (a1, b1) = (fit.theta[1], fit.theta[2]);
+        let r1 = max(1e-12, crate::fmath::sqrt(a1 * a1 + b1 * b1));
+        let (cpsi, spsi) = (a1 / r1, b1 / r1);
+        let mut mtf = [[0f32; HARMONICS]; PSFS];
+        transfers(nu, slope, model, &mut mtf);
+        let g00 = fit.cs[0];
+        let r0 = fit.rhs[0];
+        // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
+        // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k), k up to the
+        // model's harmonics: the Gram matrix m = uᵀ·N·u and uᵀ·rhs, computed once, make each
+        // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
+        let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
+        gram(fit, model, nu, (cpsi, spsi), &mut m, &mut ur);
+        let mut grid = Grid {
+            cand: [Candidate {
+                chi2: f32::INFINITY,
+                ..Candidate::default()
+            }; CANDIDATES],
+            range_a: h_range(Hyp::HeaterHot, win),
+            range_b: h_range(Hyp::SurfaceHot, win),
+            psi: (cpsi, spsi),
+            sigma2: 0.0,
+        };
+        let range_a = grid.range_a.clone();
+        // Per place of the heater-hot window, the stripe's harmonics' sines sin(πkh), k = 1…,
+        // and the cosines cos(πnh), n = 0…, of its h: with each spread's sums below, a
+        // candidate's products are three dot products, and its mirror's (1 − h, the
+        // surface-hot window's) the same sums split by parity ([`Spread`]). Windows that
+        // overlap (a design near 50 %) compute their common h twice.
+        let mut trig = [Trig::default(); SLOTS];
+        for (t, i) in trig.iter_mut().zip(range_a.clone()) {
+            *t = Trig::of(h_at(i));
+        }
+        // Each candidate's misfit Σ w·r² first, its χ² once the noise is known.
+        let mut rss_min = f32::INFINITY;
+        // The design's prior, z² per place of the two windows: the exposed fraction a
+        // candidate says the frame shows, against the design.
+        let inv_prior_sd = 1.0 / EXPOSED_PRIOR_SD;
+        let mut prior_chi2 = [0f32; 2 * SLOTS];
+        for hyp in [Hyp::HeaterHot, Hyp::SurfaceHot] {
+            for (k, i) in grid.range_of(hyp).enumerate() {
+                let exposed = if hyp == Hyp::HeaterHot {
+                    h_at(i)
+                } else {
+                    1.0 - h_at(i)
+                };
+                let z = (exposed - design_exposed) * inv_prior_sd;
+                prior_chi2[Grid::base_of(hyp) + k] = z * z;
+            }
+        }
+        // The products run to an even length: the model's harmonics, or a base model's
+        // rounded up (its sums past the model are zero).
+        let base_model = model <= BASE_PAIRS;
+        let fit_yy = fit.yy + fit.slope_yy;
+        let na = range_a.len();
+        for psf in 0..PSFS {
+            let spread = if base_model {
+                Spread::of::<BASE_PAIRS>(&m, &ur, &mtf[psf], model)
+            } else {
+                Spread::of::<HARMONICS>(&m, &ur, &mtf[psf], model)
+            };
+            let first = psf * 2 * SLOTS;
+            for (slot, i) in range_a.clone().enumerate() {
+                let t = &trig[slot];
+                let h = h_at(i);
+                let [pa, pb] = if base_model {
+                    spread.products::<BASE_PAIRS>(h, t)
+                } else {
+                    spread.products::<HARMONICS>(h, t)
+                };
+                // The heater-hot candidate h, and its mirror 1 − h: the surface-hot window's
+                // place na − 1 − slot.
+                for (key, products) in [(first + slot, pa), (first + SLOTS + na - 1 - slot, pb)] {
+                    let c = Candidate::of(g00, r0, fit_yy, products);
+                    if c.chi2 < rss_min {
+                        rss_min = c.chi2;
+                    }
+                    grid.cand[key] = c;
+                }
+            }
+        }
+        // The noise: the best candidate's misfit per degree of freedom (the model holds the
+        // stripes' harmonics to the model's band; what is left is the pixels' noise, and what
+        // the model still misses), floored as the fit's.
+        let sigma2 = (rss_min / (fit.bins + fit.slope_bins - MODEL_PARAMETERS).max(1.0))
+            .max(NOISE_FLOOR_K * NOISE_FLOOR_K);
+        let inv_sigma2 = 1.0 / sigma2;
+        for row in grid.cand.chunks_exact_mut(2 * SLOTS) {
+            for (c, z2) in row.iter_mut().zip(&prior_chi2) {
+                c.chi2 = c.chi2 * inv_sigma2 + z2;
+            }
+        }
+        grid.sigma2 = sigma2;
+        grid
+    }
+
+    /// The place of a hypothesis's window in a spread's row of keys.
+    pub(super) fn base_of(hyp: Hyp) -> usize {
+        match hyp {
+            Hyp::HeaterHot => 0,
+            Hyp::SurfaceHot => SLOTS,
+        }
+    }
+
+    /// A hypothesis's window on the h grid.
+    pub(super) fn range_of(&self, hyp: Hyp) -> core::ops::Range<usize> {
+        match hyp {
+            Hyp::HeaterHot => self.range_a.clone(),
+            Hyp::SurfaceHot => self.range_b.clone(),
+        }
+    }
+
+    /// A key's hypothesis.
+    pub(super) fn hyp_of(key: usize) -> Hyp {
+        if key % (2 * SLOTS) < SLOTS {
+            Hyp::HeaterHot
+        } else {
+            Hyp::SurfaceHot
+        }
+    }
+
+    /// The best candidate (its key) of a hypothesis at the spreads `psfs`.
+    pub(super) fn best_in(&self, hyp: Hyp, psfs: core::ops::Range<usize>) -> Option<usize> {
+        let mut best: Option<usize> = None;
+        let (base, nh) = (Grid::base_of(hyp), self.range_of(hyp).len());
+        for psf in psfs {
+            let first = psf * 2 * SLOTS + base;
+            for j in first..first + nh {
+                if best.is_none_or(|b| self.cand[j].chi2 < self.cand[b].chi2) {
+                    best = Some(j);
+                }
+            }
+        }
+        best
+    }
+}

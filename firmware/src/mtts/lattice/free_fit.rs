@@ -40,7 +40,12 @@ pub(super) struct HarmonicFit {
 
 /// [`harmonic_fit_by`] at frequency `nu`, with the sums of the candidates' model up to `model`
 /// harmonics and the bins' slopes.
-pub(super) fn harmonic_fit(p: &Profile, nu: f32, harmonics: usize, model: usize) -> Option<HarmonicFit> {
+pub(super) fn harmonic_fit(
+    p: &Profile,
+    nu: f32,
+    harmonics: usize,
+    model: usize,
+) -> Option<HarmonicFit> {
     harmonic_fit_by::<true>(p, harmonics, model, |_, t| sin_cos_turns(nu * t))
 }
 
@@ -222,7 +227,6 @@ pub(super) fn model_for(design_exposed: f32) -> usize {
         BASE_HARMONICS
     }
 }
-
 
 /// Solve the symmetric positive definite system `a·x = b` (size n) by Cholesky; `None` when a
 /// pivot is not clearly positive (an ill-conditioned fit).

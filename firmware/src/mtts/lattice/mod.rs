@@ -115,21 +115,25 @@ use super::regions::{CORE_U, Coords, Geometry};
 use super::{FilledRows, IMG_COLS, IMG_PIXELS, IMG_ROWS, Prior};
 use crate::fmath::{clamp, floor, max, min, sin_cos_turns};
 
+mod bound;
 mod candidates;
 mod free_fit;
+mod optics;
 mod period;
 mod posterior;
 mod profile;
-mod transfer;
+mod verdict;
 
+use bound::*;
 use candidates::*;
 use free_fit::*;
+use optics::*;
+pub use optics::{lattice_core_u, transfer};
 use period::*;
 use posterior::*;
-use profile::*;
 pub use profile::LONE_PIXEL_K;
-pub use transfer::{lattice_core_u, transfer};
-use transfer::*;
+use profile::*;
+use verdict::*;
 
 /// Smallest exposed (heater) fraction of a lattice unit the view can show.
 pub const EXPOSED_MIN: f32 = 0.15;
@@ -264,11 +268,117 @@ struct Core {
     hi: f32,
 }
 
+impl Core {
+    /// The core of `prof`.
+    fn of(prof: &Profile) -> Core {
+        Core {
+            reference: prof.reference,
+            mean: prof.reference + prof.mean_dev,
+            lo: prof.lo,
+            hi: prof.hi,
+        }
+    }
+
+    /// The frame without a lattice: both targets the core's mean, the bound half its range.
+    fn fallback(&self) -> Separation {
+        Separation {
+            t1_k: self.mean,
+            t2_k: self.mean,
+            mean_k: self.mean,
+            bound_k: 0.5 * (self.hi - self.lo),
+            quality: Quality::Fallback,
+        }
+    }
+}
+
+/// The lattice's frequency this frame, cycles per pixel: the periodogram's peak (searched
+/// within ±12 % of the previous frame's, once a lattice is known), refined by a Gauss–Newton
+/// step of the fit of the mean and the fundamental, which converges from farther, then one of
+/// the fit with three harmonics (a thin stripe's harmonics pull the periodogram's peak, the more
+/// so where the core shows few periods). With `found` false the periodogram found no lattice
+/// this frame and the previous frame's period stands in (the frame then leaves the geometry as
+/// it was). `None`: no lattice found and none known.
+struct Period {
+    nu: f32,
+    found: bool,
+    /// Longest period the core can show (its length / 1.2, at most [`PERIOD_MAX_PX`]), pixels.
+    p_max: f32,
+}
+
+impl Period {
+    fn of(prof: &Profile, g: &Geometry) -> Option<Period> {
+        let length = prof.length() as f32;
+        let p_max = min(PERIOD_MAX_PX, length / 1.2);
+        let (lo, hi, step) = if g.lattice_known {
+            let nu = 1.0 / g.period_px;
+            (0.88 * nu, 1.12 * nu, 0.004)
+        } else {
+            (1.0 / p_max, 1.0 / PERIOD_MIN_PX, FREQ_STEP)
+        };
+        let coarse = Coarse::of(prof);
+        let found = find_frequency(
+            &coarse,
+            max(lo, 1.0 / p_max),
+            min(hi, 1.0 / PERIOD_MIN_PX),
+            step,
+        )
+        .filter(|&(_, amp)| amp >= MIN_LATTICE_K);
+        // Not seen this frame (too little contrast): the previous lattice measures.
+        let mut nu = match (found, g.lattice_known) {
+            (Some((nu, _)), _) => nu,
+            (None, true) => 1.0 / g.period_px,
+            (None, false) => return None,
+        };
+        let mut angles = [(0f32, 0f32); FINE_BINS];
+        for k in [1, REFINE_HARMONICS] {
+            if let Some(d) = gn_step(prof, nu, ((0.75 / nu) as usize).clamp(1, k), &mut angles) {
+                nu += clamp(d, -REFINE_LIMIT * nu, REFINE_LIMIT * nu);
+            }
+        }
+        Some(Period {
+            nu,
+            found: found.is_some(),
+            p_max,
+        })
+    }
+}
+
+/// The free fit at frequency `nu` and the candidates' model's harmonics: harmonics below 0.75
+/// cycles per pixel (past Nyquist, a tilted axis samples the profile at many sub-pixel
+/// positions), fewer where the fit is ill-conditioned (an untilted axis aliases them onto each
+/// other); the model reaches further ([`MODEL_BAND_CPP`]), its sums from the same pass.
+/// `None`: not even the fundamental can be fitted.
+fn fit_free(prof: &Profile, nu: f32, design_exposed: f32) -> Option<(HarmonicFit, usize)> {
+    let mut harmonics = ((0.75 / nu) as usize).clamp(1, harmonics_for(design_exposed));
+    let model = ((MODEL_BAND_CPP / nu) as usize).clamp(harmonics, model_for(design_exposed));
+    loop {
+        match harmonic_fit(prof, nu, harmonics, model) {
+            Some(f) => return Some((f, model)),
+            None if harmonics > 1 => harmonics -= 1,
+            None => return None,
+        }
+    }
+}
+
+/// (T1, T2) of a candidate under a hypothesis, K, with the core's `reference`.
+fn temps(reference: f32, c: &Candidate, hyp: Hyp) -> (f32, f32) {
+    let (hot, cold) = (reference + c.a + c.b, reference + c.a);
+    match hyp {
+        Hyp::HeaterHot => (hot, cold),
+        Hyp::SurfaceHot => (cold, hot),
+    }
+}
+
 /// Estimate the lattice and separate T1 from T2 on the inpainted image `img` under the
 /// cylinder geometry `g` (its lattice fields are updated), with the coordinates `xy` of `g`;
 /// `range_k` is the frame's range (hottest less coldest pixel, K), which scales the test for
 /// bad pixels (the module docs); the pixels of `filled` were broken and filled in, and are left
 /// out of the fit.
+///
+/// The steps, each its own (this module's files): the core's profile (`profile`), the period
+/// (`Period`), the free fit (`free_fit`), the candidates (`candidates::Grid`), which target is
+/// hotter (`verdict`), the estimate (`posterior::Estimate`), the bound (`bound`); then the
+/// lattice the frame leaves for the next and the frame's quality.
 pub fn separate(
     img: &[f32; IMG_PIXELS],
     xy: &Coords,
@@ -279,7 +389,6 @@ pub fn separate(
     filled: &FilledRows,
 ) -> Separation {
     let bad_k = max(LONE_PIXEL_K, BAD_RANGE_FRACTION * range_k);
-    let win = window(design_exposed);
     let u_core = lattice_core_u(g.half_width_px);
     let Some(prof) = Profile::of(img, xy, g, u_core, bad_k, filled) else {
         // No core pixel at all (cannot happen with a positive half-width): the image mean.
@@ -292,67 +401,13 @@ pub fn separate(
             quality: Quality::Fallback,
         };
     };
-    let core = Core {
-        reference: prof.reference,
-        mean: prof.reference + prof.mean_dev,
-        lo: prof.lo,
-        hi: prof.hi,
+    let core = Core::of(&prof);
+    let fallback = core.fallback();
+    let Some(period) = Period::of(&prof, g) else {
+        return fallback;
     };
-    let fallback = Separation {
-        t1_k: core.mean,
-        t2_k: core.mean,
-        mean_k: core.mean,
-        bound_k: 0.5 * (core.hi - core.lo),
-        quality: Quality::Fallback,
-    };
-    let length = prof.length() as f32;
-    let p_max = min(PERIOD_MAX_PX, length / 1.2);
-    let (lo, hi, step) = if g.lattice_known {
-        let nu = 1.0 / g.period_px;
-        (0.88 * nu, 1.12 * nu, 0.004)
-    } else {
-        (1.0 / p_max, 1.0 / PERIOD_MIN_PX, FREQ_STEP)
-    };
-    let coarse = Coarse::of(&prof);
-    let found = find_frequency(
-        &coarse,
-        max(lo, 1.0 / p_max),
-        min(hi, 1.0 / PERIOD_MIN_PX),
-        step,
-    )
-    .filter(|&(_, amp)| amp >= MIN_LATTICE_K);
-    // Not seen this frame (too little contrast): the previous lattice measures, unchanged.
-    let kept = *g;
-    let nu = match (found, g.lattice_known) {
-        (Some((nu, _)), _) => nu,
-        (None, true) => 1.0 / g.period_px,
-        (None, false) => return fallback,
-    };
-    // The periodogram's peak is biased when the core shows few periods, the more so when its
-    // stripes are thin (their harmonics, which the periodogram leaves out, pull the fundamental's
-    // peak): a Gauss–Newton step of the frequency in the least-squares fit of the mean and the
-    // fundamental, which converges from farther, then one in the fit with three harmonics.
-    let mut nu = nu;
-    let mut angles = [(0f32, 0f32); FINE_BINS];
-    for k in [1, REFINE_HARMONICS] {
-        if let Some(d) = gn_step(&prof, nu, ((0.75 / nu) as usize).clamp(1, k), &mut angles) {
-            nu += clamp(d, -REFINE_LIMIT * nu, REFINE_LIMIT * nu);
-        }
-    }
-    // Harmonics below 0.75 cycles per pixel (past Nyquist, a tilted axis samples the profile
-    // at many sub-pixel positions); fewer when the fit is ill-conditioned (an untilted axis
-    // aliases them onto each other).
-    let mut harmonics = ((0.75 / nu) as usize).clamp(1, harmonics_for(design_exposed));
-    // The candidates' model reaches further (MODEL_BAND_CPP): its sums come from the same pass.
-    let model = ((MODEL_BAND_CPP / nu) as usize).clamp(harmonics, model_for(design_exposed));
-    let fit = loop {
-        match harmonic_fit(&prof, nu, harmonics, model) {
-            Some(f) => break Some(f),
-            None if harmonics > 1 => harmonics -= 1,
-            None => break None,
-        }
-    };
-    let Some(fit) = fit else {
+    let nu = period.nu;
+    let Some((fit, model)) = fit_free(&prof, nu, design_exposed) else {
         return if g.lattice_known {
             Separation {
                 quality: Quality::Merged,
@@ -362,274 +417,44 @@ pub fn separate(
             fallback
         };
     };
-    let (a1, b1) = (fit.theta[1], fit.theta[2]);
-    let r1 = max(1e-12, crate::fmath::sqrt(a1 * a1 + b1 * b1));
-    let (cpsi, spsi) = (a1 / r1, b1 / r1);
-    let mut mtf = [[0f32; HARMONICS]; PSFS];
-    transfers(nu, g.axis_slope, model, &mut mtf);
-    let g00 = fit.cs[0];
-    let r0 = fit.rhs[0];
-    // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
-    // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k), k up to the
-    // model's harmonics: the Gram matrix m = uᵀ·N·u and uᵀ·rhs, computed once, make each
-    // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
-    let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
-    gram(&fit, model, nu, (cpsi, spsi), &mut m, &mut ur);
-    // Per h, 2·S_k(h) = 2·sin(πkh)/(πk), shared by every spread.
-    let (range_a, range_b) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
-    // Only the two windows' candidates are computed and kept: key = spread·2·SLOTS + the
-    // window's base (0 heater hot, SLOTS surface hot) + the h's place in the window (a few
-    // hundred bytes of stack, not the whole grid's). Windows that overlap (a design near 50 %)
-    // compute their common h twice.
-    let base_of = |hyp: Hyp| match hyp {
-        Hyp::HeaterHot => 0,
-        Hyp::SurfaceHot => SLOTS,
-    };
-    let range_of = |hyp: Hyp| match hyp {
-        Hyp::HeaterHot => range_a.clone(),
-        Hyp::SurfaceHot => range_b.clone(),
-    };
-    // A key's hypothesis and its h's place in that hypothesis's window.
-    let slot_of = |key: usize| {
-        let w = key % (2 * SLOTS);
-        if w < SLOTS {
-            (Hyp::HeaterHot, w)
-        } else {
-            (Hyp::SurfaceHot, w - SLOTS)
-        }
-    };
-    // Keys outside the windows keep an infinite misfit (the passes below run over all).
-    let mut cand = [Candidate {
-        chi2: f32::INFINITY,
-        ..Candidate::default()
-    }; CANDIDATES];
-    // Per place of the heater-hot window, the stripe's harmonics' sines sin(πkh), k = 1…, and
-    // the cosines cos(πnh), n = 0…, of its h: with each spread's sums below, a candidate's
-    // products are three dot products, and its mirror's (1 − h, the surface-hot window's) the
-    // same sums split by parity ([`Spread`]).
-    let mut trig = [Trig::default(); SLOTS];
-    for (t, i) in trig.iter_mut().zip(range_a.clone()) {
-        *t = Trig::of(h_at(i));
-    }
-    // Each candidate's misfit Σ w·r² first, its χ² once the noise is known.
-    let mut rss_min = f32::INFINITY;
-    // The design's prior, z² per place of the two windows: the exposed fraction a candidate
-    // says the frame shows, against the design.
-    let inv_prior_sd = 1.0 / EXPOSED_PRIOR_SD;
-    let mut prior_chi2 = [0f32; 2 * SLOTS];
-    for hyp in [Hyp::HeaterHot, Hyp::SurfaceHot] {
-        for (k, i) in range_of(hyp).enumerate() {
-            let exposed = if hyp == Hyp::HeaterHot {
-                h_at(i)
-            } else {
-                1.0 - h_at(i)
-            };
-            let z = (exposed - design_exposed) * inv_prior_sd;
-            prior_chi2[base_of(hyp) + k] = z * z;
-        }
-    }
-    // The products run to an even length: the model's harmonics, or a base model's rounded up
-    // (its sums past the model are zero).
-    let base_model = model <= BASE_PAIRS;
-    let fit_yy = fit.yy + fit.slope_yy;
-    let na = range_a.len();
-    for psf in 0..PSFS {
-        let spread = if base_model {
-            Spread::of::<BASE_PAIRS>(&m, &ur, &mtf[psf], model)
-        } else {
-            Spread::of::<HARMONICS>(&m, &ur, &mtf[psf], model)
-        };
-        let first = psf * 2 * SLOTS;
-        for (slot, i) in range_a.clone().enumerate() {
-            let t = &trig[slot];
-            let h = h_at(i);
-            let [pa, pb] = if base_model {
-                spread.products::<BASE_PAIRS>(h, t)
-            } else {
-                spread.products::<HARMONICS>(h, t)
-            };
-            // The heater-hot candidate h, and its mirror 1 − h: the surface-hot window's place
-            // na − 1 − slot.
-            for (key, products) in [(first + slot, pa), (first + SLOTS + na - 1 - slot, pb)] {
-                let c = Candidate::of(g00, r0, fit_yy, products);
-                if c.chi2 < rss_min {
-                    rss_min = c.chi2;
-                }
-                cand[key] = c;
-            }
-        }
-    }
-    // The noise: the best candidate's misfit per degree of freedom (the model holds the
-    // stripes' harmonics to the model's band; what is left is the pixels' noise, and what the
-    // model still misses), floored as the fit's.
-    let sigma2 = (rss_min / (fit.bins + fit.slope_bins - MODEL_PARAMETERS).max(1.0))
-        .max(NOISE_FLOOR_K * NOISE_FLOOR_K);
-    let inv_sigma2 = 1.0 / sigma2;
-    for row in cand.chunks_exact_mut(2 * SLOTS) {
-        for (c, z2) in row.iter_mut().zip(&prior_chi2) {
-            c.chi2 = c.chi2 * inv_sigma2 + z2;
-        }
-    }
-    // The best candidate (its key) of a hypothesis at the spreads `psfs`.
-    let best_in = |hyp: Hyp, psfs: core::ops::Range<usize>| {
-        let mut best: Option<usize> = None;
-        let (base, nh) = (base_of(hyp), range_of(hyp).len());
-        for psf in psfs {
-            let first = psf * 2 * SLOTS + base;
-            for j in first..first + nh {
-                if best.is_none_or(|b| cand[j].chi2 < cand[b].chi2) {
-                    best = Some(j);
-                }
-            }
-        }
-        best
-    };
-    let (ia, ib) = (
-        best_in(Hyp::HeaterHot, 0..PSFS),
-        best_in(Hyp::SurfaceHot, 0..PSFS),
-    );
-    let chi2_of = |i: Option<usize>| i.map_or(f32::INFINITY, |i| cand[i].chi2);
-    let (ca, cb) = (chi2_of(ia), chi2_of(ib));
-    let (bonus_a, bonus_b, informed) = match (prior, g.heater_hotter) {
-        (Prior::HeaterHotter, _) => (PRIOR_CHI2, 0.0, true),
-        (Prior::SurfaceHotter, _) => (0.0, PRIOR_CHI2, true),
-        (Prior::Unknown, Some(true)) => (CONTINUITY_CHI2, 0.0, true),
-        (Prior::Unknown, Some(false)) => (0.0, CONTINUITY_CHI2, true),
-        (Prior::Unknown, None) => (0.0, 0.0, false),
-    };
-    // A clear spatial verdict stands whatever the prior says; between hypotheses the image
-    // both allows, the prior (or the previous frame) picks.
-    let clear = libm::fabsf(ca - cb) >= AMBIGUOUS_CHI2;
-    let hyp = if clear {
-        if ca <= cb {
-            Hyp::HeaterHot
-        } else {
-            Hyp::SurfaceHot
-        }
-    } else if ca - bonus_a <= cb - bonus_b {
-        Hyp::HeaterHot
-    } else {
-        Hyp::SurfaceHot
-    };
-    let decided = informed || clear;
-    // (T1, T2) of a candidate under a hypothesis, K.
-    let temps = |c: &Candidate, hyp: Hyp| {
-        let (hot, cold) = (core.reference + c.a + c.b, core.reference + c.a);
-        match hyp {
-            Hyp::HeaterHot => (hot, cold),
-            Hyp::SurfaceHot => (cold, hot),
-        }
-    };
-    // At least one hypothesis has a window (the design is within EXPOSED_MIN…EXPOSED_MAX).
-    let chosen = if hyp == Hyp::HeaterHot { ia } else { ib };
-    let ibest = chosen.or(ia).or(ib).unwrap_or(0);
-    // The estimate: the posterior mean over the hypothesis's window (h) and the spreads (σ),
-    // not the grid's best point. Along the valley where a thin stripe's level trades against
-    // its width and the optics' spread, χ² is nearly flat, and its minimum wanders with the
-    // noise to the window's or the spreads' ends; where it is sharp, the grid's steps are
-    // coarse against it. See [`posterior`].
-    let (hyp_best, _) = slot_of(ibest);
-    let post = {
-        let (base, nh) = (base_of(hyp_best), range_of(hyp_best).len());
-        // A hypothesis's candidates at one spread lie side by side, in h order.
-        let row = |psf: usize| &cand[psf * 2 * SLOTS + base..][..nh];
-        // χ² is against the best candidate's residual variance, which holds the model's
-        // mismatch as well as the pixels' noise (their scatter within a fine bin); the
-        // posterior takes the noise, but no less than 1/POSTERIOR_SHARPEN of the residual
-        // variance.
-        let ratio = sigma2 / fit.noise2;
-        posterior(
-            row,
-            nh,
-            if ratio < POSTERIOR_SHARPEN {
-                ratio
-            } else {
-                POSTERIOR_SHARPEN
-            },
-        )
-    };
-    let best = Candidate {
-        a: post.a,
-        b: post.b,
-        ..cand[ibest]
-    };
-    let (t1, t2) = temps(&best, hyp);
+    let grid = Grid::of(&fit, nu, g.axis_slope, model, design_exposed);
+    let verdict = Verdict::of(&grid, prior, g.heater_hotter);
+    let est = Estimate::of(&grid, &verdict, &fit, core.reference);
+    let (t1, t2) = (est.t1_k, est.t2_k);
     let mean = core.reference + fit.theta[0];
-    // Envelopes over the confidence sets: around the estimate, and around the mean.
-    let mut spread = 0f32;
-    let mut merged_spread = 0f32;
-    for hy in [Hyp::HeaterHot, Hyp::SurfaceHot] {
-        let cmin = if hy == Hyp::HeaterHot { ca } else { cb };
-        let (base, nh) = (base_of(hy), range_of(hy).len());
-        for j in (0..PSFS).flat_map(|psf| psf * 2 * SLOTS + base..psf * 2 * SLOTS + base + nh) {
-            let c = &cand[j];
-            if c.chi2 > cmin + CONFIDENCE_CHI2 {
-                continue;
-            }
-            let (x1, x2) = temps(c, hy);
-            let sd = crate::fmath::sqrt(fit.noise2 * c.var);
-            let m = max(libm::fabsf(x1 - mean), libm::fabsf(x2 - mean)) + 2.0 * sd;
-            if m > merged_spread {
-                merged_spread = m;
-            }
-            // The chosen hypothesis's set, and, when the image allows the other one too (no
-            // clear verdict: the prior or the previous frame picked), the other's: a wrong
-            // pick lies within that.
-            if hy == hyp || !clear {
-                let e = max(libm::fabsf(x1 - t1), libm::fabsf(x2 - t2)) + 2.0 * sd;
-                spread = max(spread, e);
-            }
-        }
-    }
-    // The spread is a grid: the truth lies between two of its values. What the best candidate
-    // would be at the neighbouring spreads (each one's best h in the hypothesis) is within the
-    // bound too.
-    let psf_best = ibest / (2 * SLOTS);
-    for psf in [psf_best.wrapping_sub(1), psf_best + 1] {
-        if psf >= PSFS {
-            continue;
-        }
-        if let Some(j) = best_in(hyp, psf..psf + 1) {
-            let (x1, x2) = temps(&cand[j], hyp);
-            let e = max(libm::fabsf(x1 - t1), libm::fabsf(x2 - t2));
-            if e > spread {
-                spread = e;
-            }
-        }
-    }
-    // Calibrated on the seen seeds: what the grids and the model's approximations (the core's
-    // straight edges, the footprint's two boxes) add.
-    let spread = BOUND_SCALE * spread + BOUND_FLOOR_K;
-    let merged_spread = BOUND_SCALE * merged_spread + BOUND_FLOOR_K;
+    let bounds = Bounds::of(&grid, &verdict, &est, &fit, core.reference, mean);
+    let hyp = verdict.hyp;
     // The lattice as zones see it: the heater stripes start at `phase`.
-    let period = 1.0 / nu;
-    let h = h_at(range_of(hyp_best).start) + post.h_steps * H_STEP;
-    let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period;
+    let kept = *g;
+    let period_px = 1.0 / nu;
+    let h = h_at(grid.range_of(est.hyp).start) + est.h_steps * H_STEP;
+    let (cpsi, spsi) = grid.psi;
+    let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period_px;
     let (exposed, start) = match hyp {
-        Hyp::HeaterHot => (h, centre - 0.5 * h * period),
-        Hyp::SurfaceHot => (1.0 - h, centre + 0.5 * h * period),
+        Hyp::HeaterHot => (h, centre - 0.5 * h * period_px),
+        Hyp::SurfaceHot => (1.0 - h, centre + 0.5 * h * period_px),
     };
-    g.period_px = period;
-    g.phase_px = start - floor(start / period) * period;
+    g.period_px = period_px;
+    g.phase_px = start - floor(start / period_px) * period_px;
     g.exposed = exposed;
     g.lattice_known = true;
-    if decided {
+    if verdict.decided {
         g.heater_hotter = Some(hyp == Hyp::HeaterHot);
     }
-    if found.is_none() {
+    if !period.found {
         *g = kept;
     }
     // A period the refinement took past the longest searched (the periodogram peaked at the
     // search's end: no lattice the core shows, a trend or a hot pixel) never resolves.
-    let in_range = period <= p_max;
+    let in_range = period_px <= period.p_max;
     let small = |b: f32| {
         in_range && (b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
     };
-    if decided {
+    if verdict.decided {
         // T1 and T2 are the fit's: resolved when the bound (spanning both assignments where
         // the image allowed both) is small, else ambiguous — the fit's values with that
         // bound, still far closer than the mean the merged frame gives both.
-        let quality = if small(spread) {
+        let quality = if small(bounds.estimate_k) {
             Quality::Resolved
         } else {
             Quality::Ambiguous
@@ -638,7 +463,7 @@ pub fn separate(
             t1_k: t1,
             t2_k: t2,
             mean_k: mean,
-            bound_k: spread,
+            bound_k: bounds.estimate_k,
             quality,
         }
     } else {
@@ -646,7 +471,7 @@ pub fn separate(
             t1_k: mean,
             t2_k: mean,
             mean_k: mean,
-            bound_k: merged_spread,
+            bound_k: bounds.merged_k,
             quality: Quality::Merged,
         }
     }

@@ -107,7 +107,6 @@ pub(super) fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<
     Some((nu, amplitude(p, nu)))
 }
 
-
 /// One Gauss–Newton step of the frequency ν of the least-squares fit of the mean and the first
 /// `k` harmonics (at most [`REFINE_HARMONICS`]) to the fine bins, cycles per pixel; `None` where
 /// the fit is ill-conditioned or the residual is flat in ν.
@@ -122,7 +121,12 @@ pub(super) fn find_frequency(p: &Coarse, lo: f32, hi: f32, step: f32) -> Option<
 ///
 /// `angles` is working memory (each bin's angle, kept by the fit's pass for the second).
 #[inline(never)] // called twice: one copy in the flash
-pub(super) fn gn_step(p: &Profile, nu: f32, k: usize, angles: &mut [(f32, f32); FINE_BINS]) -> Option<f32> {
+pub(super) fn gn_step(
+    p: &Profile,
+    nu: f32,
+    k: usize,
+    angles: &mut [(f32, f32); FINE_BINS],
+) -> Option<f32> {
     let k = k.clamp(1, REFINE_HARMONICS);
     let f = harmonic_fit_by::<false>(p, k, k, |b, t| {
         let a = sin_cos_turns(nu * t);

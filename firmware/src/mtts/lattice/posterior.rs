@@ -4,7 +4,7 @@
 
 use super::*;
 
-/// χ² above the best point beyond which [`posterior`] leaves a point out (its weight
+/// χ² above the best point beyond which [`posterior()`] leaves a point out (its weight
 /// e^(−Δ/2) < 3.4·10⁻⁴).
 pub(super) const POSTERIOR_CHI2: f32 = 16.0;
 /// The posterior means of a, b and h.
@@ -38,7 +38,7 @@ pub(super) const POSTERIOR_SHARPEN: f32 = 4.0;
 
 /// Second difference over one h step of the posterior's χ² (sharpened, see
 /// [`POSTERIOR_SHARPEN`]) above which a spread's row is sharp: its posterior's width in h,
-/// √(2/Δ²χ²) steps, is under half a step, finer than the half steps (see [`posterior`]).
+/// √(2/Δ²χ²) steps, is under half a step, finer than the half steps (see [`posterior()`]).
 pub(super) const POSTERIOR_SHARP: f32 = 8.0;
 
 /// A sharp row's χ² parabola through its best h and their neighbours, at its vertex: χ², a, b,
@@ -89,7 +89,11 @@ pub(super) fn sharp_vertex(r: &[Candidate], k: usize, sharpen: f32) -> Option<Ve
 /// A thin stripe's level trades against its width and the optics' spread along a valley of
 /// nearly equal χ², whose minimum the noise moves from end to end; the mean over it errs far
 /// less than that minimum. Where χ² is sharp, the vertex places it between the candidates' h.
-pub(super) fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, sharpen: f32) -> Posterior {
+pub(super) fn posterior<'a>(
+    row: impl Fn(usize) -> &'a [Candidate],
+    nh: usize,
+    sharpen: f32,
+) -> Posterior {
     // Each row's vertex, if sharp; the best χ² of all (candidates and vertices).
     let mut vertex: [Option<Vertex>; PSFS] = core::array::from_fn(|_| None);
     let mut lo = f32::INFINITY;
@@ -164,6 +168,73 @@ pub(super) fn posterior<'a>(row: impl Fn(usize) -> &'a [Candidate], nh: usize, s
             a: c.a,
             b: c.b,
             h_steps: 0.0,
+        }
+    }
+}
+
+/// The frame's estimate: the posterior mean over the chosen hypothesis's window (h) and the
+/// spreads (σ), not the grid's best point. Along the valley where a thin stripe's level trades
+/// against its width and the optics' spread, χ² is nearly flat, and its minimum wanders with
+/// the noise to the window's or the spreads' ends; where it is sharp, the grid's steps are
+/// coarse against it ([`posterior()`]).
+pub(super) struct Estimate {
+    /// The best candidate's key (of the hypothesis taken, or of either if that has no window).
+    pub(super) best: usize,
+    /// The hypothesis whose window the estimate is over.
+    pub(super) hyp: Hyp,
+    /// h, in grid steps from that window's start.
+    pub(super) h_steps: f32,
+    /// T1 under the verdict's hypothesis, K.
+    pub(super) t1_k: f32,
+    /// T2 under the verdict's hypothesis, K.
+    pub(super) t2_k: f32,
+}
+
+impl Estimate {
+    /// The estimate on `grid` under `verdict`, from the free fit `fit` (its pixels' noise) and
+    /// the core's `reference`, K.
+    pub(super) fn of(
+        grid: &Grid,
+        verdict: &Verdict,
+        fit: &HarmonicFit,
+        reference: f32,
+    ) -> Estimate {
+        // At least one hypothesis has a window (the design is within EXPOSED_MIN…EXPOSED_MAX).
+        let chosen = if verdict.hyp == Hyp::HeaterHot {
+            verdict.best_a
+        } else {
+            verdict.best_b
+        };
+        let ibest = chosen.or(verdict.best_a).or(verdict.best_b).unwrap_or(0);
+        let hyp_best = Grid::hyp_of(ibest);
+        // χ² is against the best candidate's residual variance, which holds the model's
+        // mismatch as well as the pixels' noise (their scatter within a fine bin); the
+        // posterior takes the noise, but no less than 1/POSTERIOR_SHARPEN of the residual
+        // variance.
+        let ratio = grid.sigma2 / fit.noise2;
+        let (base, nh) = (Grid::base_of(hyp_best), grid.range_of(hyp_best).len());
+        // A hypothesis's candidates at one spread lie side by side, in h order.
+        let post = posterior(
+            |psf| &grid.cand[psf * 2 * SLOTS + base..][..nh],
+            nh,
+            if ratio < POSTERIOR_SHARPEN {
+                ratio
+            } else {
+                POSTERIOR_SHARPEN
+            },
+        );
+        let best = Candidate {
+            a: post.a,
+            b: post.b,
+            ..grid.cand[ibest]
+        };
+        let (t1_k, t2_k) = temps(reference, &best, verdict.hyp);
+        Estimate {
+            best: ibest,
+            hyp: hyp_best,
+            h_steps: post.h_steps,
+            t1_k,
+            t2_k,
         }
     }
 }

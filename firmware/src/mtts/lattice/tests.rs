@@ -183,8 +183,7 @@ fn a_few_pixels_beyond_both_their_row_neighbours_are_left_out_of_the_profile() {
     // the clean image has it; one more, and they are taken for the lattice's own and kept.
     let (g, xy, clean, u_core, bad_k) = smooth_core();
     let base = Profile::of(&clean, &xy, &g, u_core, bad_k, &[0; IMG_ROWS]).expect("a core");
-    let all =
-        Profile::of(&clean, &xy, &g, u_core, f32::INFINITY, &[0; IMG_ROWS]).expect("a core");
+    let all = Profile::of(&clean, &xy, &g, u_core, f32::INFINITY, &[0; IMG_ROWS]).expect("a core");
     // A smooth core loses nothing to the rule.
     assert_eq!(base.total, all.total);
     for (n, dead) in [
@@ -400,9 +399,7 @@ fn the_candidates_trigonometric_sums_are_their_quadratic_form_and_their_mirror_s
     let m: [[f32; U]; U] = core::array::from_fn(|i| {
         core::array::from_fn(|j| {
             let d = i.abs_diff(j) as f32;
-            (if i == j { 2.0 } else { 0.0 })
-                + 1.0 / (1.0 + d * d)
-                + 0.1 / (1.0 + (i + j) as f32)
+            (if i == j { 2.0 } else { 0.0 }) + 1.0 / (1.0 + d * d) + 0.1 / (1.0 + (i + j) as f32)
         })
     });
     let ur: [f32; U] = core::array::from_fn(|i| 0.3 - 0.07 * i as f32);
