@@ -1,7 +1,9 @@
 //! MTTS on the scene family (unseen seeds): never a swap under the mode's prior, never NaN, a
 //! merged or fallback frame says so, resolved frames are accurate and within their bound; a
 //! wrong prior never overrides what the image shows, and where the image cannot decide its
-//! pick stays within the frame's bound; the thesis's own lattice resolves.
+//! pick stays within the frame's bound; the thesis's own lattice resolves. The harness of
+//! lattices unlike their design (issue 43): the members are what they claim, and the settled
+//! evaluation is the first frame's when it has one frame and follows its frames in order.
 
 use host_sim::imaging::mtts_wp::{
     CellStats, FamilyOutcome, PriorCase, family_outcomes, members_outcomes,
@@ -398,4 +400,132 @@ fn the_thesis_s_thin_surface_stripes_take_the_model_s_higher_harmonics() {
         "{} members: mean |T2| {mean:.3} K",
         sel.len()
     );
+}
+
+/// An outcome's every field, for comparing two outcomes exactly (NaN included).
+fn exact(o: &FamilyOutcome) -> String {
+    format!("{o:?}")
+}
+
+#[test]
+fn lattices_unlike_their_design_are_what_they_claim() {
+    use host_sim::imaging::view_family::{UNLIKE_NARROW, UNLIKE_WIDE, unlike_design};
+    let design = thermorph::mtts::Config::default().exposed_pct;
+    let n = 1000;
+    let (mut narrow, mut wide) = (0, 0);
+    for seed in UNSEEN.start..UNSEEN.start + n {
+        let m = unlike_design(seed);
+        assert_eq!(m.seed, seed);
+        assert_eq!(m.design_exposed_pct, design, "{seed}");
+        let e = m.geometry.exposed;
+        if (UNLIKE_NARROW.0..UNLIKE_NARROW.1).contains(&e) {
+            narrow += 1;
+        } else {
+            assert!((UNLIKE_WIDE.0..UNLIKE_WIDE.1).contains(&e), "{seed}: {e}");
+            wide += 1;
+        }
+        // Far from the design, whichever band: at least 0.14 off.
+        assert!((e - f64::from(design) / 100.0).abs() >= 0.14, "{seed}: {e}");
+    }
+    assert_eq!(narrow + wide, n);
+    assert!(
+        narrow * 5 >= 2 * n && wide * 5 >= 2 * n,
+        "{narrow} / {wide}"
+    );
+    // Their outcomes report the member's own exposure and gap, on both sides of the design.
+    let outs = members_outcomes(
+        (UNSEEN.start..UNSEEN.start + 40).map(unlike_design),
+        PriorCase::Right,
+    );
+    for o in &outs {
+        let m = unlike_design(o.seed);
+        assert_eq!(o.exposed, m.geometry.exposed);
+        assert_eq!(o.gap_k, m.gap_k());
+    }
+    assert!(outs.iter().any(|o| o.exposed < 0.5) && outs.iter().any(|o| o.exposed > 0.85));
+}
+
+#[test]
+fn the_settled_evaluation_of_one_frame_is_the_first_frame_s() {
+    use host_sim::imaging::mtts_wp::{
+        member_first_and_settled, member_outcome, member_outcome_settled,
+    };
+    use host_sim::imaging::view_family::{Member, unlike_design};
+    let mut scratch = Box::new(thermorph::mtts::Scratch::new());
+    for seed in UNSEEN.start..UNSEEN.start + 30 {
+        for m in [Member::draw(seed), unlike_design(seed)] {
+            for prior in [PriorCase::Right, PriorCase::Wrong, PriorCase::None] {
+                let first = member_outcome(&m, prior, &mut scratch);
+                let one = member_outcome_settled(&m, prior, 1, &mut scratch);
+                assert_eq!(exact(&first), exact(&one), "{seed} {prior:?}");
+                let (f, _) = member_first_and_settled(&m, prior, 3, &mut scratch);
+                assert_eq!(exact(&first), exact(&f), "{seed} {prior:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_settled_evaluation_reads_fresh_noise_and_keeps_its_members_order() {
+    use host_sim::imaging::mtts_wp::{
+        SETTLED_FRAMES, member_first_and_settled, member_outcome_settled,
+        members_first_and_settled, members_outcomes_settled,
+    };
+    use host_sim::imaging::view_family::unlike_design;
+    let members = || (UNSEEN.start..UNSEEN.start + 24).map(unlike_design);
+    let both = members_first_and_settled(members(), PriorCase::Right, SETTLED_FRAMES);
+    let settled = members_outcomes_settled(members(), PriorCase::Right, SETTLED_FRAMES);
+    let mut scratch = Box::new(thermorph::mtts::Scratch::new());
+    let mut moved = 0;
+    for ((m, (first, last)), s) in members().zip(&both).zip(&settled) {
+        assert_eq!(first.seed, m.seed);
+        assert_eq!(exact(last), exact(s));
+        let one = member_outcome_settled(&m, PriorCase::Right, SETTLED_FRAMES, &mut scratch);
+        assert_eq!(exact(&one), exact(s), "{}", m.seed);
+        // Two frames: the second's noise is its own, not the first's again.
+        let (a, b) = member_first_and_settled(&m, PriorCase::Right, 2, &mut scratch);
+        moved += usize::from(a.err_k != b.err_k);
+    }
+    assert!(moved * 2 >= both.len(), "{moved} of {} moved", both.len());
+}
+
+#[test]
+fn the_table_of_lattices_unlike_their_design_counts_every_member_in_its_band() {
+    use host_sim::imaging::mtts_wp::{
+        UNLIKE_EXPOSED, members_first_and_settled, unlike_design_markdown,
+    };
+    use host_sim::imaging::view_family::unlike_design;
+    let n = 60;
+    let (first, settled): (Vec<_>, Vec<_>) = members_first_and_settled(
+        (UNSEEN.start..UNSEEN.start + n).map(unlike_design),
+        PriorCase::Right,
+        2,
+    )
+    .into_iter()
+    .unzip();
+    let md = unlike_design_markdown(&first, &settled);
+    let rows: Vec<Vec<&str>> = md
+        .lines()
+        .skip(2)
+        .map(|l| l.trim_matches('|').split(" | ").map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), 2 * UNLIKE_EXPOSED.len(), "{md}");
+    let mut total = [0usize; 2];
+    for r in &rows {
+        assert_eq!(r.len(), 12, "{md}");
+        let i = match r[1] {
+            "first" => 0,
+            "settled" => 1,
+            other => panic!("{other}"),
+        };
+        let count: usize = r[2].parse().unwrap();
+        let swapped: usize = r[10].parse().unwrap();
+        let resolved: f64 = r[3].parse().unwrap();
+        assert!(
+            swapped <= count && (0.0..=100.0).contains(&resolved),
+            "{md}"
+        );
+        total[i] += count;
+    }
+    assert_eq!(total, [n as usize; 2], "{md}");
 }

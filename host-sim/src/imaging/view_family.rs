@@ -27,6 +27,16 @@
 //! [`thesis`] draws the thesis's own corner: the 21.35 mm gap of each 30 mm unit (exposed
 //! ≈ 0.71), about five units over the 24 rows (period 4.6–5.4 px), no spread beyond the
 //! footprint, 0.1–0.5 K noise, gaps 1–12 K, tilted and shifted, broken and hot pixels.
+//!
+//! [`unlike_design`] draws blocks whose lattice shows the heater through a fraction far from
+//! the design they are configured with (another print, another view angle: issue 43): the
+//! product's default configuration (`thermorph::mtts::Config::default().exposed_pct`, the
+//! thesis's 71 %), a view exposed 0.2–0.5 ([`UNLIKE_NARROW`], even seeds) or 0.85–0.95
+//! ([`UNLIKE_WIDE`], odd seeds), everything else drawn as [`Member::draw`] does.
+//!
+//! Every member's sensor noise is seeded by its seed ([`Member::render`]); the frames a camera
+//! takes of it later carry noise of their own ([`Member::noise_seed`],
+//! [`Member::render_with_noise`]) over the same view and bad pixels.
 
 use std::ops::Range;
 
@@ -85,22 +95,28 @@ struct Ranges {
     noise_k: (f64, f64),
 }
 
+/// The ranges of [`Member::draw`].
+const FAMILY: Ranges = Ranges {
+    period_px: (4.0, 16.0),
+    exposed: (0.2, 0.85),
+    tilt_deg: 35.0,
+    gap_k: (1.0, 15.0),
+    // A draw below 0 is the footprint alone: one member in five.
+    psf_px: (-0.15, 0.6),
+    noise_k: (0.05, 0.5),
+};
+
+/// Exposed fractions of the even seeds of [`unlike_design`]: heater stripes narrower than the
+/// surface's, where the default design (0.71) has them wider.
+pub const UNLIKE_NARROW: (f64, f64) = (0.2, 0.5);
+/// Exposed fractions of the odd seeds of [`unlike_design`]: surface stripes far thinner than
+/// the default design's.
+pub const UNLIKE_WIDE: (f64, f64) = (0.85, 0.95);
+
 impl Member {
     /// Draw the member of `seed`.
     pub fn draw(seed: u64) -> Member {
-        Self::draw_in(
-            seed,
-            0x5CE7_E5EE_D000_0000,
-            &Ranges {
-                period_px: (4.0, 16.0),
-                exposed: (0.2, 0.85),
-                tilt_deg: 35.0,
-                gap_k: (1.0, 15.0),
-                // A draw below 0 is the footprint alone: one member in five.
-                psf_px: (-0.15, 0.6),
-                noise_k: (0.05, 0.5),
-            },
-        )
+        Self::draw_in(seed, 0x5CE7_E5EE_D000_0000, &FAMILY)
     }
 
     fn draw_in(seed: u64, salt: u64, r: &Ranges) -> Member {
@@ -168,14 +184,59 @@ impl Member {
 
     /// Render the member (noise seeded by its seed), with its broken and hot pixels.
     pub fn render(&self) -> Rendered {
-        let mut r = render_psf(
-            &self.geometry,
-            &self.temps,
-            self.psf_sigma_px,
-            self.noise_k,
-            self.seed,
-        );
-        for b in &self.bad[..self.bad_count] {
+        self.render_with_noise(self.seed)
+    }
+
+    /// The noise seed of the camera's `frame`-th frame of the member (0: the first, its own
+    /// seed, which [`Member::render`] uses; later frames: seeds drawn from it, so no two frames'
+    /// noise streams overlap).
+    pub fn noise_seed(&self, frame: usize) -> u64 {
+        if frame == 0 {
+            return self.seed;
+        }
+        let mut rng = Rng::new(self.seed ^ 0xF4A3_E5EE_D000_0000);
+        let mut s = 0;
+        for _ in 0..frame {
+            s = rng.next_u64();
+        }
+        s
+    }
+
+    /// Render the member with sensor noise seeded by `noise_seed`: the same view, optics and
+    /// broken and hot pixels as [`Member::render`], whose frame is that of `self.seed`.
+    pub fn render_with_noise(&self, noise_seed: u64) -> Rendered {
+        self.frames().with_noise(noise_seed)
+    }
+
+    /// The member's view rendered once, for many frames of it ([`Frames`]).
+    pub fn frames(&self) -> Frames<'_> {
+        Frames {
+            member: self,
+            clean: render_clean(&self.geometry, &self.temps, self.psf_sigma_px),
+        }
+    }
+}
+
+/// A member's view rendered once through the optics, whose frames differ only by their sensor
+/// noise (a camera watching a block that does not change).
+#[derive(Clone, Debug)]
+pub struct Frames<'a> {
+    member: &'a Member,
+    clean: CleanView,
+}
+
+impl Frames<'_> {
+    /// The camera's `frame`-th frame of the member: [`Member::noise_seed`]'s noise, the
+    /// member's broken and hot pixels (frame 0 is [`Member::render`]'s, bit for bit).
+    pub fn frame(&self, frame: usize) -> Rendered {
+        self.with_noise(self.member.noise_seed(frame))
+    }
+
+    /// The frame with sensor noise seeded by `noise_seed` and the member's bad pixels.
+    pub fn with_noise(&self, noise_seed: u64) -> Rendered {
+        let m = self.member;
+        let mut r = self.clean.with_noise(m.noise_k, noise_seed);
+        for b in &m.bad[..m.bad_count] {
             r.image_k[b.index] = match b.offset_k {
                 None => f32::NAN,
                 Some(dt) => r.image_k[b.index] + dt as f32,
@@ -204,6 +265,21 @@ pub fn thesis(seed: u64) -> Member {
     m
 }
 
+/// A block unlike its design (module doc): the member of `seed`, drawn as [`Member::draw`]
+/// draws (its own salt) but exposed within [`UNLIKE_NARROW`] for an even seed and within
+/// [`UNLIKE_WIDE`] for an odd one, and configured with the default design,
+/// `thermorph::mtts::Config::default().exposed_pct`.
+pub fn unlike_design(seed: u64) -> Member {
+    let exposed = if seed.is_multiple_of(2) {
+        UNLIKE_NARROW
+    } else {
+        UNLIKE_WIDE
+    };
+    let mut m = Member::draw_in(seed, 0x0DD5_DE51_6000_0000, &Ranges { exposed, ..FAMILY });
+    m.design_exposed_pct = thermorph::mtts::Config::default().exposed_pct;
+    m
+}
+
 /// Φ(x), the standard normal distribution function (erfc, to 1e-7).
 fn phi(x: f64) -> f64 {
     0.5 * libm::erfc(-x / std::f64::consts::SQRT_2)
@@ -212,6 +288,44 @@ fn phi(x: f64) -> f64 {
 /// Render a view: pixel footprint ⊗ Gaussian PSF (σ pixels), 8 × 8 samples per pixel, then
 /// Gaussian noise of `noise_k` rms. Fractions are the same weights applied to each region.
 pub fn render_psf(g: &Geometry, temps: &Temps, sigma_px: f64, noise_k: f64, seed: u64) -> Rendered {
+    render_clean(g, temps, sigma_px).with_noise(noise_k, seed)
+}
+
+/// A view through the optics before the sensor's noise ([`render_clean`]): the costly part
+/// of [`render_psf`], computed once for any number of noisy frames.
+#[derive(Clone, Debug)]
+pub struct CleanView {
+    /// Each pixel's value, K, in f64 (before noise and the sensor's f32).
+    pub value_k: [f64; IMG_PIXELS],
+    /// True region temperatures, K (region 1 first).
+    pub truth_k: [f64; REGIONS],
+    /// Per region, each pixel's area fraction (springs count as background).
+    pub fraction: [[f32; IMG_PIXELS]; REGIONS],
+}
+
+impl CleanView {
+    /// The frame with Gaussian noise of `noise_k` rms seeded by `seed`: bit for bit
+    /// [`render_psf`]'s with the same view, noise and seed.
+    pub fn with_noise(&self, noise_k: f64, seed: u64) -> Rendered {
+        let mut rng = Rng::new(seed);
+        let mut out = Rendered {
+            image_k: [0.0; IMG_PIXELS],
+            truth_k: self.truth_k,
+            fraction: self.fraction,
+        };
+        for (o, &v) in out.image_k.iter_mut().zip(&self.value_k) {
+            let mut v = v;
+            if noise_k > 0.0 {
+                v += noise_k * rng.gauss();
+            }
+            *o = v as f32;
+        }
+        out
+    }
+}
+
+/// [`render_psf`] without the noise: the view through the footprint and the PSF.
+pub fn render_clean(g: &Geometry, temps: &Temps, sigma_px: f64) -> CleanView {
     const N: usize = 8;
     let truth = temps.regions();
     let reach = 0.5 + 4.0 * sigma_px.max(0.0);
@@ -257,9 +371,8 @@ pub fn render_psf(g: &Geometry, temps: &Temps, sigma_px: f64, noise_k: f64, seed
             horiz[i * IMG_COLS + c] = acc;
         }
     }
-    let mut rng = Rng::new(seed);
-    let mut out = Rendered {
-        image_k: [0.0; IMG_PIXELS],
+    let mut out = CleanView {
+        value_k: [0.0; IMG_PIXELS],
         truth_k: truth,
         fraction: [[0.0; IMG_PIXELS]; REGIONS],
     };
@@ -283,10 +396,7 @@ pub fn render_psf(g: &Geometry, temps: &Temps, sigma_px: f64, noise_k: f64, seed
                 out.fraction[z][p] = (acc[z] / total) as f32;
                 v += acc[z] / total * truth[z];
             }
-            if noise_k > 0.0 {
-                v += noise_k * rng.gauss();
-            }
-            out.image_k[p] = v as f32;
+            out.value_k[p] = v;
         }
     }
     out
@@ -316,6 +426,75 @@ mod tests {
             let broken = r.image_k.iter().filter(|v| v.is_nan()).count();
             assert!(broken <= 4 && m.bad_count <= MAX_BAD);
         }
+    }
+
+    #[test]
+    fn unlike_design_draws_both_bands_against_the_default_design() {
+        let design = thermorph::mtts::Config::default().exposed_pct;
+        let (mut narrow, mut wide) = (0, 0);
+        for s in 0..200 {
+            let m = unlike_design(s);
+            let g = m.geometry;
+            assert_eq!(m.design_exposed_pct, design);
+            if (UNLIKE_NARROW.0..UNLIKE_NARROW.1).contains(&g.exposed) {
+                assert_eq!(s % 2, 0, "{s}: {}", g.exposed);
+                narrow += 1;
+            } else {
+                assert!(
+                    (UNLIKE_WIDE.0..UNLIKE_WIDE.1).contains(&g.exposed),
+                    "{s}: {}",
+                    g.exposed
+                );
+                assert_eq!(s % 2, 1, "{s}: {}", g.exposed);
+                wide += 1;
+            }
+            // The rest as the family draws it.
+            assert!((4.0..16.0).contains(&g.period_px));
+            assert!((3.0..10.0).contains(&g.half_width_px));
+            assert!(g.tilt_deg.abs() <= 35.0);
+            assert!((1.0..=15.0).contains(&m.gap_k().abs()));
+            assert!((0.05..0.5).contains(&m.noise_k));
+            assert!((0.0..0.6).contains(&m.psf_sigma_px));
+            assert!(m.bad_count <= MAX_BAD);
+        }
+        assert_eq!((narrow, wide), (100, 100));
+        // Its own draws, not the family's members with another exposure.
+        assert_ne!(
+            unlike_design(4).geometry.period_px,
+            Member::draw(4).geometry.period_px
+        );
+    }
+
+    #[test]
+    fn later_frames_carry_their_own_noise_over_the_same_view() {
+        let m = Member::draw(5);
+        assert_eq!(m.noise_seed(0), m.seed);
+        let first = m.render();
+        let again = m.render_with_noise(m.noise_seed(0));
+        assert_eq!(
+            first.image_k.map(f32::to_bits),
+            again.image_k.map(f32::to_bits)
+        );
+        let seeds: Vec<u64> = (0..12).map(|f| m.noise_seed(f)).collect();
+        for (i, a) in seeds.iter().enumerate() {
+            assert!(!seeds[i + 1..].contains(a), "frame {i}'s seed repeats");
+        }
+        let later = m.render_with_noise(m.noise_seed(1));
+        let noiseless = render_psf(&m.geometry, &m.temps, m.psf_sigma_px, 0.0, 0);
+        let mut differ = 0;
+        for p in 0..IMG_PIXELS {
+            // The same broken pixels; elsewhere the same view within the noise.
+            assert_eq!(first.image_k[p].is_nan(), later.image_k[p].is_nan());
+            if first.image_k[p].is_nan() {
+                continue;
+            }
+            differ += usize::from(first.image_k[p] != later.image_k[p]);
+            let hot = m.bad[..m.bad_count].iter().any(|b| b.index == p);
+            if !hot {
+                assert!((later.image_k[p] - noiseless.image_k[p]).abs() < 8.0 * m.noise_k as f32);
+            }
+        }
+        assert!(differ > IMG_PIXELS / 2, "{differ} pixels differ");
     }
 
     #[test]
