@@ -3,6 +3,7 @@
 //! [`Profile`].
 
 use super::*;
+use core::ops::Range;
 
 /// How far a core pixel must lie beyond every other (above the second highest, or below the
 /// second lowest) to be left out as a lone bad pixel, K: pixel noise (≤ 0.5 K rms) leaves the
@@ -88,6 +89,11 @@ pub(super) struct Profile {
 }
 
 impl Profile {
+    /// The core's profile of image `img`: its pixels (`u` under `u_core`) binned along the
+    /// axis, but for the few more than `bad_k` beyond both row neighbours, the `filled` ones
+    /// and a lone extreme. In steps: a profile of no pixels ([`Profile::empty`]), one pass over
+    /// the rows ([`Pass::row`]), then the pixels left out ([`Pass::leave_out_odd`],
+    /// [`Pass::leave_out_filled`], [`Pass::leave_out_lone`]). None without a core pixel.
     pub(super) fn of(
         img: &[f32; IMG_PIXELS],
         xy: &Coords,
@@ -96,7 +102,30 @@ impl Profile {
         bad_k: f32,
         filled: &FilledRows,
     ) -> Option<Profile> {
-        // The smallest axial coordinate in the image is at a corner.
+        let mut p = Profile::empty(img, xy, g);
+        let mut pass = Pass::new(u_core, bad_k);
+        let mut odd = Odd::new();
+        let columns = Columns::of(g, u_core);
+        for r in 0..IMG_ROWS {
+            pass.row(&mut p, &mut odd, img, xy, r, columns.of_row(r));
+        }
+        pass.leave_out_odd(&mut p, &odd, filled);
+        pass.leave_out_filled(&mut p, img, xy, &columns, filled);
+        pass.leave_out_lone(&mut p);
+        p.lo = pass.lo;
+        p.hi = pass.hi;
+        (p.total > 0.0).then(|| {
+            p.mean_dev = pass.s / p.total;
+            p
+        })
+    }
+
+    /// A profile of no pixels for image `img` and the axis of `g`: its bins from the floor of
+    /// the image's smallest axial coordinate (at a corner), and its values to be kept less a
+    /// reference near the core's, for the sums' precision: the pixel on the axis in the middle
+    /// row (the nearest column in the image).
+    #[inline(always)]
+    fn empty(img: &[f32; IMG_PIXELS], xy: &Coords, g: &Geometry) -> Profile {
         let corners = [0, IMG_COLS - 1, (IMG_ROWS - 1) * IMG_COLS, IMG_PIXELS - 1];
         let mut tmin = f32::INFINITY;
         for p in corners {
@@ -104,162 +133,43 @@ impl Profile {
                 tmin = xy.t[p];
             }
         }
-        let t0 = floor(tmin);
-        let mut p = Profile {
+        let mid = IMG_ROWS / 2;
+        let axis_col = floor(g.axis_col0 + g.axis_slope * mid as f32 + 0.5);
+        let axis = mid * IMG_COLS + min(max(0.0, axis_col), (IMG_COLS - 1) as f32) as usize;
+        Profile {
             bins: [Bin::default(); FINE_BINS],
             used: 0,
-            t0,
-            reference: 0.0,
+            t0: floor(tmin),
+            reference: img[axis],
             total: 0.0,
             mean_dev: 0.0,
             sq: 0.0,
             lo: f32::INFINITY,
             hi: f32::NEG_INFINITY,
-        };
-        let mut s = 0f32;
-        // The second highest and lowest values, and the (bin, axial position) of the extremes.
-        let (mut hi2, mut lo2) = (f32::NEG_INFINITY, f32::INFINITY);
-        let (mut hi_at, mut lo_at) = ((0usize, 0f32), (0usize, 0f32));
-        // Pixels beyond both row neighbours (value, axial position, index): the first ODD_MAX.
-        let mut odd = [(0f32, 0f32, 0usize); ODD_MAX];
-        let mut n_odd = 0usize;
-        // Each row's core lies within u_core·w·√(1 + slope²) columns of the axis: only those
-        // columns (and one more either side, for rounding) are looked at, in the same order.
-        let reach =
-            u_core * g.half_width_px * crate::fmath::sqrt(1.0 + g.axis_slope * g.axis_slope);
-        // The values are kept less a reference near the core's, for the sums' precision: the
-        // pixel on the axis in the middle row (the nearest column in the image).
-        let mid = IMG_ROWS / 2;
-        let axis_col = floor(g.axis_col0 + g.axis_slope * mid as f32 + 0.5);
-        p.reference = img[mid * IMG_COLS + min(max(0.0, axis_col), (IMG_COLS - 1) as f32) as usize];
-        // The columns of row r looked at: first..end.
-        let columns = |r: usize| {
-            let centre = g.axis_col0 + g.axis_slope * r as f32;
-            let first = (floor(centre - reach) as i32).clamp(0, IMG_COLS as i32) as usize;
-            let end = (floor(centre + reach) as i32 + 2).clamp(0, IMG_COLS as i32) as usize;
-            (first.min(end), end)
-        };
-        for r in 0..IMG_ROWS {
-            let (first, end) = columns(r);
-            let row = r * IMG_COLS;
-            // Whole rows of 32, indexed under a mask: no range checks in the loop (a row always
-            // fits, so the fallbacks are never taken).
-            let m = IMG_COLS - 1;
-            let line: &[f32; IMG_COLS] = img[row..row + IMG_COLS]
-                .try_into()
-                .unwrap_or(&[0.0; IMG_COLS]);
-            let us: &[f32; IMG_COLS] = xy.u[row..row + IMG_COLS]
-                .try_into()
-                .unwrap_or(&[0.0; IMG_COLS]);
-            let ts: &[f32; IMG_COLS] = xy.t[row..row + IMG_COLS]
-                .try_into()
-                .unwrap_or(&[0.0; IMG_COLS]);
-            for c in first..end {
-                if us[c & m] < u_core {
-                    let (t, v) = (ts[c & m], line[c & m]);
-                    // Beyond both row neighbours: the left one first, the right one only past
-                    // it — most pixels are not (the pixel itself at the image's sides).
-                    let dl = v - line[c.wrapping_sub(1) & m];
-                    if c > 0 && dl.abs() > bad_k {
-                        let dr = v - line[(c + 1).min(m)];
-                        if dl * dr > 0.0 && dr.abs() > bad_k {
-                            if let Some(o) = odd.get_mut(n_odd) {
-                                *o = (v, t, row + c);
-                            }
-                            n_odd += 1;
-                        }
-                    }
-                    let q = fine_place(t, t0);
-                    let b = (q as usize).min(FINE_BINS - 1);
-                    let y = v - p.reference;
-                    let tau = q - b as f32;
-                    let bin = &mut p.bins[b];
-                    bin.sum += y;
-                    bin.cnt += 1.0;
-                    bin.tsum += t;
-                    bin.tt += tau * tau;
-                    bin.ty += tau * y;
-                    p.total += 1.0;
-                    p.sq += y * y;
-                    s += y;
-                    if b >= p.used {
-                        p.used = b + 1;
-                    }
-                    // Most pixels pass neither second extreme: one comparison each.
-                    if v < lo2 {
-                        if v < p.lo {
-                            lo2 = p.lo;
-                            p.lo = v;
-                            lo_at = (b, t);
-                        } else {
-                            lo2 = v;
-                        }
-                    }
-                    if v > hi2 {
-                        if v > p.hi {
-                            hi2 = p.hi;
-                            p.hi = v;
-                            hi_at = (b, t);
-                        } else {
-                            hi2 = v;
-                        }
-                    }
-                }
-            }
         }
-        // Left out: a few pixels beyond both row neighbours, hot or dead pixels the EEPROM does
-        // not flag (many are the lattice's own, thin stripes crossing the rows at a slant, and
-        // stay), and every pixel that was broken and filled in from its neighbours (no
-        // measurement of its place: across a thin stripe, the mean of both targets). The
-        // core's range may keep another of them: it serves only the fallback's bound, which it
-        // widens.
-        let (mut hi_kept, mut lo_kept) = (true, true);
-        let is_filled = |q: usize| (filled[q / IMG_COLS] >> (q % IMG_COLS)) & 1 != 0;
-        let mut leave_out = |p: &mut Profile, v: f32, t: f32| {
-            let b = (fine_place(t, t0) as usize).min(FINE_BINS - 1);
-            p.drop(v, (b, t), &mut s);
-            if (v, t) == (p.hi, hi_at.1) {
-                p.hi = hi2;
-                hi_kept = false;
-            }
-            if (v, t) == (p.lo, lo_at.1) {
-                p.lo = lo2;
-                lo_kept = false;
-            }
-        };
-        if n_odd <= ODD_MAX {
-            for &(v, t, q) in &odd[..n_odd] {
-                if !is_filled(q) {
-                    leave_out(&mut p, v, t);
-                }
-            }
+    }
+
+    /// Put the pixel of value `v` at axial position `t` into its bin and the core's sums, and
+    /// into the running sum `s` of values less the reference; gives its bin.
+    #[inline(always)]
+    fn add(&mut self, v: f32, t: f32, s: &mut f32) -> usize {
+        let q = fine_place(t, self.t0);
+        let b = (q as usize).min(FINE_BINS - 1);
+        let y = v - self.reference;
+        let tau = q - b as f32;
+        let bin = &mut self.bins[b];
+        bin.sum += y;
+        bin.cnt += 1.0;
+        bin.tsum += t;
+        bin.tt += tau * tau;
+        bin.ty += tau * y;
+        self.total += 1.0;
+        self.sq += y * y;
+        *s += y;
+        if b >= self.used {
+            self.used = b + 1;
         }
-        for (r, &fill) in filled.iter().enumerate() {
-            if fill == 0 {
-                continue;
-            }
-            let (first, end) = columns(r);
-            for c in first..end {
-                let q = r * IMG_COLS + c;
-                if (fill >> c) & 1 != 0 && xy.u[q] < u_core {
-                    leave_out(&mut p, img[q], xy.t[q]);
-                }
-            }
-        }
-        // A lone pixel far beyond every other in the core (a hot or dead pixel the EEPROM does
-        // not flag) is left out: one such pixel shifts its bin by its whole excess.
-        if hi_kept && p.total > LONE_MIN_PIXELS && p.hi - hi2 > LONE_PIXEL_K {
-            p.drop(p.hi, hi_at, &mut s);
-            p.hi = hi2;
-        }
-        if lo_kept && p.total > LONE_MIN_PIXELS && lo2 - p.lo > LONE_PIXEL_K {
-            p.drop(p.lo, lo_at, &mut s);
-            p.lo = lo2;
-        }
-        (p.total > 0.0).then(|| {
-            p.mean_dev = s / p.total;
-            p
-        })
+        b
     }
 
     /// Take the pixel of value `v` at (bin, axial position) `at` back out of the profile, and
@@ -281,5 +191,268 @@ impl Profile {
     /// Pixels of axial length covered (1 px bins).
     pub(super) fn length(&self) -> usize {
         self.used.div_ceil(FINE)
+    }
+}
+
+/// The columns of each row that the core can reach: it lies within u_core·w·√(1 + slope²)
+/// columns of the axis, and only those columns (and one more either side, for rounding) are
+/// looked at, in the same order.
+struct Columns {
+    /// The axis's column in row 0.
+    col0: f32,
+    /// The axis's slope, columns per row.
+    slope: f32,
+    /// How far the core reaches either side of the axis, columns.
+    reach: f32,
+}
+
+impl Columns {
+    /// The columns of a core of distance ratio `u_core` about the axis of `g`.
+    #[inline(always)]
+    fn of(g: &Geometry, u_core: f32) -> Columns {
+        let reach =
+            u_core * g.half_width_px * crate::fmath::sqrt(1.0 + g.axis_slope * g.axis_slope);
+        Columns {
+            col0: g.axis_col0,
+            slope: g.axis_slope,
+            reach,
+        }
+    }
+
+    /// The columns of row `r` looked at: first..end, within the image.
+    #[inline(always)]
+    fn of_row(&self, r: usize) -> Range<usize> {
+        let centre = self.col0 + self.slope * r as f32;
+        let first = (floor(centre - self.reach) as i32).clamp(0, IMG_COLS as i32) as usize;
+        let end = (floor(centre + self.reach) as i32 + 2).clamp(0, IMG_COLS as i32) as usize;
+        first.min(end)..end
+    }
+}
+
+/// Whether pixel `q` is one of the `filled` (broken and filled in from its neighbours).
+#[inline(always)]
+fn is_filled(filled: &FilledRows, q: usize) -> bool {
+    (filled[q / IMG_COLS] >> (q % IMG_COLS)) & 1 != 0
+}
+
+/// The core's pixels beyond both row neighbours, as the pass notes them: the first
+/// [`ODD_MAX`], and how many there are. Kept apart from [`Pass`]: the pixels, indexed by their
+/// count, stay in memory, and the pass's other state in registers.
+struct Odd {
+    /// The first [`ODD_MAX`] (value, axial position, index).
+    pixels: [(f32, f32, usize); ODD_MAX],
+    /// How many pixels lie beyond both row neighbours (past [`ODD_MAX`] too).
+    n: usize,
+}
+
+impl Odd {
+    /// None noted yet.
+    #[inline(always)]
+    fn new() -> Odd {
+        Odd {
+            pixels: [(0.0, 0.0, 0); ODD_MAX],
+            n: 0,
+        }
+    }
+
+    /// Note the pixel `(value, axial position, index)` of column `c` of its row `line` if it
+    /// lies more than `bad_k` beyond both its row neighbours: the left one first, the right
+    /// one only past it — most pixels are not (the pixel itself at the image's sides).
+    #[inline(always)]
+    fn note(&mut self, line: &[f32; IMG_COLS], c: usize, pixel: (f32, f32, usize), bad_k: f32) {
+        let m = IMG_COLS - 1;
+        let v = pixel.0;
+        let dl = v - line[c.wrapping_sub(1) & m];
+        if c > 0 && dl.abs() > bad_k {
+            let dr = v - line[(c + 1).min(m)];
+            if dl * dr > 0.0 && dr.abs() > bad_k {
+                if let Some(o) = self.pixels.get_mut(self.n) {
+                    *o = pixel;
+                }
+                self.n += 1;
+            }
+        }
+    }
+}
+
+/// The state of [`Profile::of`]'s pass besides the profile's own sums and the [`Odd`] pixels:
+/// the running sum, the core's extremes and second extremes and where they are; and the
+/// pass's two thresholds.
+struct Pass {
+    /// The core's edge: a pixel whose distance ratio `u` is under it is the core's.
+    u_core: f32,
+    /// How far beyond both row neighbours a pixel must lie to be noted, K.
+    bad_k: f32,
+    /// Σ of values less the reference, K.
+    s: f32,
+    /// The highest value, K.
+    hi: f32,
+    /// The second highest value, K.
+    hi2: f32,
+    /// (bin, axial position) of the highest.
+    hi_at: (usize, f32),
+    /// The lowest value, K.
+    lo: f32,
+    /// The second lowest value, K.
+    lo2: f32,
+    /// (bin, axial position) of the lowest.
+    lo_at: (usize, f32),
+    /// Whether the highest is still in the profile (not left out as odd or filled).
+    hi_kept: bool,
+    /// Whether the lowest is still in the profile.
+    lo_kept: bool,
+}
+
+impl Pass {
+    /// The state before the first pixel, for a core of edge `u_core` and pixels noted `bad_k`
+    /// beyond both row neighbours.
+    #[inline(always)]
+    fn new(u_core: f32, bad_k: f32) -> Pass {
+        Pass {
+            u_core,
+            bad_k,
+            s: 0.0,
+            hi: f32::NEG_INFINITY,
+            hi2: f32::NEG_INFINITY,
+            hi_at: (0, 0.0),
+            lo: f32::INFINITY,
+            lo2: f32::INFINITY,
+            lo_at: (0, 0.0),
+            hi_kept: true,
+            lo_kept: true,
+        }
+    }
+
+    /// Take the core's pixels of row `r` among `columns` into the profile `p`, noting the
+    /// extremes, and those beyond both row neighbours in `odd`.
+    #[inline(always)]
+    fn row(
+        &mut self,
+        p: &mut Profile,
+        odd: &mut Odd,
+        img: &[f32; IMG_PIXELS],
+        xy: &Coords,
+        r: usize,
+        columns: Range<usize>,
+    ) {
+        let row = r * IMG_COLS;
+        // Whole rows of 32, indexed under a mask: no range checks in the loop (a row always
+        // fits, so the fallbacks are never taken).
+        let m = IMG_COLS - 1;
+        let line: &[f32; IMG_COLS] = img[row..row + IMG_COLS]
+            .try_into()
+            .unwrap_or(&[0.0; IMG_COLS]);
+        let us: &[f32; IMG_COLS] = xy.u[row..row + IMG_COLS]
+            .try_into()
+            .unwrap_or(&[0.0; IMG_COLS]);
+        let ts: &[f32; IMG_COLS] = xy.t[row..row + IMG_COLS]
+            .try_into()
+            .unwrap_or(&[0.0; IMG_COLS]);
+        for c in columns {
+            if us[c & m] < self.u_core {
+                let (t, v) = (ts[c & m], line[c & m]);
+                odd.note(line, c, (v, t, row + c), self.bad_k);
+                let b = p.add(v, t, &mut self.s);
+                self.extremes(v, (b, t));
+            }
+        }
+    }
+
+    /// Note the value `v` at (bin, axial position) `at` among the extremes and second
+    /// extremes. Most pixels pass neither second extreme: one comparison each.
+    #[inline(always)]
+    fn extremes(&mut self, v: f32, at: (usize, f32)) {
+        if v < self.lo2 {
+            if v < self.lo {
+                self.lo2 = self.lo;
+                self.lo = v;
+                self.lo_at = at;
+            } else {
+                self.lo2 = v;
+            }
+        }
+        if v > self.hi2 {
+            if v > self.hi {
+                self.hi2 = self.hi;
+                self.hi = v;
+                self.hi_at = at;
+            } else {
+                self.hi2 = v;
+            }
+        }
+    }
+
+    /// Leave the pixel of value `v` at axial position `t` out of the profile `p` and the
+    /// running sum. If it is the highest (or lowest), the second takes its place, which may
+    /// be another pixel left out: the core's range serves only the fallback's bound, which it
+    /// widens.
+    #[inline(always)]
+    fn leave_out(&mut self, p: &mut Profile, v: f32, t: f32) {
+        let b = (fine_place(t, p.t0) as usize).min(FINE_BINS - 1);
+        p.drop(v, (b, t), &mut self.s);
+        if (v, t) == (self.hi, self.hi_at.1) {
+            self.hi = self.hi2;
+            self.hi_kept = false;
+        }
+        if (v, t) == (self.lo, self.lo_at.1) {
+            self.lo = self.lo2;
+            self.lo_kept = false;
+        }
+    }
+
+    /// Leave the `odd` pixels, beyond both row neighbours, out of the profile `p` if there are
+    /// at most [`ODD_MAX`]: hot or dead pixels the EEPROM does not flag. More are the
+    /// lattice's own, thin stripes crossing the rows at a slant, and stay. Those `filled` are
+    /// left to [`Pass::leave_out_filled`]: each is left out once.
+    #[inline(always)]
+    fn leave_out_odd(&mut self, p: &mut Profile, odd: &Odd, filled: &FilledRows) {
+        if odd.n <= ODD_MAX {
+            for &(v, t, q) in &odd.pixels[..odd.n] {
+                if !is_filled(filled, q) {
+                    self.leave_out(p, v, t);
+                }
+            }
+        }
+    }
+
+    /// Leave every core pixel among `columns` that was broken and filled in from its
+    /// neighbours (`filled`) out of the profile `p`: it is no measurement of its place (across
+    /// a thin stripe, the mean of both targets). Rows without any are skipped.
+    #[inline(always)]
+    fn leave_out_filled(
+        &mut self,
+        p: &mut Profile,
+        img: &[f32; IMG_PIXELS],
+        xy: &Coords,
+        columns: &Columns,
+        filled: &FilledRows,
+    ) {
+        for (r, &fill) in filled.iter().enumerate() {
+            if fill == 0 {
+                continue;
+            }
+            for c in columns.of_row(r) {
+                let q = r * IMG_COLS + c;
+                if (fill >> c) & 1 != 0 && xy.u[q] < self.u_core {
+                    self.leave_out(p, img[q], xy.t[q]);
+                }
+            }
+        }
+    }
+
+    /// Leave a lone extreme out of the profile `p`: a pixel more than [`LONE_PIXEL_K`] beyond
+    /// every other in a core of more than [`LONE_MIN_PIXELS`] (a hot or dead pixel the EEPROM
+    /// does not flag; one such pixel shifts its bin by its whole excess), unless it is already
+    /// left out. The second extreme takes its place.
+    #[inline(always)]
+    fn leave_out_lone(&mut self, p: &mut Profile) {
+        if self.hi_kept && p.total > LONE_MIN_PIXELS && self.hi - self.hi2 > LONE_PIXEL_K {
+            p.drop(self.hi, self.hi_at, &mut self.s);
+            self.hi = self.hi2;
+        }
+        if self.lo_kept && p.total > LONE_MIN_PIXELS && self.lo2 - self.lo > LONE_PIXEL_K {
+            p.drop(self.lo, self.lo_at, &mut self.s);
+            self.lo = self.lo2;
+        }
     }
 }
