@@ -74,6 +74,8 @@ pub struct Geometry {
     pub lattice_known: bool,
     /// The last decided answer to "is the heater area the hotter target?" (continuity).
     pub heater_hotter: Option<bool>,
+    /// What the frames said about the lattice's exposed fraction against its design.
+    pub exposure: super::lattice::Exposure,
 }
 
 impl Default for Geometry {
@@ -93,6 +95,7 @@ impl Geometry {
         exposed: LATTICE_GAP_FRACTION,
         lattice_known: false,
         heater_hotter: None,
+        exposure: super::lattice::Exposure::NONE,
     };
 
     /// Return (distance ratio u, axial coordinate t) of a pixel.
@@ -1120,6 +1123,7 @@ mod tests {
                 exposed,
                 lattice_known: known,
                 heater_hotter: None,
+                exposure: crate::mtts::lattice::Exposure::NONE,
             };
             // The coordinates: the geometry's own; upright (t constant along a row) on a
             // whole column (a pixel on the axis); another geometry's (as the bench passes

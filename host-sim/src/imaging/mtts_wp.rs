@@ -1011,6 +1011,45 @@ pub fn member_first_and_settled(
     (first, last)
 }
 
+/// A prior that lags the block after its design was confirmed: one pipeline fed `confirm`
+/// frames of the member under the mode's prior (each with its own noise), then one under the
+/// wrong prior — forming's first seconds, after heating showed the lattice as designed. The
+/// outcome of that last frame.
+pub fn member_outcome_lagging_prior(
+    m: &Member,
+    confirm: usize,
+    scratch: &mut Scratch,
+) -> FamilyOutcome {
+    let mut mtts = member_mtts(m, PriorCase::Right);
+    let view = m.frames();
+    for f in 0..confirm {
+        mtts.process(&view.frame(f).image_k, scratch)
+            .expect("a family frame is valid");
+    }
+    let wrong = member_mtts(m, PriorCase::Wrong).prior();
+    mtts.set_prior(wrong);
+    let out = mtts
+        .process(&view.frame(confirm).image_k, scratch)
+        .expect("a family frame is valid");
+    outcome_of(m, &out)
+}
+
+/// [`member_outcome_lagging_prior`] over `members`, in parallel, in order.
+pub fn members_outcomes_lagging_prior(
+    members: impl Iterator<Item = Member>,
+    confirm: usize,
+) -> Vec<FamilyOutcome> {
+    use rayon::prelude::*;
+    let members: Vec<Member> = members.collect();
+    members
+        .par_iter()
+        .map_init(
+            || Box::new(Scratch::new()),
+            |scratch, m| member_outcome_lagging_prior(m, confirm, scratch),
+        )
+        .collect()
+}
+
 /// Run the default MTTS on `count` members of the family from `seeds` (first frames, fresh
 /// pipeline each; in parallel), with the prior `prior`.
 pub fn family_outcomes(seeds: Range<u64>, count: u64, prior: PriorCase) -> Vec<FamilyOutcome> {

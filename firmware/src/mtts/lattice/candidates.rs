@@ -327,7 +327,7 @@ pub(super) fn gram(
 
 /// The hot-stripe fraction of candidate `j` (candidates run over h, then over the spreads).
 pub(super) fn h_at(j: usize) -> f32 {
-    H_FIRST + (j % H_COUNT) as f32 * H_STEP
+    H_FIRST + ((j % H_COUNT) as f32 - H_BELOW as f32) * H_STEP
 }
 
 /// The exposed fractions a frame of a block designed with `design` may show.
@@ -343,19 +343,155 @@ pub(super) fn window(design: f32) -> (f32, f32) {
 /// (h ↔ 1 − h, i ↔ `H_COUNT` − 1 − i; the grid is symmetric about ½), which lets a candidate's
 /// products serve both ([`Spread::products`]).
 pub(super) fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize> {
-    let first = max(0.0, (lo - H_FIRST) / H_STEP);
-    let first = first as usize + usize::from(first > floor(first));
-    let last = max(-1.0, (hi - H_FIRST) / H_STEP);
-    let end = if last < 0.0 {
+    // On the steps from H_FIRST (negative below it), then shifted by H_BELOW.
+    let below = H_BELOW as f32;
+    let first = max(-below, (lo - H_FIRST) / H_STEP);
+    let first = (floor(first) as i32 + i32::from(first > floor(first)) + H_BELOW as i32) as usize;
+    let last = max(-below - 1.0, (hi - H_FIRST) / H_STEP);
+    let end = if last < -below {
         0
     } else {
-        (last as usize + 1).min(H_COUNT)
+        ((floor(last) as i32 + 1 + H_BELOW as i32) as usize).min(H_COUNT)
     };
     let first = first.min(end);
     let heater_hot = first..end.min(first + SLOTS);
     match hyp {
         Hyp::HeaterHot => heater_hot,
         Hyp::SurfaceHot => H_COUNT - heater_hot.end..H_COUNT - heater_hot.start,
+    }
+}
+
+/// The free fit's sums per spread, from which every candidate's products are made: the
+/// Gram matrix of the model's basis at the fundamental's phase, folded per spread
+/// ([`Spread`]), and the fit's totals.
+pub(super) struct Spreads {
+    all: [Spread; PSFS],
+    /// The model stops at [`BASE_PAIRS`] harmonics (the products' shorter loops).
+    base_model: bool,
+    /// Σ w, Σ w·y and Σ w·y² (with the bins' slopes) of the fit.
+    g00: f32,
+    r0: f32,
+    fit_yy: f32,
+    /// The fundamental's phase: (cos ψ, sin ψ).
+    pub(super) psi: (f32, f32),
+    /// The misfit's degrees of freedom (at least 1).
+    dof: f32,
+}
+
+impl Spreads {
+    /// The sums of the free fit `fit` at frequency `nu` along an axis of slope `slope`, the
+    /// model reaching `model` harmonics.
+    pub(super) fn of(fit: &HarmonicFit, nu: f32, slope: f32, model: usize) -> Spreads {
+        let (a1, b1) = (fit.theta[1], fit.theta[2]);
+        let r1 = max(1e-12, crate::fmath::sqrt(a1 * a1 + b1 * b1));
+        let (cpsi, spsi) = (a1 / r1, b1 / r1);
+        let mut mtf = [[0f32; HARMONICS]; PSFS];
+        transfers(nu, slope, model, &mut mtf);
+        // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
+        // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k), k up to the
+        // model's harmonics: the Gram matrix m = uᵀ·N·u and uᵀ·rhs, computed once, make each
+        // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
+        let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
+        gram(fit, model, nu, (cpsi, spsi), &mut m, &mut ur);
+        // The products run to an even length: the model's harmonics, or a base model's
+        // rounded up (its sums past the model are zero).
+        let base_model = model <= BASE_PAIRS;
+        let all = core::array::from_fn(|psf| {
+            if base_model {
+                Spread::of::<BASE_PAIRS>(&m, &ur, &mtf[psf], model)
+            } else {
+                Spread::of::<HARMONICS>(&m, &ur, &mtf[psf], model)
+            }
+        });
+        Spreads {
+            all,
+            base_model,
+            g00: fit.cs[0],
+            r0: fit.rhs[0],
+            fit_yy: fit.yy + fit.slope_yy,
+            psi: (cpsi, spsi),
+            dof: (fit.bins + fit.slope_bins - MODEL_PARAMETERS).max(1.0),
+        }
+    }
+
+    /// The candidates of hot-stripe fraction `h` (sines and cosines `t`) and of its mirror
+    /// 1 − h at spread `psf`, their misfits Σ w·r² in `chi2`.
+    #[inline(always)]
+    fn pair(&self, psf: usize, h: f32, t: &Trig) -> [Candidate; 2] {
+        let spread = &self.all[psf];
+        let [pa, pb] = if self.base_model {
+            spread.products::<BASE_PAIRS>(h, t)
+        } else {
+            spread.products::<HARMONICS>(h, t)
+        };
+        [
+            Candidate::of(self.g00, self.r0, self.fit_yy, pa),
+            Candidate::of(self.g00, self.r0, self.fit_yy, pb),
+        ]
+    }
+}
+
+/// The spreads the free scan tries: every other of [`PSF_SIGMAS_PX`] (0, 0.2, 0.4, 0.6 px).
+const FREE_SPREADS: [usize; 4] = [0, 2, 4, 6];
+/// The free scan's step on the h grid, grid steps (0.05).
+const FREE_STEP: usize = 2;
+/// Hot-stripe fractions of the free scan up to ½ (each with its mirror): h_at(0), h_at(2), …,
+/// h_at(16).
+const FREE_H: usize = (H_COUNT / 2) / FREE_STEP + 1;
+
+/// The free scan: the hot stripes' fraction the image shows, free of the design. Every other
+/// h of the grid (0.1, 0.15, … 0.9) under every other spread, and the best of them within the
+/// design's windows: when that is worse than the free best by [`DESIGN_CHI2`], the design
+/// does not explain the image (a lattice unlike its design: another print, another view).
+/// Takes the [`Spreads`] and the design; gives [`FreeScan`].
+pub(super) struct FreeScan {
+    /// The best candidate's hot-stripe fraction.
+    pub(super) hot: f32,
+    /// The design windows' best misfit less the free best's, over the free best's noise
+    /// variance: a χ² excess.
+    pub(super) excess_chi2: f32,
+}
+
+impl FreeScan {
+    /// The free scan of `sp` for a block designed with `design_exposed`.
+    pub(super) fn of(sp: &Spreads, design_exposed: f32) -> FreeScan {
+        let win = window(design_exposed);
+        let (ra, rb) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
+        let mut free = (f32::INFINITY, 0.0f32);
+        let mut design = f32::INFINITY;
+        for j in 0..FREE_H {
+            let i = j * FREE_STEP;
+            let h = h_at(i);
+            let t = Trig::of(h);
+            for &psf in &FREE_SPREADS {
+                let pair = sp.pair(psf, h, &t);
+                for (c, i) in pair.iter().zip([i, H_COUNT - 1 - i]) {
+                    if c.chi2 < free.0 {
+                        free = (c.chi2, h_at(i));
+                    }
+                    if (ra.contains(&i) || rb.contains(&i)) && c.chi2 < design {
+                        design = c.chi2;
+                    }
+                }
+            }
+        }
+        let sigma2 = (free.0 / sp.dof).max(NOISE_FLOOR_K * NOISE_FLOOR_K);
+        FreeScan {
+            hot: free.1,
+            excess_chi2: (design - free.0) / sigma2,
+        }
+    }
+
+    /// The design's windows explain the image about as well as any h does, or the best h
+    /// lies near them: read either way (the heater's stripes or the surface's), it is within
+    /// twice the tolerance of `design` (a thin stripe's χ² valley runs past the window's end
+    /// on a block of its design).
+    pub(super) fn design_fits(&self, design: f32) -> bool {
+        let off = min(
+            libm::fabsf(self.hot - design),
+            libm::fabsf(1.0 - self.hot - design),
+        );
+        self.excess_chi2 < DESIGN_CHI2 || off <= 2.0 * EXPOSED_TOLERANCE
     }
 }
 
@@ -370,37 +506,15 @@ pub(super) struct Grid {
     range_a: core::ops::Range<usize>,
     /// The surface-hot hypothesis's.
     range_b: core::ops::Range<usize>,
-    /// The fundamental's phase: (cos ψ, sin ψ).
-    pub(super) psi: (f32, f32),
     /// The pixels' noise variance the χ² are against (the best candidate's misfit per degree
     /// of freedom), K².
     pub(super) sigma2: f32,
 }
 
 impl Grid {
-    /// The candidates of the free fit `fit` at frequency `nu` along an axis of slope `slope`,
-    /// the model reaching `model` harmonics, for a block of design `design_exposed`.
-    pub(super) fn of(
-        fit: &HarmonicFit,
-        nu: f32,
-        slope: f32,
-        model: usize,
-        design_exposed: f32,
-    ) -> Grid {
+    /// The candidates from the sums `sp` for a block designed with `design_exposed`.
+    pub(super) fn of(sp: &Spreads, design_exposed: f32) -> Grid {
         let win = window(design_exposed);
-        let (a1, b1) = (fit.theta[1], fit.theta[2]);
-        let r1 = max(1e-12, crate::fmath::sqrt(a1 * a1 + b1 * b1));
-        let (cpsi, spsi) = (a1 / r1, b1 / r1);
-        let mut mtf = [[0f32; HARMONICS]; PSFS];
-        transfers(nu, slope, model, &mut mtf);
-        let g00 = fit.cs[0];
-        let r0 = fit.rhs[0];
-        // The model's coefficients per unit gap are v = Σ_k c_k·u_k with u_0 = e_0 (weight h)
-        // and u_k = (cos kψ, sin kψ) in harmonic k's slots (weight 2·S_k(h)·H_k), k up to the
-        // model's harmonics: the Gram matrix m = uᵀ·N·u and uᵀ·rhs, computed once, make each
-        // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
-        let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
-        gram(fit, model, nu, (cpsi, spsi), &mut m, &mut ur);
         let mut grid = Grid {
             cand: [Candidate {
                 chi2: f32::INFINITY,
@@ -408,15 +522,14 @@ impl Grid {
             }; CANDIDATES],
             range_a: h_range(Hyp::HeaterHot, win),
             range_b: h_range(Hyp::SurfaceHot, win),
-            psi: (cpsi, spsi),
             sigma2: 0.0,
         };
         let range_a = grid.range_a.clone();
         // Per place of the heater-hot window, the stripe's harmonics' sines sin(πkh), k = 1…,
-        // and the cosines cos(πnh), n = 0…, of its h: with each spread's sums below, a
-        // candidate's products are three dot products, and its mirror's (1 − h, the
-        // surface-hot window's) the same sums split by parity ([`Spread`]). Windows that
-        // overlap (a design near 50 %) compute their common h twice.
+        // and the cosines cos(πnh), n = 0…, of its h: with each spread's sums, a candidate's
+        // products are three dot products, and its mirror's (1 − h, the surface-hot window's)
+        // the same sums split by parity ([`Spread`]). Windows that overlap (a design near
+        // 50 %) compute their common h twice.
         let mut trig = [Trig::default(); SLOTS];
         for (t, i) in trig.iter_mut().zip(range_a.clone()) {
             *t = Trig::of(h_at(i));
@@ -438,30 +551,14 @@ impl Grid {
                 prior_chi2[Grid::base_of(hyp) + k] = z * z;
             }
         }
-        // The products run to an even length: the model's harmonics, or a base model's
-        // rounded up (its sums past the model are zero).
-        let base_model = model <= BASE_PAIRS;
-        let fit_yy = fit.yy + fit.slope_yy;
         let na = range_a.len();
         for psf in 0..PSFS {
-            let spread = if base_model {
-                Spread::of::<BASE_PAIRS>(&m, &ur, &mtf[psf], model)
-            } else {
-                Spread::of::<HARMONICS>(&m, &ur, &mtf[psf], model)
-            };
             let first = psf * 2 * SLOTS;
             for (slot, i) in range_a.clone().enumerate() {
-                let t = &trig[slot];
-                let h = h_at(i);
-                let [pa, pb] = if base_model {
-                    spread.products::<BASE_PAIRS>(h, t)
-                } else {
-                    spread.products::<HARMONICS>(h, t)
-                };
+                let [ca, cb] = sp.pair(psf, h_at(i), &trig[slot]);
                 // The heater-hot candidate h, and its mirror 1 − h: the surface-hot window's
                 // place na − 1 − slot.
-                for (key, products) in [(first + slot, pa), (first + SLOTS + na - 1 - slot, pb)] {
-                    let c = Candidate::of(g00, r0, fit_yy, products);
+                for (key, c) in [(first + slot, ca), (first + SLOTS + na - 1 - slot, cb)] {
                     if c.chi2 < rss_min {
                         rss_min = c.chi2;
                     }
@@ -472,8 +569,7 @@ impl Grid {
         // The noise: the best candidate's misfit per degree of freedom (the model holds the
         // stripes' harmonics to the model's band; what is left is the pixels' noise, and what
         // the model still misses), floored as the fit's.
-        let sigma2 = (rss_min / (fit.bins + fit.slope_bins - MODEL_PARAMETERS).max(1.0))
-            .max(NOISE_FLOOR_K * NOISE_FLOOR_K);
+        let sigma2 = (rss_min / sp.dof).max(NOISE_FLOOR_K * NOISE_FLOOR_K);
         let inv_sigma2 = 1.0 / sigma2;
         for row in grid.cand.chunks_exact_mut(2 * SLOTS) {
             for (c, z2) in row.iter_mut().zip(&prior_chi2) {

@@ -117,6 +117,7 @@ use crate::fmath::{clamp, floor, max, min, sin_cos_turns};
 
 mod bound;
 mod candidates;
+mod exposure;
 mod free_fit;
 mod optics;
 mod period;
@@ -126,6 +127,7 @@ mod verdict;
 
 use bound::*;
 use candidates::*;
+pub use exposure::{ADOPT_FRAMES, CONFIRM_FRAMES, Exposure, READING_GAP_K, REVOKE_FRAMES};
 use free_fit::*;
 use optics::*;
 pub use optics::{lattice_core_u, transfer};
@@ -170,6 +172,13 @@ pub const PRIOR_CHI2: f32 = 60.0;
 pub const CONTINUITY_CHI2: f32 = 4.0;
 /// χ² margin within which two hypotheses are both allowed by the image.
 pub const AMBIGUOUS_CHI2: f32 = 16.0;
+/// χ² by which the best candidate within the design's windows may fall short of the best of
+/// any exposed fraction before the design is taken not to explain the image.
+pub const DESIGN_CHI2: f32 = 16.0;
+/// Shortest period at which a frame may find its design wrong, pixels: shorter, a thin
+/// stripe's width trades against the optics' spread over the whole grid (unseen family
+/// members of 4.1–4.9 px, blurred, found their own design 0.13–0.17 off).
+pub const DESIGN_PERIOD_MIN_PX: f32 = 5.0;
 /// χ² margin of the confidence set over h.
 pub const CONFIDENCE_CHI2: f32 = 4.0;
 /// Largest fraction of the estimated gap |T1 − T2| the bound of a resolved frame may reach
@@ -232,10 +241,13 @@ const FREQ_STEP: f32 = 0.03;
 const REFINE_HARMONICS: usize = 3;
 /// Largest relative change of the frequency by its refinement.
 const REFINE_LIMIT: f32 = 0.1;
-/// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
+/// Grid of hot-stripe fractions h: H_FIRST + (i − H_BELOW)·H_STEP, i = 0…H_COUNT − 1
+/// (0.1…0.9, symmetric about ½).
 const H_FIRST: f32 = 0.1;
 const H_STEP: f32 = 0.025;
-const H_COUNT: usize = 33;
+/// Grid points below [`H_FIRST`] (and as many above 0.9).
+const H_BELOW: usize = 0;
+const H_COUNT: usize = 33 + 2 * H_BELOW;
 /// Spreads tried.
 const PSFS: usize = PSF_SIGMAS_PX.len();
 /// Most h grid points in one hypothesis's window (2·[`EXPOSED_TOLERANCE`] / `H_STEP` + 1,
@@ -258,6 +270,9 @@ pub struct Separation {
     pub bound_k: f32,
     /// Resolved, ambiguous, merged or fallback.
     pub quality: Quality,
+    /// The exposed fraction this frame's run of readings adopted as the design in use (the
+    /// configured design again, or the image's), if it did ([`Exposure`]).
+    pub adopted: Option<f32>,
 }
 
 /// The core's reference value, mean and range, K.
@@ -287,6 +302,7 @@ impl Core {
             mean_k: self.mean,
             bound_k: 0.5 * (self.hi - self.lo),
             quality: Quality::Fallback,
+            adopted: None,
         }
     }
 }
@@ -399,6 +415,7 @@ pub fn separate(
             mean_k: m,
             bound_k: 0.0,
             quality: Quality::Fallback,
+            adopted: None,
         };
     };
     let core = Core::of(&prof);
@@ -407,7 +424,9 @@ pub fn separate(
         return fallback;
     };
     let nu = period.nu;
-    let Some((fit, model)) = fit_free(&prof, nu, design_exposed) else {
+    // The design in use: the configured one, or what the frames adopted in its place.
+    let design = g.exposure.design(design_exposed);
+    let Some((fit, model)) = fit_free(&prof, nu, design) else {
         return if g.lattice_known {
             Separation {
                 quality: Quality::Merged,
@@ -417,18 +436,59 @@ pub fn separate(
             fallback
         };
     };
-    let grid = Grid::of(&fit, nu, g.axis_slope, model, design_exposed);
+    let spreads = Spreads::of(&fit, nu, g.axis_slope, model);
+    // Which target the supervisor's prior (or, without one, the previous frame) says is hotter.
+    let expects_heater = match prior {
+        Prior::HeaterHotter => Some(true),
+        Prior::SurfaceHotter => Some(false),
+        Prior::Unknown => g.heater_hotter,
+    };
+    // A design the image clearly contradicts: the hot stripes' width the image shows, read
+    // as the heater's if the heater is expected hotter, else as the surface's (without any
+    // expectation, the reading nearer the design). The prior, not the image, then decided.
+    let scan = FreeScan::of(&spreads, design);
+    let (frame_design, picked) = if scan.design_fits(design) || 1.0 / nu < DESIGN_PERIOD_MIN_PX {
+        (design, false)
+    } else {
+        let hot = scan.hot;
+        let heater =
+            expects_heater.unwrap_or(libm::fabsf(hot - design) <= libm::fabsf(1.0 - hot - design));
+        let e = if heater { hot } else { 1.0 - hot };
+        (clamp(e, EXPOSED_MIN, EXPOSED_MAX), true)
+    };
+    let grid = Grid::of(&spreads, frame_design);
     let verdict = Verdict::of(&grid, prior, g.heater_hotter);
+    // The image decided against the supervisor's prior with a design the frames have not
+    // confirmed: a lattice unlike its design under a right prior shows the same image as its
+    // design under a lagging one, so the frame cannot tell which is wrong.
+    let supervisor = match prior {
+        Prior::HeaterHotter => Some(Hyp::HeaterHot),
+        Prior::SurfaceHotter => Some(Hyp::SurfaceHot),
+        Prior::Unknown => None,
+    };
+    let contested = !picked
+        && verdict.clear
+        && supervisor.is_some_and(|h| h != verdict.hyp)
+        && !g.exposure.confirmed();
     let est = Estimate::of(&grid, &verdict, &fit, core.reference);
     let (t1, t2) = (est.t1_k, est.t2_k);
     let mean = core.reference + fit.theta[0];
-    let bounds = Bounds::of(&grid, &verdict, &est, &fit, core.reference, mean);
+    let mut bounds = Bounds::of(&grid, &verdict, &est, &fit, core.reference, mean);
+    if picked || contested {
+        // The other answer — the same two temperatures the other way round — lies within.
+        bounds.estimate_k += libm::fabsf(t1 - t2);
+    }
+    let decided = if picked {
+        expects_heater.is_some()
+    } else {
+        verdict.decided
+    };
     let hyp = verdict.hyp;
     // The lattice as zones see it: the heater stripes start at `phase`.
     let kept = *g;
     let period_px = 1.0 / nu;
     let h = h_at(grid.range_of(est.hyp).start) + est.h_steps * H_STEP;
-    let (cpsi, spsi) = grid.psi;
+    let (cpsi, spsi) = spreads.psi;
     let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period_px;
     let (exposed, start) = match hyp {
         Hyp::HeaterHot => (h, centre - 0.5 * h * period_px),
@@ -438,11 +498,19 @@ pub fn separate(
     g.phase_px = start - floor(start / period_px) * period_px;
     g.exposed = exposed;
     g.lattice_known = true;
-    if verdict.decided {
+    if decided {
         g.heater_hotter = Some(hyp == Hyp::HeaterHot);
     }
+    // The exposed fraction the frame shows, as the supervisor's prior orders the targets.
+    let reading = supervisor
+        .filter(|_| period.found && libm::fabsf(t1 - t2) >= READING_GAP_K)
+        .map(|h| if h == hyp { exposed } else { 1.0 - exposed });
+    let adopted = g.exposure.take(reading, design_exposed);
     if !period.found {
-        *g = kept;
+        *g = Geometry {
+            exposure: g.exposure,
+            ..kept
+        };
     }
     // A period the refinement took past the longest searched (the periodogram peaked at the
     // search's end: no lattice the core shows, a trend or a hot pixel) never resolves.
@@ -450,7 +518,7 @@ pub fn separate(
     let small = |b: f32| {
         in_range && (b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
     };
-    if verdict.decided {
+    if decided {
         // T1 and T2 are the fit's: resolved when the bound (spanning both assignments where
         // the image allowed both) is small, else ambiguous — the fit's values with that
         // bound, still far closer than the mean the merged frame gives both.
@@ -465,6 +533,7 @@ pub fn separate(
             mean_k: mean,
             bound_k: bounds.estimate_k,
             quality,
+            adopted,
         }
     } else {
         Separation {
@@ -473,6 +542,7 @@ pub fn separate(
             mean_k: mean,
             bound_k: bounds.merged_k,
             quality: Quality::Merged,
+            adopted,
         }
     }
 }

@@ -375,8 +375,8 @@ fn direct(
 fn the_surface_hot_window_is_the_heater_hot_one_s_mirror() {
     // The grid is symmetric about ½ (h_at(i) + h_at(H_COUNT − 1 − i) = 1), so the
     // surface-hot window, taken as the mirror of the heater-hot one, is the grid's points
-    // within [1 − hi, 1 − lo] for every design the configuration accepts (15–90 %): the
-    // candidates' mirror products are its own.
+    // within [1 − hi, 1 − lo] for every design the configuration accepts (15–90 %), and every
+    // exposed fraction the frames may adopt: the candidates' mirror products are its own.
     for i in 0..H_COUNT {
         assert!((h_at(i) + h_at(H_COUNT - 1 - i) - 1.0).abs() < 1e-6);
     }
