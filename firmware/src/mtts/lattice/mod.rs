@@ -443,19 +443,8 @@ pub fn separate(
         Prior::SurfaceHotter => Some(false),
         Prior::Unknown => g.heater_hotter,
     };
-    // A design the image clearly contradicts: the hot stripes' width the image shows, read
-    // as the heater's if the heater is expected hotter, else as the surface's (without any
-    // expectation, the reading nearer the design). The prior, not the image, then decided.
     let scan = FreeScan::of(&spreads, design);
-    let (frame_design, picked) = if scan.design_fits(design) || 1.0 / nu < DESIGN_PERIOD_MIN_PX {
-        (design, false)
-    } else {
-        let hot = scan.hot;
-        let heater =
-            expects_heater.unwrap_or(libm::fabsf(hot - design) <= libm::fabsf(1.0 - hot - design));
-        let e = if heater { hot } else { 1.0 - hot };
-        (clamp(e, EXPOSED_MIN, EXPOSED_MAX), true)
-    };
+    let (frame_design, picked) = frame_design(&scan, design, 1.0 / nu, expects_heater);
     let grid = Grid::of(&spreads, frame_design);
     let verdict = Verdict::of(&grid, prior, g.heater_hotter);
     // The image decided against the supervisor's prior with a design the frames have not
@@ -484,20 +473,10 @@ pub fn separate(
         verdict.decided
     };
     let hyp = verdict.hyp;
-    // The lattice as zones see it: the heater stripes start at `phase`.
     let kept = *g;
     let period_px = 1.0 / nu;
     let h = h_at(grid.range_of(est.hyp).start) + est.h_steps * H_STEP;
-    let (cpsi, spsi) = spreads.psi;
-    let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period_px;
-    let (exposed, start) = match hyp {
-        Hyp::HeaterHot => (h, centre - 0.5 * h * period_px),
-        Hyp::SurfaceHot => (1.0 - h, centre + 0.5 * h * period_px),
-    };
-    g.period_px = period_px;
-    g.phase_px = start - floor(start / period_px) * period_px;
-    g.exposed = exposed;
-    g.lattice_known = true;
+    let exposed = leave_lattice(g, period_px, h, spreads.psi, hyp);
     if decided {
         g.heater_hotter = Some(hyp == Hyp::HeaterHot);
     }
@@ -515,26 +494,8 @@ pub fn separate(
     // A period the refinement took past the longest searched (the periodogram peaked at the
     // search's end: no lattice the core shows, a trend or a hot pixel) never resolves.
     let in_range = period_px <= period.p_max;
-    let small = |b: f32| {
-        in_range && (b <= RESOLVED_BOUND_K || b <= RESOLVED_FRACTION * libm::fabsf(t1 - t2))
-    };
-    if decided {
-        // T1 and T2 are the fit's: resolved when the bound (spanning both assignments where
-        // the image allowed both) is small, else ambiguous — the fit's values with that
-        // bound, still far closer than the mean the merged frame gives both.
-        let quality = if small(bounds.estimate_k) {
-            Quality::Resolved
-        } else {
-            Quality::Ambiguous
-        };
-        Separation {
-            t1_k: t1,
-            t2_k: t2,
-            mean_k: mean,
-            bound_k: bounds.estimate_k,
-            quality,
-            adopted,
-        }
+    let sep = if decided {
+        decided_frame(t1, t2, mean, bounds.estimate_k, in_range)
     } else {
         Separation {
             t1_k: mean,
@@ -542,8 +503,68 @@ pub fn separate(
             mean_k: mean,
             bound_k: bounds.merged_k,
             quality: Quality::Merged,
-            adopted,
+            adopted: None,
         }
+    };
+    Separation { adopted, ..sep }
+}
+
+/// The design a frame fits about: the design in use, unless the image clearly contradicts it
+/// ([`FreeScan::design_fits`]; a period of at least [`DESIGN_PERIOD_MIN_PX`]). Then the hot
+/// stripes' width the image shows, read as the heater's if the heater is expected hotter
+/// (`expects_heater`), else as the surface's (without any expectation, the reading nearer the
+/// design); the prior, not the image, decided (`true`).
+fn frame_design(
+    scan: &FreeScan,
+    design: f32,
+    period_px: f32,
+    expects_heater: Option<bool>,
+) -> (f32, bool) {
+    if scan.design_fits(design) || period_px < DESIGN_PERIOD_MIN_PX {
+        return (design, false);
+    }
+    let hot = scan.hot;
+    let heater =
+        expects_heater.unwrap_or(libm::fabsf(hot - design) <= libm::fabsf(1.0 - hot - design));
+    let e = if heater { hot } else { 1.0 - hot };
+    (clamp(e, EXPOSED_MIN, EXPOSED_MAX), true)
+}
+
+/// Leave in `g` the lattice as the zones and the next frame see it: `period_px`, the hot
+/// stripes' fraction `h` under the hypothesis `hyp`, the heater stripes starting at the
+/// phase the fundamental's (cos ψ, sin ψ) `psi` gives. Returns the exposed fraction.
+fn leave_lattice(g: &mut Geometry, period_px: f32, h: f32, psi: (f32, f32), hyp: Hyp) -> f32 {
+    let (cpsi, spsi) = psi;
+    let centre = libm::atan2f(spsi, cpsi) / core::f32::consts::TAU * period_px;
+    let (exposed, start) = match hyp {
+        Hyp::HeaterHot => (h, centre - 0.5 * h * period_px),
+        Hyp::SurfaceHot => (1.0 - h, centre + 0.5 * h * period_px),
+    };
+    g.period_px = period_px;
+    g.phase_px = start - floor(start / period_px) * period_px;
+    g.exposed = exposed;
+    g.lattice_known = true;
+    exposed
+}
+
+/// A decided frame: T1 and T2 the fit's, resolved when the bound (spanning both assignments
+/// where the image did not decide alone) is small — at most [`RESOLVED_BOUND_K`] or
+/// [`RESOLVED_FRACTION`] of the gap, a period `in_range` — else ambiguous: the fit's values with
+/// that bound, still far closer than the mean a merged frame gives both.
+fn decided_frame(t1: f32, t2: f32, mean: f32, bound_k: f32, in_range: bool) -> Separation {
+    let small = in_range
+        && (bound_k <= RESOLVED_BOUND_K || bound_k <= RESOLVED_FRACTION * libm::fabsf(t1 - t2));
+    Separation {
+        t1_k: t1,
+        t2_k: t2,
+        mean_k: mean,
+        bound_k,
+        quality: if small {
+            Quality::Resolved
+        } else {
+            Quality::Ambiguous
+        },
+        adopted: None,
     }
 }
 
