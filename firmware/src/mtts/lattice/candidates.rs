@@ -77,6 +77,7 @@ impl Trig {
 /// A candidate then costs 4K + 1 products, not the (K + 1)(K + 2)/2 + K + 1 of the quadratic
 /// form: a model of ten harmonics 41 against 77, which is what lets a thin-stripe design
 /// model ten within the Cortex-M4 budget.
+#[derive(Clone, Copy, Default)]
 pub(super) struct Spread {
     pub(super) m00: f32,
     pub(super) ur0: f32,
@@ -366,8 +367,6 @@ pub(super) fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize>
 /// ([`Spread`]), and the fit's totals.
 pub(super) struct Spreads {
     all: [Spread; PSFS],
-    /// The model stops at [`BASE_PAIRS`] harmonics (the products' shorter loops).
-    base_model: bool,
     /// Σ w, Σ w·y and Σ w·y² (with the bins' slopes) of the fit.
     g00: f32,
     r0: f32,
@@ -393,19 +392,13 @@ impl Spreads {
         // candidate a (1 + H) × (1 + H) product, and its misfit Σ w·y² less what it explains.
         let (mut m, mut ur) = ([[0f32; U]; U], [0f32; U]);
         gram(fit, model, nu, (cpsi, spsi), &mut m, &mut ur);
-        // The products run to an even length: the model's harmonics, or a base model's
-        // rounded up (its sums past the model are zero).
-        let base_model = model <= BASE_PAIRS;
-        let all = core::array::from_fn(|psf| {
-            if base_model {
-                Spread::of::<BASE_PAIRS>(&m, &ur, &mtf[psf], model)
-            } else {
-                Spread::of::<HARMONICS>(&m, &ur, &mtf[psf], model)
-            }
-        });
+        // A loop, not `array::from_fn`, which the compiler unrolls into a copy per spread.
+        let mut all = [Spread::default(); PSFS];
+        for (spread, mtf) in all.iter_mut().zip(&mtf) {
+            *spread = Spread::of::<HARMONICS>(&m, &ur, mtf, model);
+        }
         Spreads {
             all,
-            base_model,
             g00: fit.cs[0],
             r0: fit.rhs[0],
             fit_yy: fit.yy + fit.slope_yy,
@@ -415,15 +408,13 @@ impl Spreads {
     }
 
     /// The candidates of hot-stripe fraction `h` (sines and cosines `t`) and of its mirror
-    /// 1 − h at spread `psf`, their misfits Σ w·r² in `chi2`.
-    #[inline(always)]
+    /// 1 − h at spread `psf`, their misfits Σ w·r² in `chi2`. Not inlined: the grid and the
+    /// free scan share one copy of the unrolled products (the board's flash is full).
+    #[inline(never)]
     fn pair(&self, psf: usize, h: f32, t: &Trig) -> [Candidate; 2] {
-        let spread = &self.all[psf];
-        let [pa, pb] = if self.base_model {
-            spread.products::<BASE_PAIRS>(h, t)
-        } else {
-            spread.products::<HARMONICS>(h, t)
-        };
+        // The full model's length whatever the model: a base model's sums past its harmonics
+        // are zero, which adds nothing (one copy of the unrolled loops in the flash).
+        let [pa, pb] = self.all[psf].products::<HARMONICS>(h, t);
         [
             Candidate::of(self.g00, self.r0, self.fit_yy, pa),
             Candidate::of(self.g00, self.r0, self.fit_yy, pb),
@@ -431,8 +422,8 @@ impl Spreads {
     }
 }
 
-/// The spreads the free scan tries: every other of [`PSF_SIGMAS_PX`] (0, 0.2, 0.4, 0.6 px).
-const FREE_SPREADS: [usize; 4] = [0, 2, 4, 6];
+/// The spreads the free scan tries: every third of [`PSF_SIGMAS_PX`] (0, 0.3, 0.6 px).
+const FREE_SPREADS: [usize; 3] = [0, 3, 6];
 /// The free scan's step on the h grid, grid steps (0.05).
 const FREE_STEP: usize = 2;
 /// Hot-stripe fractions of the free scan up to ½ (each with its mirror): h_at(0), h_at(2), …,
@@ -440,7 +431,7 @@ const FREE_STEP: usize = 2;
 const FREE_H: usize = (H_COUNT / 2) / FREE_STEP + 1;
 
 /// The free scan: the hot stripes' fraction the image shows, free of the design. Every other
-/// h of the grid (0.1, 0.15, … 0.9) under every other spread, and the best of them within the
+/// h of the grid (0.1, 0.15, … 0.9) under every third spread, and the best of them within the
 /// design's windows: when that is worse than the free best by [`DESIGN_CHI2`], the design
 /// does not explain the image (a lattice unlike its design: another print, another view).
 /// Takes the [`Spreads`] and the design; gives [`FreeScan`].

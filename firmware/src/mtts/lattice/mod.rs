@@ -200,8 +200,6 @@ const BASE_HARMONICS: usize = 5;
 /// Harmonics of the candidates' model at most (a design of thin stripes, [`model_for`]): an
 /// even count ([`Spread::products`] splits them by parity).
 const HARMONICS: usize = 10;
-/// The candidates' products' length for a model of the base harmonics: an even count.
-const BASE_PAIRS: usize = BASE_HARMONICS + BASE_HARMONICS % 2;
 /// Unknowns of the harmonic fit at most.
 const NP: usize = 1 + 2 * FIT_HARMONICS;
 /// Entries of the fit's right-hand side: the mean and each of the model's harmonics.

@@ -2,6 +2,10 @@
 
 use super::*;
 
+/// A base model's products' length, rounded up to an even count: the shorter loops the
+/// candidates once used for it must agree with the full ones.
+const BASE_PAIRS: usize = BASE_HARMONICS + BASE_HARMONICS % 2;
+
 /// The axial profile of a core showing `length_px` of a lattice of period `period_px` whose
 /// hot stripes are `h` of it (10 K over 300 K) from `phase_px`, each bin's value the square
 /// wave averaged over a pixel's length around it; bins ¼ px apart, as a tilted axis fills
