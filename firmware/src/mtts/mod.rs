@@ -23,7 +23,7 @@ pub mod lattice;
 pub mod regions;
 pub mod upsample;
 
-use cluster::{Clusters, DEFAULT_BINS, DpScratch, Histogram, Seeding, XorShift};
+use cluster::{Clusters, DEFAULT_BINS, DpScratch, Histogram, XorShift};
 use regions::{Coords, Fresh, Geometry};
 
 use upsample::{UpsampleScratch, Upsampler};
@@ -138,9 +138,12 @@ impl core::fmt::Display for MttsError {
 pub enum Method {
     /// Exact 1-D k-means by dynamic programming (the default).
     Exact,
-    /// Lloyd's algorithm from random initial centroids (the thesis).
+    /// Lloyd's algorithm from random initial centroids (the thesis; feature
+    /// `comparison-methods`).
+    #[cfg(feature = "comparison-methods")]
     Lloyd,
-    /// Lloyd's algorithm from k-means++ seeding.
+    /// Lloyd's algorithm from k-means++ seeding (feature `comparison-methods`).
+    #[cfg(feature = "comparison-methods")]
     KMeansPlusPlus,
 }
 
@@ -513,10 +516,16 @@ impl Mtts {
         let k = self.config.k as usize;
         match self.config.method {
             Method::Exact => cluster::exact_binned(hist, k, &mut scratch.dp),
-            Method::Lloyd => cluster::lloyd(hist, k, Seeding::Random, &mut self.rng, 100),
-            Method::KMeansPlusPlus => {
-                cluster::lloyd(hist, k, Seeding::KMeansPlusPlus, &mut self.rng, 100)
-            }
+            #[cfg(feature = "comparison-methods")]
+            Method::Lloyd => cluster::lloyd(hist, k, cluster::Seeding::Random, &mut self.rng, 100),
+            #[cfg(feature = "comparison-methods")]
+            Method::KMeansPlusPlus => cluster::lloyd(
+                hist,
+                k,
+                cluster::Seeding::KMeansPlusPlus,
+                &mut self.rng,
+                100,
+            ),
         }
     }
 
