@@ -1039,14 +1039,21 @@ pub fn members_outcomes_lagging_prior(
     members: impl Iterator<Item = Member>,
     confirm: usize,
 ) -> Vec<FamilyOutcome> {
+    par_members(members, |m, scratch| {
+        member_outcome_lagging_prior(m, confirm, scratch)
+    })
+}
+
+/// `f` over `members`, in parallel, in order, each thread with its own MTTS scratch.
+fn par_members<T: Send>(
+    members: impl Iterator<Item = Member>,
+    f: impl Fn(&Member, &mut Scratch) -> T + Sync + Send,
+) -> Vec<T> {
     use rayon::prelude::*;
     let members: Vec<Member> = members.collect();
     members
         .par_iter()
-        .map_init(
-            || Box::new(Scratch::new()),
-            |scratch, m| member_outcome_lagging_prior(m, confirm, scratch),
-        )
+        .map_init(|| Box::new(Scratch::new()), |scratch, m| f(m, scratch))
         .collect()
 }
 
@@ -1064,15 +1071,7 @@ pub fn members_outcomes(
     members: impl Iterator<Item = Member>,
     prior: PriorCase,
 ) -> Vec<FamilyOutcome> {
-    use rayon::prelude::*;
-    let members: Vec<Member> = members.collect();
-    members
-        .par_iter()
-        .map_init(
-            || Box::new(Scratch::new()),
-            |scratch, m| member_outcome(m, prior, scratch),
-        )
-        .collect()
+    par_members(members, |m, scratch| member_outcome(m, prior, scratch))
 }
 
 /// [`member_outcome_settled`] over `members` with `frames` frames each, in parallel, in order.
@@ -1093,15 +1092,9 @@ pub fn members_first_and_settled(
     prior: PriorCase,
     frames: usize,
 ) -> Vec<(FamilyOutcome, FamilyOutcome)> {
-    use rayon::prelude::*;
-    let members: Vec<Member> = members.collect();
-    members
-        .par_iter()
-        .map_init(
-            || Box::new(Scratch::new()),
-            |scratch, m| member_first_and_settled(m, prior, frames, scratch),
-        )
-        .collect()
+    par_members(members, |m, scratch| {
+        member_first_and_settled(m, prior, frames, scratch)
+    })
 }
 
 /// Exposed-fraction bands of the family table.
