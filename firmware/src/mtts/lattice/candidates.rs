@@ -328,7 +328,7 @@ pub(super) fn gram(
 
 /// The hot-stripe fraction of candidate `j` (candidates run over h, then over the spreads).
 pub(super) fn h_at(j: usize) -> f32 {
-    H_FIRST + ((j % H_COUNT) as f32 - H_BELOW as f32) * H_STEP
+    H_FIRST + (j % H_COUNT) as f32 * H_STEP
 }
 
 /// The exposed fractions a frame of a block designed with `design` may show.
@@ -344,15 +344,13 @@ pub(super) fn window(design: f32) -> (f32, f32) {
 /// (h ↔ 1 − h, i ↔ `H_COUNT` − 1 − i; the grid is symmetric about ½), which lets a candidate's
 /// products serve both ([`Spread::products`]).
 pub(super) fn h_range(hyp: Hyp, (lo, hi): (f32, f32)) -> core::ops::Range<usize> {
-    // On the steps from H_FIRST (negative below it), then shifted by H_BELOW.
-    let below = H_BELOW as f32;
-    let first = max(-below, (lo - H_FIRST) / H_STEP);
-    let first = (floor(first) as i32 + i32::from(first > floor(first)) + H_BELOW as i32) as usize;
-    let last = max(-below - 1.0, (hi - H_FIRST) / H_STEP);
-    let end = if last < -below {
+    let first = max(0.0, (lo - H_FIRST) / H_STEP);
+    let first = first as usize + usize::from(first > floor(first));
+    let last = max(-1.0, (hi - H_FIRST) / H_STEP);
+    let end = if last < 0.0 {
         0
     } else {
-        ((floor(last) as i32 + 1 + H_BELOW as i32) as usize).min(H_COUNT)
+        (last as usize + 1).min(H_COUNT)
     };
     let first = first.min(end);
     let heater_hot = first..end.min(first + SLOTS);

@@ -239,13 +239,10 @@ const FREQ_STEP: f32 = 0.03;
 const REFINE_HARMONICS: usize = 3;
 /// Largest relative change of the frequency by its refinement.
 const REFINE_LIMIT: f32 = 0.1;
-/// Grid of hot-stripe fractions h: H_FIRST + (i − H_BELOW)·H_STEP, i = 0…H_COUNT − 1
-/// (0.1…0.9, symmetric about ½).
+/// Grid of hot-stripe fractions h: H_FIRST + i·H_STEP.
 const H_FIRST: f32 = 0.1;
 const H_STEP: f32 = 0.025;
-/// Grid points below [`H_FIRST`] (and as many above 0.9).
-const H_BELOW: usize = 0;
-const H_COUNT: usize = 33 + 2 * H_BELOW;
+const H_COUNT: usize = 33;
 /// Spreads tried.
 const PSFS: usize = PSF_SIGMAS_PX.len();
 /// Most h grid points in one hypothesis's window (2·[`EXPOSED_TOLERANCE`] / `H_STEP` + 1,
