@@ -10,6 +10,8 @@
 //! frame (see `crate::sensing`).
 
 use crate::mtts::REGIONS;
+
+pub use crate::mtts::LatticeExposure;
 use crate::units::{Kelvin, Millis};
 
 pub use crate::mtts::Quality;
@@ -36,6 +38,9 @@ pub struct Measurement {
     pub bound: Kelvin,
     /// The cylinder's axis tilt in the image, if this frame re-estimated it.
     pub tilt: Option<Tilt>,
+    /// The lattice's exposed fraction the frame's fit shows, against the design (`None`: no
+    /// lattice fitted, or which target is hotter undecided).
+    pub exposure: Option<LatticeExposure>,
 }
 
 /// The cylinder's axis tilt in the image as MTTS fitted it: for a constant-curvature column
@@ -162,6 +167,7 @@ mod tests {
             quality,
             bound: Kelvin::new(bound).unwrap(),
             tilt: None,
+            exposure: None,
         }
     }
 

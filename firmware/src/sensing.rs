@@ -368,6 +368,7 @@ pub fn to_measurement(
         } else {
             None
         },
+        exposure: out.exposure,
     };
     // Tc is the supervisor's to compute (it carries no field here); under the hint in force it
     // only decides whether the frame is plausible enough to publish.

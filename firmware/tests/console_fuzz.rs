@@ -241,6 +241,7 @@ impl Console {
             bound: Kelvin::lit(0.5),
             quality: Quality::Resolved,
             tilt: None,
+            exposure: None,
         };
         self.sup
             .period(Millis(self.now_ms), None, None, Some(&m), None);

@@ -286,6 +286,15 @@ impl Block {
                 deg: 0.5 * (t1 - 300.0),
                 sd_deg: 0.2,
             }),
+            // Whatever the frame, a lattice exposure (NaN with a NaN frame), adopted now and
+            // then: the exposure warnings and `status` take it.
+            exposure: Some(thermorph::measurement::LatticeExposure {
+                fitted_pct: t1 - 250.0,
+                design_pct: t2 - 250.0,
+                configured_pct: 71.0,
+                adopted: seq.is_multiple_of(9),
+                shows_pct: seq.is_multiple_of(5).then_some(t1 - 280.0),
+            }),
         }
     }
 }

@@ -56,11 +56,17 @@ fn scene_then_mtts_finds_the_truth() {
         let csv = String::from_utf8(out.stdout).unwrap();
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines[0], "region,name,temp_k,pixels");
-        assert_eq!(lines.len(), 7);
+        assert_eq!(lines.len(), 8, "{csv}");
         assert!(
             lines[6].starts_with("# quality resolved, bound "),
             "{}",
             lines[6]
+        );
+        // The thesis's lattice as designed: its exposure, and no warning.
+        assert!(
+            lines[7].starts_with("# exposure fitted 7") && lines[7].ends_with(", design 71.0 %"),
+            "{}",
+            lines[7]
         );
         let names: Vec<&str> = lines[1..6]
             .iter()
@@ -176,4 +182,46 @@ fn bad_input_gets_one_clear_error() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no valid pixel"));
     let bad_k = run(&["mtts", "--image", &all_nan, "--k", "9"]);
     assert!(String::from_utf8_lossy(&bad_k.stderr).contains("cluster count 9"));
+}
+
+/// Issue 43: an image whose lattice shows the heater through a fraction unlike the design (the
+/// forming scene's inverted hot zone read under the heating prior: hot stripes 0.29 of the
+/// period, the heater's under that prior) is ambiguous — one frame cannot tell it from its
+/// design under a lagging prior — with a bound spanning both answers, and a `# warning` line
+/// names both fractions; under the prior that fits the design there is none.
+#[test]
+fn an_image_unlike_its_design_is_ambiguous_and_says_so() {
+    let scene = run(&["scene", "forming-inversion", "--seed", "1"]);
+    assert!(scene.status.success());
+    let path = tmp("forming.csv", &scene.stdout);
+    let mtts = |prior: &str| {
+        let out = run(&["mtts", "--image", &path, "--prior", prior]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let unlike = mtts("heater-hotter");
+    assert!(unlike.contains("# quality ambiguous, bound "), "{unlike}");
+    let bound: f64 = unlike
+        .lines()
+        .find_map(|l| l.strip_prefix("# quality ambiguous, bound "))
+        .and_then(|b| b.trim_end_matches(" K").parse().ok())
+        .expect("a bound");
+    // T1 318 K, T2 336 K: either answer lies within the bound.
+    assert!(bound >= 18.0, "{unlike}");
+    let warning = unlike
+        .lines()
+        .find(|l| l.starts_with("# warning: "))
+        .unwrap_or_else(|| panic!("no warning: {unlike}"));
+    assert!(
+        warning.contains("lattice 29 % exposed") || warning.contains("lattice 30 % exposed"),
+        "{warning}"
+    );
+    assert!(warning.contains("its design 71 %"), "{warning}");
+    let designed = mtts("surface-hotter");
+    assert!(designed.contains("# quality resolved"), "{designed}");
+    assert!(!designed.contains("# warning"), "{designed}");
 }

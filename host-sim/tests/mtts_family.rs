@@ -262,10 +262,58 @@ fn a_lattice_unlike_its_design_is_never_swapped_and_settles() {
         settled.len(),
         100.0 * share
     );
+    let wrong: Vec<&&FamilyOutcome> = resolved.iter().filter(|s| s.confidently_wrong()).collect();
     assert!(
-        share >= 0.8 && mean <= 0.5,
-        "resolved {share:.2}, mean error {mean:.2} K"
+        share >= 0.7 && mean <= 0.5 && wrong.is_empty(),
+        "resolved {share:.2}, mean error {mean:.2} K, outside their bound: {wrong:?}"
     );
+}
+
+/// Issue 43: what the frames of a lattice unlike its design say about its exposure. The first
+/// frame names the fraction the image shows; within [`ADOPT_FRAMES`] frames the pipeline adopts
+/// it once (the supervisor's warning), near the truth; the frames after fit with it.
+#[test]
+fn a_lattice_unlike_its_design_is_named_and_its_exposure_adopted() {
+    use host_sim::imaging::view_family::unlike_design;
+    use thermorph::mtts::lattice::ADOPT_FRAMES;
+    let mut scratch = Box::new(thermorph::mtts::Scratch::new());
+    let mut checked = 0;
+    for m in (UNSEEN.start..UNSEEN.start + 60)
+        .map(unlike_design)
+        .filter(|m| {
+            m.geometry.exposed < 0.5 && m.geometry.period_px >= 6.0 && m.gap_k().abs() >= 3.0
+        })
+    {
+        let truth_pct = 100.0 * m.geometry.exposed as f32;
+        let mut mtts = mtts_for(&m);
+        let view = m.frames();
+        let outs: Vec<_> = (0..usize::from(ADOPT_FRAMES) + 4)
+            .map(|f| mtts.process(&view.frame(f).image_k, &mut scratch).unwrap())
+            .collect();
+        let first = outs[0].exposure.expect("a decided first frame");
+        let shows = first.shows_pct.expect("the image unlike its design");
+        assert!((shows - truth_pct).abs() <= 10.0, "{}: {first:?}", m.seed);
+        assert_eq!(first.configured_pct, 71.0);
+        let adopted: Vec<_> = outs
+            .iter()
+            .filter_map(|o| o.exposure.filter(|e| e.adopted))
+            .collect();
+        assert_eq!(adopted.len(), 1, "{}: {adopted:?}", m.seed);
+        assert!(
+            (adopted[0].design_pct - truth_pct).abs() <= 6.0,
+            "{}: {adopted:?}",
+            m.seed
+        );
+        let last = outs.last().unwrap().exposure.unwrap();
+        assert_eq!(last.design_pct, adopted[0].design_pct);
+        assert!(
+            (last.fitted_pct - truth_pct).abs() <= 6.0,
+            "{}: {last:?}",
+            m.seed
+        );
+        checked += 1;
+    }
+    assert!(checked >= 5, "{checked} members checked");
 }
 
 /// A fresh MTTS configured with `m`'s design and the mode's prior (the hotter target's).

@@ -35,6 +35,14 @@ fn frame(at_ms: u64, seq: u32, t2: f32) -> Measurement {
             deg: 0.02 * (at_ms % 1000) as f32,
             sd_deg: 0.3,
         }),
+        // The lattice as designed: the exposure warnings' check runs, and says nothing.
+        exposure: Some(thermorph::measurement::LatticeExposure {
+            fitted_pct: 71.3,
+            design_pct: 71.0,
+            configured_pct: 71.0,
+            adopted: false,
+            shows_pct: None,
+        }),
     }
 }
 

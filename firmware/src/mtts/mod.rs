@@ -223,6 +223,26 @@ pub struct Region {
     pub zone_pixels: u16,
 }
 
+/// The lattice's exposed fraction as one frame saw it, against the design (the heater's share
+/// of a lattice unit): what `status` reports, and what the supervisor warns about when the
+/// frames adopt a fraction unlike the configured design ([`lattice::Exposure`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LatticeExposure {
+    /// The exposed fraction this frame's fit shows, %.
+    pub fitted_pct: f32,
+    /// The design the next frame fits with: the configured one, or the fraction the frames
+    /// adopted in its place, %.
+    pub design_pct: f32,
+    /// The configured design ([`Config::exposed_pct`]), %.
+    pub configured_pct: f32,
+    /// This frame's run of readings adopted `design_pct` in place of the design in use before.
+    pub adopted: bool,
+    /// The exposed fraction this frame's image shows where it is unlike the design in use,
+    /// read as the supervisor's prior orders the targets (`None` without a prior, or where
+    /// the image agrees with the design), %.
+    pub shows_pct: Option<f32>,
+}
+
 /// One frame's MTTS result (every temperature finite).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Output {
@@ -250,6 +270,9 @@ pub struct Output {
     pub fresh: Fresh,
     /// Pixels that were broken and filled in.
     pub filled_pixels: u16,
+    /// The lattice's exposed fraction this frame, against the design: `None` unless the frame
+    /// fitted a lattice and decided which target is hotter (resolved or ambiguous).
+    pub exposure: Option<LatticeExposure>,
 }
 
 impl Output {
@@ -547,15 +570,24 @@ impl Mtts {
         } = scratch;
         let (mut g, fresh) =
             regions::update_geometry(work, (*coldest_k, *hottest_k), &self.geometry, xy);
+        let configured = f32::from(self.config.exposed_pct) / 100.0;
         let sep = lattice::separate(
             work,
             xy,
             &mut g,
             self.prior,
-            f32::from(self.config.exposed_pct) / 100.0,
+            configured,
             *hottest_k - *coldest_k,
             filled_rows,
         );
+        let decided = matches!(sep.quality, Quality::Resolved | Quality::Ambiguous);
+        let exposure = (decided || sep.adopted.is_some()).then(|| LatticeExposure {
+            fitted_pct: 100.0 * g.exposed,
+            design_pct: 100.0 * g.exposure.design(configured),
+            configured_pct: f32::from(self.config.exposed_pct),
+            adopted: sep.adopted.is_some(),
+            shows_pct: sep.shows.map(|f| 100.0 * f),
+        });
         self.geometry = g;
         let (o, cylinder_min) = regions::overlap_and_min(work, &g, xy, clusters);
         let pick = regions::assign(&o, clusters.k);
@@ -593,6 +625,7 @@ impl Mtts {
             geometry: g,
             fresh,
             filled_pixels: filled,
+            exposure,
         }
     }
 

@@ -141,6 +141,7 @@ mod tests {
             quality: Quality::Resolved,
             bound: Kelvin::lit(0.5),
             tilt: None,
+            exposure: None,
         }
     }
 

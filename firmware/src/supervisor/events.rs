@@ -225,6 +225,19 @@ pub enum Warning {
     },
     /// The board started after a reset that was not a power-up: every output off.
     Reset(super::boot::ResetCause),
+    /// The frames show the lattice exposed unlike its configured design (another print,
+    /// another view angle): MTTS now fits with what they show.
+    ExposureUnlikeDesign {
+        /// The exposed fraction the frames show, %.
+        shows_pct: f32,
+        /// The configured design's, %.
+        design_pct: f32,
+    },
+    /// The frames show the configured design again.
+    ExposureAsDesigned {
+        /// The configured design's exposed fraction, %.
+        design_pct: f32,
+    },
     /// The wall cannot soften: even with the film held at its ceiling the model's steady
     /// state stays above `soft_frozen_max`. The soak ends.
     CannotSoften {
@@ -257,6 +270,20 @@ impl fmt::Display for Warning {
                 f,
                 "reset by {}; every output off until a `mode` command",
                 cause.name()
+            ),
+            Warning::ExposureUnlikeDesign {
+                shows_pct,
+                design_pct,
+            } => write!(
+                f,
+                "lattice shows {} % exposed, its design {} %: fitting with what the image shows",
+                Fixed::new(shows_pct, 0),
+                Fixed::new(design_pct, 0)
+            ),
+            Warning::ExposureAsDesigned { design_pct } => write!(
+                f,
+                "lattice shows its design again ({} % exposed)",
+                Fixed::new(design_pct, 0)
             ),
             Warning::Unresolved => f.write_str(
                 "frames unresolved for unresolved_s while heating: the loop holds the film region",

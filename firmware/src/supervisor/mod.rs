@@ -146,6 +146,11 @@ pub const WARN_UNRESOLVED: Warning = Warning::Unresolved;
 /// The warning when frames resolve again after a fallback.
 pub const WARN_RESOLVED: Warning = Warning::Resolved;
 
+/// Least time between two warnings about the lattice's exposed fraction, s: a view that
+/// flickers between readings must not flood the console. A warning held back is said once
+/// the time is up, with the frames' latest finding.
+pub const EXPOSURE_WARN_INTERVAL_S: f32 = 60.0;
+
 /// The heater is cut in proportion as the estimated inner wall layer comes within
 /// `heater_cap_band_k` of `t_max_k` − this, K: the estimate's error allowance (its mean error
 /// over the cycle is ≈ 0.1 K, docs/observer.md).
@@ -229,6 +234,10 @@ pub struct Supervisor {
     unresolved_since: Option<Millis>,
     /// The loop holds the film region (too long unresolved while heating on the colder one).
     film_fallback: bool,
+    /// When the last warning about the lattice's exposed fraction was said.
+    exposure_warned_at: Option<Millis>,
+    /// One held back by [`EXPOSURE_WARN_INTERVAL_S`].
+    exposure_pending: Option<Warning>,
     /// `stop` was asked with a fault latched: the fan is off too, until `reset`.
     quiet: bool,
     /// A warning for this step's decision.
@@ -328,6 +337,8 @@ impl Supervisor {
             sensor_grace: now,
             unresolved_since: None,
             film_fallback: false,
+            exposure_warned_at: None,
+            exposure_pending: None,
             quiet: false,
             notice: None,
             heater_capped: false,
@@ -514,6 +525,7 @@ impl Supervisor {
                 .last
                 .map_or(Seconds::ZERO, |l| m.at.seconds_since(l.at));
             self.track_resolution(now, &m);
+            self.track_exposure(now, &m);
             // The one place Tc is computed: under the hint of the mode as it stands now (after
             // a mode change or a film fallback it may differ from the hint the pipeline read
             // the frame with).
@@ -641,6 +653,32 @@ impl Supervisor {
             self.film_fallback = true;
             self.events.push(now, EventKind::Warning(WARN_UNRESOLVED));
             self.notice = Some(Notice::Warning(WARN_UNRESOLVED));
+        }
+    }
+
+    /// Warn when the frames adopt an exposed fraction unlike the configured design (a block
+    /// printed or viewed unlike its design: MTTS fits with what the image shows), or come back
+    /// to the design; at most one such warning per [`EXPOSURE_WARN_INTERVAL_S`].
+    fn track_exposure(&mut self, now: Millis, m: &Measurement) {
+        if let Some(e) = m.exposure.filter(|e| e.adopted) {
+            self.exposure_pending = Some(if libm::fabsf(e.design_pct - e.configured_pct) >= 0.5 {
+                Warning::ExposureUnlikeDesign {
+                    shows_pct: e.design_pct,
+                    design_pct: e.configured_pct,
+                }
+            } else {
+                Warning::ExposureAsDesigned {
+                    design_pct: e.configured_pct,
+                }
+            });
+        }
+        let due = self
+            .exposure_warned_at
+            .is_none_or(|t| now.seconds_since(t).s() >= EXPOSURE_WARN_INTERVAL_S);
+        if due && let Some(w) = self.exposure_pending.take() {
+            self.exposure_warned_at = Some(now);
+            self.events.push(now, EventKind::Warning(w));
+            self.notice = Some(Notice::Warning(w));
         }
     }
 

@@ -211,6 +211,17 @@ impl Reply {
                     r.write_str(" t1_k=- t2_k=- t3_k=- t4_k=- t5_k=- quality=- frame=- age_s=-")?
                 }
             }
+            // The lattice's exposed fraction the last frame's fit shows, and the design MTTS
+            // fits with (the configured one, or what the frames adopted in its place).
+            match s.last.and_then(|m| m.exposure) {
+                Some(e) => write!(
+                    r,
+                    " exposed_pct={} design_pct={}",
+                    Fixed::new(e.fitted_pct, 1),
+                    Fixed::new(e.design_pct, 1)
+                )?,
+                None => r.write_str(" exposed_pct=- design_pct=-")?,
+            }
             write!(
                 r,
                 " heater_pct={} fan_pct={} springs={}",

@@ -48,6 +48,7 @@ impl Block {
             quality: Quality::Resolved,
             bound: Kelvin::lit(0.5),
             tilt: None,
+            exposure: None,
         }
     }
 }
@@ -522,6 +523,7 @@ fn frame_of(t1: f32, t2: f32, quality: Quality, bound: f32) -> Measurement {
         quality,
         bound: Kelvin::new(bound).unwrap(),
         tilt: None,
+        exposure: None,
     }
 }
 
@@ -1194,4 +1196,78 @@ fn a_pose_beyond_its_springs_reach_is_refused_and_one_within_reach_steps_by_the_
     // A formed target beyond the formed reach (plus the tolerance) is refused.
     let reply = r.line(&format!("mode pose {} BC form", formed + 2.5));
     assert!(reply.starts_with("err out-of-reach"), "{reply}");
+}
+
+/// A frame of the lattice as MTTS saw it: `fitted_pct` exposed, fitted with `design_pct`
+/// (adopted this frame when `adopted`), the configured design 71 %.
+fn exposure_frame(design_pct: f32, adopted: bool) -> Measurement {
+    Measurement {
+        exposure: Some(crate::measurement::LatticeExposure {
+            fitted_pct: design_pct + 1.0,
+            design_pct,
+            configured_pct: 71.0,
+            adopted,
+            shows_pct: None,
+        }),
+        ..frame_of(300.0, 299.0, Quality::Resolved, 0.3)
+    }
+}
+
+#[test]
+fn a_lattice_unlike_its_design_is_named_once_a_minute_and_status_carries_its_exposure() {
+    let mut r = Rig::new();
+    assert!(r.line("status").contains(" exposed_pct=- design_pct=-"));
+    // Frames that agree with the design: no warning.
+    for _ in 0..8 {
+        assert_eq!(r.frame(exposure_frame(71.0, false)).notice, None);
+    }
+    // The frames adopt 33 %: one warning naming both fractions.
+    let d = r.frame(exposure_frame(33.0, true));
+    let Some(events::Notice::Warning(w)) = d.notice else {
+        panic!("no warning: {:?}", d.notice);
+    };
+    assert_eq!(
+        w,
+        Warning::ExposureUnlikeDesign {
+            shows_pct: 33.0,
+            design_pct: 71.0
+        }
+    );
+    let text = std::format!("{w}");
+    assert!(
+        text.contains("33 % exposed") && text.contains("design 71 %"),
+        "{text}"
+    );
+    assert!(
+        r.line("status")
+            .contains(" exposed_pct=34.0 design_pct=33.0"),
+        "{}",
+        r.line("status")
+    );
+    // Back to the design 10 s later, then unlike again: held back until a minute has passed,
+    // then said once with the latest finding.
+    let mut said = Vec::new();
+    for k in 0..4 * 70 {
+        let m = match k {
+            40 => exposure_frame(71.0, true),
+            80 => exposure_frame(40.0, true),
+            _ if k > 80 => exposure_frame(40.0, false),
+            _ => exposure_frame(71.0, false),
+        };
+        if let Some(events::Notice::Warning(w)) = r.frame(m).notice {
+            said.push((k, w));
+        }
+    }
+    assert_eq!(said.len(), 1, "{said:?}");
+    let (k, w) = said[0];
+    assert_eq!(
+        w,
+        Warning::ExposureUnlikeDesign {
+            shows_pct: 40.0,
+            design_pct: 71.0
+        }
+    );
+    // The first warning came one step before this loop: the next is due a minute after it.
+    assert!((4 * 60 - 2..=4 * 60).contains(&k), "said at frame {k}");
+    assert!(r.line("log").contains("lattice shows 40 % exposed"));
 }

@@ -211,7 +211,9 @@ pub fn parse_prior(s: &str) -> Result<Prior, SensingError> {
 
 /// Run MTTS on an image file ([`parse_any`]: the kelvin grid or `host-sim decode`'s CSV) with
 /// a prior and write `region,name,temp_k,pixels` (pixels: upsampled pixels in the region's
-/// cluster), then a `# quality <q>, bound <b> K` line; a hint about the image's unit
+/// cluster), then a `# quality <q>, bound <b> K` line, where the frame fitted a lattice a
+/// `# exposure fitted <f> %, design <d> %` line, and where the image shows the lattice exposed
+/// unlike its design a `# warning: …` line ([`exposure_warning`]); a hint about the image's unit
 /// ([`unit_hint`]) goes to `hints`.
 pub fn run(
     path: &Path,
@@ -248,8 +250,28 @@ pub fn run(
         res.quality.name(),
         res.bound.k()
     );
+    if let Some(e) = res.exposure {
+        s += &format!(
+            "# exposure fitted {:.1} %, design {:.1} %\n",
+            e.fitted_pct, e.design_pct
+        );
+        if let Some(shows) = e.shows_pct {
+            s += &format!("# warning: {}\n", exposure_warning(shows, e.design_pct));
+        }
+    }
     out.write_all(s.as_bytes())?;
     Ok(())
+}
+
+/// The `#` warning of a frame whose image shows the lattice exposed `shows_pct` against the
+/// design's `design_pct`: one frame cannot tell a lattice unlike its design from a prior that
+/// lags the block, so MTTS fits with what many frames show (the board's `# warning`, once
+/// they agree).
+pub fn exposure_warning(shows_pct: f32, design_pct: f32) -> String {
+    format!(
+        "the image shows the lattice {shows_pct:.0} % exposed, its design {design_pct:.0} % \
+         (as the prior orders the targets; set --exposed-pct if the block is built so)"
+    )
 }
 
 /// Write standard scene `name` (rendered with `seed`) as an image CSV, with its truth as

@@ -235,6 +235,7 @@ pub fn truth_measurement(obs: &Observation, azimuth_deg: f64, at: Millis, seq: u
             deg: true_tilt_deg(obs, azimuth_deg) as f32,
             sd_deg: TRUTH_TILT_SD_DEG,
         }),
+        exposure: None,
     }
 }
 

@@ -436,6 +436,13 @@ const FREE_H: usize = (H_COUNT / 2) / FREE_STEP + 1;
 pub(super) struct FreeScan {
     /// The best candidate's hot-stripe fraction.
     pub(super) hot: f32,
+    /// The best candidate (its levels: the image's own answer).
+    pub(super) best: Candidate,
+    /// The image allows the grid's thinnest stripes (hot stripes 0.1 or 0.9 of the period):
+    /// their best misfit lies within [`CONFIDENCE_CHI2`] of the free best's. A stripe that
+    /// thin trades its level against its width and the optics' spread along a valley the
+    /// grid's end cuts: the image does not bound the thinner target's level.
+    pub(super) thinnest_allowed: bool,
     /// The design windows' best misfit less the free best's, over the free best's noise
     /// variance: a χ² excess.
     pub(super) excess_chi2: f32,
@@ -446,8 +453,10 @@ impl FreeScan {
     pub(super) fn of(sp: &Spreads, design_exposed: f32) -> FreeScan {
         let win = window(design_exposed);
         let (ra, rb) = (h_range(Hyp::HeaterHot, win), h_range(Hyp::SurfaceHot, win));
-        let mut free = (f32::INFINITY, 0.0f32);
+        let mut free = (f32::INFINITY, 0usize);
+        let mut best = Candidate::default();
         let mut design = f32::INFINITY;
+        let mut edge = f32::INFINITY;
         for j in 0..FREE_H {
             let i = j * FREE_STEP;
             let h = h_at(i);
@@ -456,7 +465,11 @@ impl FreeScan {
                 let pair = sp.pair(psf, h, &t);
                 for (c, i) in pair.iter().zip([i, H_COUNT - 1 - i]) {
                     if c.chi2 < free.0 {
-                        free = (c.chi2, h_at(i));
+                        free = (c.chi2, i);
+                        best = *c;
+                    }
+                    if (i == 0 || i == H_COUNT - 1) && c.chi2 < edge {
+                        edge = c.chi2;
                     }
                     if (ra.contains(&i) || rb.contains(&i)) && c.chi2 < design {
                         design = c.chi2;
@@ -466,9 +479,20 @@ impl FreeScan {
         }
         let sigma2 = (free.0 / sp.dof).max(NOISE_FLOOR_K * NOISE_FLOOR_K);
         FreeScan {
-            hot: free.1,
+            hot: h_at(free.1),
+            best,
+            thinnest_allowed: (edge - free.0) / sigma2 <= CONFIDENCE_CHI2,
             excess_chi2: (design - free.0) / sigma2,
         }
+    }
+
+    /// How far the image's own answer lies from `design`, read either way (the hot stripes
+    /// the heater's, or the surface's).
+    pub(super) fn off(&self, design: f32) -> f32 {
+        min(
+            libm::fabsf(self.hot - design),
+            libm::fabsf(1.0 - self.hot - design),
+        )
     }
 
     /// The design's windows explain the image about as well as any h does, or the best h
@@ -476,11 +500,7 @@ impl FreeScan {
     /// twice the tolerance of `design` (a thin stripe's χ² valley runs past the window's end
     /// on a block of its design).
     pub(super) fn design_fits(&self, design: f32) -> bool {
-        let off = min(
-            libm::fabsf(self.hot - design),
-            libm::fabsf(1.0 - self.hot - design),
-        );
-        self.excess_chi2 < DESIGN_CHI2 || off <= 2.0 * EXPOSED_TOLERANCE
+        self.excess_chi2 < DESIGN_CHI2 || self.off(design) <= 2.0 * EXPOSED_TOLERANCE
     }
 }
 
@@ -502,7 +522,7 @@ pub(super) struct Grid {
 
 impl Grid {
     /// The candidates from the sums `sp` for a block designed with `design_exposed`.
-    pub(super) fn of(sp: &Spreads, design_exposed: f32) -> Grid {
+    pub(super) fn of(sp: &Spreads, design_exposed: f32, prior: bool) -> Grid {
         let win = window(design_exposed);
         let mut grid = Grid {
             cand: [Candidate {
@@ -527,7 +547,7 @@ impl Grid {
         let mut rss_min = f32::INFINITY;
         // The design's prior, z² per place of the two windows: the exposed fraction a
         // candidate says the frame shows, against the design.
-        let inv_prior_sd = 1.0 / EXPOSED_PRIOR_SD;
+        let inv_prior_sd = if prior { 1.0 / EXPOSED_PRIOR_SD } else { 0.0 };
         let mut prior_chi2 = [0f32; 2 * SLOTS];
         for hyp in [Hyp::HeaterHot, Hyp::SurfaceHot] {
             for (k, i) in grid.range_of(hyp).enumerate() {

@@ -268,6 +268,11 @@ pub struct Separation {
     /// The exposed fraction this frame's run of readings adopted as the design in use (the
     /// configured design again, or the image's), if it did ([`Exposure`]).
     pub adopted: Option<f32>,
+    /// The exposed fraction this frame's image shows where it is unlike the design in use
+    /// (beyond [`EXPOSED_TOLERANCE`]), read as the supervisor's prior orders the targets: the
+    /// frame's reading ([`Exposure`]). `None` without a prior or a reading, or where the image
+    /// agrees with the design.
+    pub shows: Option<f32>,
 }
 
 /// The core's reference value, mean and range, K.
@@ -298,6 +303,7 @@ impl Core {
             bound_k: 0.5 * (self.hi - self.lo),
             quality: Quality::Fallback,
             adopted: None,
+            shows: None,
         }
     }
 }
@@ -411,6 +417,7 @@ pub fn separate(
             bound_k: 0.0,
             quality: Quality::Fallback,
             adopted: None,
+            shows: None,
         };
     };
     let core = Core::of(&prof);
@@ -440,7 +447,7 @@ pub fn separate(
     };
     let scan = FreeScan::of(&spreads, design);
     let (frame_design, picked) = frame_design(&scan, design, 1.0 / nu, expects_heater);
-    let grid = Grid::of(&spreads, frame_design);
+    let grid = Grid::of(&spreads, frame_design, g.exposure.adopted.is_none());
     let verdict = Verdict::of(&grid, prior, g.heater_hotter);
     // The image decided against the supervisor's prior with a design the frames have not
     // confirmed: a lattice unlike its design under a right prior shows the same image as its
@@ -458,8 +465,30 @@ pub fn separate(
     let (t1, t2) = (est.t1_k, est.t2_k);
     let mean = core.reference + fit.theta[0];
     let mut bounds = Bounds::of(&grid, &verdict, &est, &fit, core.reference, mean);
-    if picked || contested {
-        // The other answer — the same two temperatures the other way round — lies within.
+    let hyp = verdict.hyp;
+    // The image's own answer lies outside the windows the frame fitted in: the design is the
+    // frame's assumption, not its finding (a thin stripe's level trades against its width).
+    let outside = scan.off(frame_design) > 2.0 * EXPOSED_TOLERANCE;
+    if outside && !g.exposure.confirmed() {
+        let (f1, f2) = temps(core.reference, &scan.best, hyp);
+        let e = max(libm::fabsf(f1 - t1), libm::fabsf(f2 - t2));
+        bounds.estimate_k = max(bounds.estimate_k, BOUND_SCALE * e + BOUND_FLOOR_K);
+    }
+    // A design the frames adopted is the image's own reading, known to its tolerance: the
+    // answers at its window's ends (the best spread's) lie within too.
+    if g.exposure.adopted.is_some() {
+        let first = est.best / (2 * SLOTS) * 2 * SLOTS + Grid::base_of(est.hyp);
+        let n = grid.range_of(est.hyp).len();
+        for c in [&grid.cand[first], &grid.cand[first + n.max(1) - 1]] {
+            let (x1, x2) = temps(core.reference, c, est.hyp);
+            let e = max(libm::fabsf(x1 - t1), libm::fabsf(x2 - t2));
+            bounds.estimate_k = max(bounds.estimate_k, BOUND_SCALE * e + BOUND_FLOOR_K);
+        }
+    }
+    // The other answer — the same two temperatures the other way round — lies within. So
+    // does a thinner stripe than the grid holds, where the image allows the grid's thinnest
+    // (`FreeScan::thinnest_allowed`): only the design, if it is right, bounds its level.
+    if picked || contested || scan.thinnest_allowed {
         bounds.estimate_k += libm::fabsf(t1 - t2);
     }
     let decided = if picked {
@@ -467,7 +496,6 @@ pub fn separate(
     } else {
         verdict.decided
     };
-    let hyp = verdict.hyp;
     let kept = *g;
     let period_px = 1.0 / nu;
     let h = h_at(grid.range_of(est.hyp).start) + est.h_steps * H_STEP;
@@ -476,9 +504,21 @@ pub fn separate(
         g.heater_hotter = Some(hyp == Hyp::HeaterHot);
     }
     // The exposed fraction the frame shows, as the supervisor's prior orders the targets.
+    // Where the image contradicts the design (its own answer outside the frame's windows, or
+    // its verdict against the prior), that answer, the windows' estimate stopping at their
+    // edge; and none below [`DESIGN_PERIOD_MIN_PX`], where a thin stripe's width trades
+    // against the optics' spread over the whole grid.
+    let unlike = contested || outside;
+    let read = if unlike {
+        (period_px >= DESIGN_PERIOD_MIN_PX).then_some((Hyp::HeaterHot, scan.hot))
+    } else {
+        Some((hyp, exposed))
+    };
     let reading = supervisor
+        .zip(read)
         .filter(|_| period.found && libm::fabsf(t1 - t2) >= READING_GAP_K)
-        .map(|h| if h == hyp { exposed } else { 1.0 - exposed });
+        .map(|(h, (read_hyp, e))| if h == read_hyp { e } else { 1.0 - e });
+    let shows = reading.filter(|r| libm::fabsf(r - design) > EXPOSED_TOLERANCE);
     let adopted = g.exposure.take(reading, design_exposed);
     if !period.found {
         *g = Geometry {
@@ -499,9 +539,14 @@ pub fn separate(
             bound_k: bounds.merged_k,
             quality: Quality::Merged,
             adopted: None,
+            shows: None,
         }
     };
-    Separation { adopted, ..sep }
+    Separation {
+        adopted,
+        shows,
+        ..sep
+    }
 }
 
 /// The design a frame fits about: the design in use, unless the image clearly contradicts it
@@ -560,6 +605,7 @@ fn decided_frame(t1: f32, t2: f32, mean: f32, bound_k: f32, in_range: bool) -> S
             Quality::Ambiguous
         },
         adopted: None,
+        shows: None,
     }
 }
 

@@ -65,6 +65,7 @@ pub fn status_fields() -> Vec<String> {
         quality: Quality::Resolved,
         bound: Kelvin::lit(0.5),
         tilt: None,
+        exposure: None,
     };
     let mut s = Supervisor::new(Millis(0), Settings::DEFAULT);
     s.step(Millis(100), Some(&frame(100, 300.0)), None);
