@@ -14,6 +14,8 @@
 //!   desk that drives it (or the board).
 //! - [`f446`]: the emulated STM32F446's peripherals, register-level models the board's own ELF
 //!   runs against (the CPU core, unicorn, only with `--features pil`).
+//! - [`cli`]: what the two binaries share: the build's identity (`--version`) and shell
+//!   completions.
 //!
 //! Errors are typed, one `thiserror` enum per layer, each in the module that owns it:
 //! [`runs::scenario::ScenarioError`], [`plant::PlantError`], [`sensor::eeprom::EepromError`]
@@ -26,6 +28,7 @@
 //! `scene`) and the binaries' `main`s use `anyhow`, adding a file name or step as context; the
 //! binaries print `error: {:#}`.
 
+pub mod cli;
 pub mod console;
 pub mod f446;
 pub mod imaging;

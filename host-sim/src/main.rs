@@ -17,6 +17,9 @@
 //! - `host-sim mtts-wp [--m4 FILE] [--out FILE] [--seeds N]`: the MTTS work-precision table.
 //! - `host-sim paper [--json] [--no-camera] [--out DIR] [--board ELF]`: the thesis's figures
 //!   (with `--board`, from runs of the board's own ELF on the emulated STM32F446).
+//! - `host-sim version`: the build — crate version, git commit (`-dirty` if tracked files
+//!   differed from it) and its date, features; `--version` prints its first line.
+//! - `host-sim completions bash|zsh|fish|elvish|powershell`: the shell's completion script.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,7 +30,7 @@ use thermorph::mlx90640::DecodeParams;
 #[derive(Parser)]
 #[command(
     name = "host-sim",
-    version,
+    version = host_sim::cli::VERSION,
     about = "Thermorph simulator",
     long_about = "Thermorph simulator. Without a command, `host-sim [SCENE] [--out DIR] \
 [--quiet]` is `host-sim run …`: the scene (default: cycle) played against the simulated block.",
@@ -138,6 +141,12 @@ enum Command {
         #[arg(long, value_name = "ELF")]
         board: Option<PathBuf>,
     },
+    /// Print the build: crate version, git commit (`-dirty` if tracked files differed from
+    /// it), the commit's date and the features built in.
+    Version,
+    /// Print the shell's completion script (e.g. `host-sim completions bash >
+    /// ~/.local/share/bash-completion/completions/host-sim`).
+    Completions(host_sim::cli::CompletionsArgs),
 }
 
 fn main() -> ExitCode {
@@ -232,6 +241,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             None => host_sim::runs::paper::cli(json, !no_camera, out.as_deref()),
             Some(elf) => paper_board(json, !no_camera, out.as_deref(), elf),
         },
+        Command::Version => {
+            print!("{}", host_sim::cli::version_report("host-sim"));
+            Ok(())
+        }
+        Command::Completions(args) => {
+            host_sim::cli::completions(
+                &mut <Cli as clap::CommandFactory>::command(),
+                "host-sim",
+                args.shell,
+                &mut std::io::stdout().lock(),
+            )?;
+            Ok(())
+        }
     }
 }
 

@@ -9,6 +9,7 @@
 //!   `stop` unless `--leave-running`.
 //! - `thermorph-desk plot FILE.csv --out FILE.png`: plot a recording or host-sim's CSV.
 //! - `thermorph-desk ports`: serial ports with their USB identities (ST-LINK marked).
+//! - `thermorph-desk completions bash|zsh|fish|elvish|powershell`: the shell's completion script.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -21,7 +22,7 @@ use host_sim::console::desk::{connect, link::DEFAULT_BAUD, ports, record, script
 #[derive(Parser)]
 #[command(
     name = "thermorph-desk",
-    version,
+    version = host_sim::cli::VERSION,
     about = "Drive, record and plot the Thermorph block over its serial console"
 )]
 struct Cli {
@@ -111,6 +112,9 @@ enum Command {
     },
     /// List serial ports with their USB identities; ST-LINK (VID 0483) ones are marked.
     Ports,
+    /// Print the shell's completion script (e.g. `thermorph-desk completions bash >
+    /// ~/.local/share/bash-completion/completions/thermorph-desk`).
+    Completions(host_sim::cli::CompletionsArgs),
 }
 
 /// Set by Ctrl-C (SIGINT, SIGTERM, SIGHUP): `record` and `run` stop, tidy up and report.
@@ -246,6 +250,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{p}");
             }
         }
+        Command::Completions(args) => host_sim::cli::completions(
+            &mut <Cli as clap::CommandFactory>::command(),
+            "thermorph-desk",
+            args.shell,
+            &mut std::io::stdout().lock(),
+        )?,
     }
     Ok(())
 }
