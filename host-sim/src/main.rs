@@ -20,6 +20,10 @@
 //! - `host-sim version`: the build — crate version, git commit (`-dirty` if tracked files
 //!   differed from it) and its date, features; `--version` prints its first line.
 //! - `host-sim completions bash|zsh|fish|elvish|powershell`: the shell's completion script.
+//!
+//! Exit status ([`host_sim::cli`]): 0 done, 1 a runtime failure, 2 a usage error (a word that
+//! is neither a command nor a scene is one), 130 interrupted by Ctrl-C (`run` stops at the end
+//! of its period and writes nothing).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -150,30 +154,43 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    host_sim::exit(run(Cli::parse()))
+    // A usage error (clap's, or a first word that is neither a command nor a scene): clap's
+    // message and usage, exit status 2.
+    let command = command(Cli::parse()).unwrap_or_else(|e| e.exit());
+    host_sim::cli::exit(run(command))
 }
 
-/// Run the command.
-fn run(cli: Cli) -> anyhow::Result<()> {
-    let command = match cli.command {
-        Some(c) => c,
+/// The command to run: the one named, or `run` with the arguments given without it; a first
+/// word that is neither a command nor a scene is a usage error listing both.
+fn command(cli: Cli) -> Result<Command, clap::Error> {
+    match cli.command {
+        Some(c) => Ok(c),
         None => {
             // `host-sim WORD`: a scene; a word that is neither gets both lists.
             if let Err(host_sim::runs::scenario::ScenarioError::Unknown { name, bundled }) =
                 host_sim::runs::scenario::source(&cli.run.scene)
             {
-                let commands: Vec<String> = <Cli as clap::CommandFactory>::command()
+                let mut cmd = <Cli as clap::CommandFactory>::command();
+                let commands: Vec<String> = cmd
                     .get_subcommands()
                     .map(|c| c.get_name().to_string())
                     .collect();
-                anyhow::bail!(
-                    "`{name}` is neither a command ({}) nor a scene (a file, or bundled: {bundled})",
-                    commands.join(", ")
-                );
+                return Err(cmd.error(
+                    clap::error::ErrorKind::InvalidSubcommand,
+                    format!(
+                        "`{name}` is neither a command ({}) nor a scene (a file, or bundled: \
+                         {bundled})",
+                        commands.join(", ")
+                    ),
+                ));
             }
-            Command::Run(cli.run)
+            Ok(Command::Run(cli.run))
         }
-    };
+    }
+}
+
+/// Run the command.
+fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Decode {
             eeprom,
@@ -193,7 +210,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Run(args) => match &args.board {
-            None => host_sim::runs::run::cli(&args),
+            // Ctrl-C stops the run at the end of its period: exit status 130.
+            None => host_sim::runs::run::cli(&args, host_sim::cli::catch_interrupt()?),
             Some(elf) => run_board(&args, elf),
         },
         Command::Sweep(args) => host_sim::runs::sweep::cli(&args),

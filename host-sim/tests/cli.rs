@@ -6,10 +6,17 @@
 //!   repositories — a plain one, a linked worktree, none at all, one that does not track the
 //!   package;
 //! - `completions SHELL` on both: a script that names the subcommands, and that bash loads and
-//!   completes with (zsh and fish check its syntax where they are installed).
+//!   completes with (zsh and fish check its syntax where they are installed);
+//! - exit statuses: 2 for a usage error (`host-sim bogus` included), 1 for a runtime failure,
+//!   130 after Ctrl-C (SIGINT) for `host-sim run` and the desk's `record`, `run` and `connect`
+//!   (on a pipe, and Ctrl-C typed on a terminal), each after its usual tidying up.
 
+use std::io::{BufRead, BufReader, Read, Write};
+use std::os::fd::OwnedFd;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Child, Command, ExitStatus, Output, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 #[path = "../build/git_version.rs"]
 mod git_version;
@@ -308,5 +315,399 @@ fn completions_name_the_subcommands_and_bash_completes_with_them() {
             assert!(all.iter().any(|w| w == c), "`{name} <Tab>`: {all:?}");
         }
     }
+    // A shell it does not know is a usage error.
+    let out = run(SIM, &["completions", "tcsh"]);
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn usage_errors_exit_2_and_runtime_failures_1() {
+    let usage: [(&str, &[&str]); 6] = [
+        (SIM, &["bogus"]),
+        (SIM, &["run", "--bogus"]),
+        (SIM, &["mtts"]),
+        (SIM, &["--speed", "2"]),
+        (DESK, &["bogus"]),
+        (DESK, &["record", "/dev/null"]),
+    ];
+    for (binary, args) in usage {
+        let out = run(binary, args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{binary} {args:?}: {err}");
+        assert!(
+            err.starts_with("error: ") && err.contains("Usage:"),
+            "{err}"
+        );
+    }
+    // `host-sim WORD`: a word neither a command nor a scene says both lists.
+    let err = text(&run(SIM, &["bogus"]).stderr);
+    assert!(
+        err.contains("`bogus` is neither a command (decode, run,") && err.contains("cycle"),
+        "{err}"
+    );
+    let dir = scratch("failures");
+    let missing = dir.join("missing.csv");
+    let png = dir.join("out.png");
+    let failures: [(&str, Vec<&str>); 3] = [
+        (SIM, vec!["run", "no-such-scene"]),
+        (
+            DESK,
+            vec![
+                "plot",
+                missing.to_str().unwrap(),
+                "--out",
+                png.to_str().unwrap(),
+            ],
+        ),
+        (
+            DESK,
+            vec![
+                "record",
+                "/nonexistent/port",
+                "--out",
+                png.to_str().unwrap(),
+            ],
+        ),
+    ];
+    for (binary, args) in failures {
+        let out = run(binary, &args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{binary} {args:?}: {err}");
+        assert!(
+            err.starts_with("error: ") && !err.contains("Usage:"),
+            "{err}"
+        );
+    }
+    // Help and version are no errors.
+    for (binary, args) in [(SIM, ["--help"]), (SIM, ["-V"]), (DESK, ["--help"])] {
+        assert_eq!(run(binary, &args).status.code(), Some(0), "{args:?}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Whether process `pid` catches SIGINT (`SigCgt` in /proc: its handler is installed).
+fn catches_sigint(pid: u32) -> bool {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("SigCgt:"))
+        .and_then(|m| u64::from_str_radix(m.trim(), 16).ok())
+        .is_some_and(|m| m & (1 << (nix::sys::signal::Signal::SIGINT as i32 - 1)) != 0)
+}
+
+/// Send SIGINT to `child` once it catches it (or after 5 s, so a process that never does is
+/// ended by it).
+fn interrupt(child: &Child) {
+    let until = Instant::now() + Duration::from_secs(5);
+    while !catches_sigint(child.id()) && Instant::now() < until {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGINT,
+    )
+    .expect("SIGINT");
+}
+
+/// Wait for `child`, killing it and failing after `limit`.
+fn wait(child: &mut Child, limit: Duration, what: &str) -> ExitStatus {
+    let until = Instant::now() + limit;
+    loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            return s;
+        }
+        if Instant::now() > until {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{what}: still running after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// What a process has written so far, read on a thread until its end.
+#[derive(Clone, Default)]
+struct Captured(Arc<Mutex<String>>);
+
+impl Captured {
+    fn start(mut r: impl Read + Send + 'static) -> (Captured, std::thread::JoinHandle<()>) {
+        let c = Captured::default();
+        let seen = c.clone();
+        let t = std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            // A pseudo-terminal's master reads EIO once no one has its slave open.
+            while let Ok(n) = r.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                seen.0.lock().unwrap().push_str(&text(&buf[..n]));
+            }
+        });
+        (c, t)
+    }
+
+    fn get(&self) -> String {
+        self.0.lock().unwrap().clone()
+    }
+
+    /// Wait (at most 15 s) until `ready` holds for what was written.
+    fn until(&self, what: &str, ready: impl Fn(&str) -> bool) {
+        let until = Instant::now() + Duration::from_secs(15);
+        while !ready(&self.get()) {
+            assert!(Instant::now() < until, "{what}: {:?}", self.get());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+#[test]
+fn ctrl_c_stops_a_run_with_130_and_writes_nothing() {
+    let dir = scratch("run-int");
+    // The default cycle, long enough to be interrupted (several seconds of wall time whole).
+    let cycle =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cycle.toml"))
+            .unwrap();
+    assert!(cycle.contains("\nduration = \"7:30\"\n"));
+    let scene = dir.join("long.toml");
+    std::fs::write(
+        &scene,
+        cycle.replace("\nduration = \"7:30\"\n", "\nduration = \"20000 s\"\n"),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let mut child = Command::new(SIM)
+        .args([
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (stdout, out_t) = Captured::start(child.stdout.take().unwrap());
+    let (stderr, err_t) = Captured::start(child.stderr.take().unwrap());
+    interrupt(&child);
+    let status = wait(&mut child, Duration::from_secs(20), "host-sim run");
+    out_t.join().unwrap();
+    err_t.join().unwrap();
+    let err = stderr.get();
+    assert_eq!(status.code(), Some(130), "{status:?}: {err}");
+    assert!(
+        err.contains("error: interrupted (Ctrl-C) at ")
+            && err.contains(&format!(
+                "of the scene's 20000 s; nothing written to {}",
+                out.display()
+            )),
+        "{err}"
+    );
+    assert!(stdout.get().is_empty());
+    assert!(!out.join("timeseries.csv").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `host-sim console --pty`: the block behind a pseudo-terminal, as the desk finds the board.
+struct Board {
+    child: Child,
+    path: String,
+}
+
+impl Board {
+    fn start(dir: &Path) -> Board {
+        let mut child = Command::new(SIM)
+            .args(["console", "--pty", "--speed", "5", "--settings"])
+            .arg(dir.join("settings.bin"))
+            .arg("open-loop")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("host-sim console");
+        let mut first = String::new();
+        BufReader::new(child.stdout.as_mut().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        let path = first.trim().to_string();
+        assert!(path.starts_with("/dev/pts/"), "{first:?}");
+        Board { child, path }
+    }
+}
+
+impl Drop for Board {
+    fn drop(&mut self) {
+        let _ = nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(self.child.id() as i32),
+            nix::sys::signal::Signal::SIGINT,
+        );
+        let until = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < until {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The desk with `args`, its standard input a pipe kept open (saying nothing), interrupted
+/// (SIGINT) once `ready` holds for its standard output: its status, stdout and stderr.
+fn desk_interrupted(args: &[&str], ready: impl Fn(&str) -> bool) -> (ExitStatus, String, String) {
+    let mut child = Command::new(DESK)
+        .args(args)
+        .env("HOME", std::env::temp_dir())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("thermorph-desk");
+    let stdin = child.stdin.take();
+    let (stdout, out_t) = Captured::start(child.stdout.take().unwrap());
+    let (stderr, err_t) = Captured::start(child.stderr.take().unwrap());
+    stdout.until(
+        &format!("{args:?} not ready; stderr {:?}", stderr.get()),
+        ready,
+    );
+    interrupt(&child);
+    let status = wait(&mut child, Duration::from_secs(20), &format!("{args:?}"));
+    drop(stdin);
+    out_t.join().unwrap();
+    err_t.join().unwrap();
+    (status, stdout.get(), stderr.get())
+}
+
+#[test]
+fn ctrl_c_ends_the_desks_record_with_130_after_stream_off() {
+    let dir = scratch("desk-record-int");
+    let board = Board::start(&dir);
+    let csv = dir.join("rec.csv");
+    let (status, _, err) = desk_interrupted(
+        &[
+            "record",
+            &board.path,
+            "--out",
+            csv.to_str().unwrap(),
+            "--hz",
+            "10",
+        ],
+        // A few rows in: the CSV is created once the board has answered.
+        |_| std::fs::read_to_string(&csv).is_ok_and(|t| t.lines().count() > 3),
+    );
+    assert_eq!(status.code(), Some(130), "record: {status:?}: {err}");
+    assert!(
+        err.contains("; stopped by Ctrl-C, `stream off` sent"),
+        "record: {err}"
+    );
+    assert!(std::fs::read_to_string(&csv).unwrap().lines().count() > 1);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn ctrl_c_ends_the_desks_run_with_130_after_stop() {
+    let dir = scratch("desk-run-int");
+    let board = Board::start(&dir);
+    let script = dir.join("long.txt");
+    std::fs::write(&script, "mode standby\nsleep 60\n").unwrap();
+    let (status, out, err) =
+        desk_interrupted(&["run", &board.path, script.to_str().unwrap()], |out| {
+            out.contains("line 1: mode standby -> ok")
+        });
+    assert_eq!(status.code(), Some(130), "run: {status:?}: {out}{err}");
+    assert!(
+        out.contains("the run failed: sent `stop` -> ok stopped"),
+        "run: {out}"
+    );
+    assert!(
+        err.contains(&format!(
+            "error: {}:2: interrupted (Ctrl-C)",
+            script.display()
+        )),
+        "run: {err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn sigint_ends_the_desks_connect_on_a_pipe_with_130() {
+    let dir = scratch("desk-connect-int");
+    let board = Board::start(&dir);
+    // `connect` with its input a pipe that says nothing: SIGINT ends it as `.quit` would.
+    let history = dir.join("history");
+    let (status, out, err) = desk_interrupted(
+        &[
+            "connect",
+            &board.path,
+            "--status-every",
+            "0",
+            "--history",
+            history.to_str().unwrap(),
+        ],
+        |out| out.contains("connected to"),
+    );
+    assert_eq!(status.code(), Some(130), "connect: {status:?}: {out}{err}");
+    assert!(
+        out.contains(&format!("left {}; the block was left as it is", board.path)),
+        "connect: {out}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn ctrl_c_typed_at_the_desks_prompt_leaves_with_130() {
+    let dir = scratch("desk-tty");
+    let board = Board::start(&dir);
+    // The desk on a terminal of its own: a pseudo-terminal's slave as its stdin, stdout and
+    // stderr; the test types on the master.
+    let pty = nix::pty::openpty(None, None).expect("openpty");
+    nix::fcntl::fcntl(
+        &pty.master,
+        nix::fcntl::FcntlArg::F_SETFD(nix::fcntl::FdFlag::FD_CLOEXEC),
+    )
+    .unwrap();
+    let slave: OwnedFd = pty.slave;
+    // Neither end may leak into the processes other tests start meanwhile: the master would
+    // never read the end of the slave's last holder.
+    nix::fcntl::fcntl(
+        &slave,
+        nix::fcntl::FcntlArg::F_SETFD(nix::fcntl::FdFlag::FD_CLOEXEC),
+    )
+    .unwrap();
+    let io = || Stdio::from(slave.try_clone().unwrap());
+    let history = dir.join("history");
+    let mut child = Command::new(DESK)
+        .args([
+            "connect",
+            &board.path,
+            "--status-every",
+            "0",
+            "--history",
+            history.to_str().unwrap(),
+        ])
+        .env("HOME", std::env::temp_dir())
+        .env("TERM", "xterm")
+        .stdin(io())
+        .stdout(io())
+        .stderr(io())
+        .spawn()
+        .expect("thermorph-desk connect");
+    drop(slave);
+    let mut master = std::fs::File::from(pty.master);
+    let (seen, reader) = Captured::start(master.try_clone().unwrap());
+    // The prompt: the line editor has the terminal in raw mode, where Ctrl-C is a key.
+    seen.until("no prompt", |s| s.contains("desk> "));
+    master.write_all(b"\x03").unwrap();
+    let status = wait(&mut child, Duration::from_secs(20), "connect on a terminal");
+    drop(master);
+    reader.join().unwrap();
+    let seen = seen.get();
+    assert_eq!(status.code(), Some(130), "{status:?}: {seen}");
+    assert!(
+        seen.contains(&format!("left {}; the block was left as it is", board.path)),
+        "{seen}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
