@@ -14,6 +14,8 @@
 //!   desk that drives it (or the board).
 //! - [`f446`]: the emulated STM32F446's peripherals, register-level models the board's own ELF
 //!   runs against (the CPU core, unicorn, only with `--features pil`).
+//! - [`cli`]: what the two binaries share: the build's identity (`--version`), shell
+//!   completions, Ctrl-C and the exit status (0 done, 1 failure, 2 usage error, 130 Ctrl-C).
 //!
 //! Errors are typed, one `thiserror` enum per layer, each in the module that owns it:
 //! [`runs::scenario::ScenarioError`], [`plant::PlantError`], [`sensor::eeprom::EepromError`]
@@ -24,8 +26,9 @@
 //! causes' text included; a wrapper adds no text of its own (`#[error(transparent)]`). Only the
 //! command entries (`cli`, the `run` of `sensor`, `plant-wp` and `mtts-wp`, `mtts_cli::run` and
 //! `scene`) and the binaries' `main`s use `anyhow`, adding a file name or step as context; the
-//! binaries print `error: {:#}`.
+//! binaries print `error: {:#}` ([`cli::exit`]).
 
+pub mod cli;
 pub mod console;
 pub mod f446;
 pub mod imaging;
@@ -33,17 +36,3 @@ pub mod plant;
 pub mod rig;
 pub mod runs;
 pub mod sensor;
-
-/// The exit of a command-line binary (`host-sim`, `thermorph-desk`): success, or the error
-/// on standard error as `error: …` and a failure status. `{:#}` prints the error and its
-/// context, `a: b` (the typed errors carry their causes' text themselves, so nothing shows
-/// twice).
-pub fn exit(result: anyhow::Result<()>) -> std::process::ExitCode {
-    match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            std::process::ExitCode::FAILURE
-        }
-    }
-}

@@ -17,6 +17,13 @@
 //! - `host-sim mtts-wp [--m4 FILE] [--out FILE] [--seeds N]`: the MTTS work-precision table.
 //! - `host-sim paper [--json] [--no-camera] [--out DIR] [--board ELF]`: the thesis's figures
 //!   (with `--board`, from runs of the board's own ELF on the emulated STM32F446).
+//! - `host-sim version`: the build — crate version, git commit (`-dirty` if tracked files
+//!   differed from it) and its date, features; `--version` prints its first line.
+//! - `host-sim completions bash|zsh|fish|elvish|powershell`: the shell's completion script.
+//!
+//! Exit status ([`host_sim::cli`]): 0 done, 1 a runtime failure, 2 a usage error (a word that
+//! is neither a command nor a scene is one), 130 interrupted by Ctrl-C (`run` stops at the end
+//! of its period and writes nothing).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,7 +34,7 @@ use thermorph::mlx90640::DecodeParams;
 #[derive(Parser)]
 #[command(
     name = "host-sim",
-    version,
+    version = host_sim::cli::VERSION,
     about = "Thermorph simulator",
     long_about = "Thermorph simulator. Without a command, `host-sim [SCENE] [--out DIR] \
 [--quiet]` is `host-sim run …`: the scene (default: cycle) played against the simulated block.",
@@ -138,33 +145,52 @@ enum Command {
         #[arg(long, value_name = "ELF")]
         board: Option<PathBuf>,
     },
+    /// Print the build: crate version, git commit (`-dirty` if tracked files differed from
+    /// it), the commit's date and the features built in.
+    Version,
+    /// Print the shell's completion script (e.g. `host-sim completions bash >
+    /// ~/.local/share/bash-completion/completions/host-sim`).
+    Completions(host_sim::cli::CompletionsArgs),
 }
 
 fn main() -> ExitCode {
-    host_sim::exit(run(Cli::parse()))
+    // A usage error (clap's, or a first word that is neither a command nor a scene): clap's
+    // message and usage, exit status 2.
+    let command = command(Cli::parse()).unwrap_or_else(|e| e.exit());
+    host_sim::cli::exit(run(command))
 }
 
-/// Run the command.
-fn run(cli: Cli) -> anyhow::Result<()> {
-    let command = match cli.command {
-        Some(c) => c,
+/// The command to run: the one named, or `run` with the arguments given without it; a first
+/// word that is neither a command nor a scene is a usage error listing both.
+fn command(cli: Cli) -> Result<Command, clap::Error> {
+    match cli.command {
+        Some(c) => Ok(c),
         None => {
             // `host-sim WORD`: a scene; a word that is neither gets both lists.
             if let Err(host_sim::runs::scenario::ScenarioError::Unknown { name, bundled }) =
                 host_sim::runs::scenario::source(&cli.run.scene)
             {
-                let commands: Vec<String> = <Cli as clap::CommandFactory>::command()
+                let mut cmd = <Cli as clap::CommandFactory>::command();
+                let commands: Vec<String> = cmd
                     .get_subcommands()
                     .map(|c| c.get_name().to_string())
                     .collect();
-                anyhow::bail!(
-                    "`{name}` is neither a command ({}) nor a scene (a file, or bundled: {bundled})",
-                    commands.join(", ")
-                );
+                return Err(cmd.error(
+                    clap::error::ErrorKind::InvalidSubcommand,
+                    format!(
+                        "`{name}` is neither a command ({}) nor a scene (a file, or bundled: \
+                         {bundled})",
+                        commands.join(", ")
+                    ),
+                ));
             }
-            Command::Run(cli.run)
+            Ok(Command::Run(cli.run))
         }
-    };
+    }
+}
+
+/// Run the command.
+fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Decode {
             eeprom,
@@ -184,7 +210,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Run(args) => match &args.board {
-            None => host_sim::runs::run::cli(&args),
+            // Ctrl-C stops the run at the end of its period: exit status 130.
+            None => host_sim::runs::run::cli(&args, host_sim::cli::catch_interrupt()?),
             Some(elf) => run_board(&args, elf),
         },
         Command::Sweep(args) => host_sim::runs::sweep::cli(&args),
@@ -232,6 +259,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             None => host_sim::runs::paper::cli(json, !no_camera, out.as_deref()),
             Some(elf) => paper_board(json, !no_camera, out.as_deref(), elf),
         },
+        Command::Version => {
+            print!("{}", host_sim::cli::version_report("host-sim"));
+            Ok(())
+        }
+        Command::Completions(args) => {
+            host_sim::cli::completions(
+                &mut <Cli as clap::CommandFactory>::command(),
+                "host-sim",
+                args.shell,
+                &mut std::io::stdout().lock(),
+            )?;
+            Ok(())
+        }
     }
 }
 

@@ -683,7 +683,8 @@ fn ctrl_c_on_a_recorded_run_stops_the_block_and_the_stream() {
     std::thread::sleep(Duration::from_millis(300));
     run.interrupt();
     let r = run.finish(Duration::from_secs(15));
-    assert!(!r.ok, "{}", r.stdout);
+    // Interrupted: 130, after the same tidying up.
+    assert_eq!(r.code, Some(130), "{}\n{}", r.stdout, r.stderr);
     assert!(
         r.stderr
             .contains(&format!("{}:2: interrupted (Ctrl-C)", script.display())),
@@ -716,7 +717,8 @@ fn ctrl_c_on_a_recorded_run_stops_the_block_and_the_stream() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Ctrl-C on `record`, its documented way to stop: `stream off` and the rows counted.
+/// Ctrl-C on `record`, its documented way to stop: `stream off` and the rows counted, exit
+/// status 130.
 #[test]
 fn ctrl_c_on_record_turns_the_stream_off_and_counts_the_rows() {
     let dir = scratch("rec-int");
@@ -736,7 +738,7 @@ fn ctrl_c_on_record_turns_the_stream_off_and_counts_the_rows() {
     board.until(Duration::from_secs(10), "telemetry", |v| v.telemetry > 8);
     rec.interrupt();
     let r = rec.finish(Duration::from_secs(10));
-    assert!(r.ok, "{}", r.stderr);
+    assert_eq!(r.code, Some(130), "{}", r.stderr);
     let rows = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
     assert!(rows > 5, "{rows}");
     assert!(

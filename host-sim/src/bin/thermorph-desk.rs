@@ -5,14 +5,19 @@
 //! - `thermorph-desk record PORT --out FILE.csv [--duration S] [--hz HZ] [--force]`: telemetry to
 //!   CSV until the duration or Ctrl-C; `stream off` and the row count however it ends.
 //! - `thermorph-desk run PORT SCRIPT [--record FILE.csv] [--leave-running]`: an experiment
-//!   script (recording its telemetry); exits 1 at the first failure or on Ctrl-C, after sending
-//!   `stop` unless `--leave-running`.
+//!   script (recording its telemetry); exits 1 at the first failure, 130 on Ctrl-C, after
+//!   sending `stop` unless `--leave-running`.
 //! - `thermorph-desk plot FILE.csv --out FILE.png`: plot a recording or host-sim's CSV.
 //! - `thermorph-desk ports`: serial ports with their USB identities (ST-LINK marked).
+//! - `thermorph-desk completions bash|zsh|fish|elvish|powershell`: the shell's completion script.
+//!
+//! Exit status ([`host_sim::cli`]): 0 done, 1 a runtime failure (a failed script included), 2 a
+//! usage error, 130 interrupted by Ctrl-C — `connect`, `record` and `run` after tidying up as
+//! they always do (`record` and `run` send `stream off`, `run` sends `stop` unless
+//! `--leave-running`, `connect` waits for the replies still due and saves its history).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use clap::{Parser, Subcommand};
@@ -21,7 +26,7 @@ use host_sim::console::desk::{connect, link::DEFAULT_BAUD, ports, record, script
 #[derive(Parser)]
 #[command(
     name = "thermorph-desk",
-    version,
+    version = host_sim::cli::VERSION,
     about = "Drive, record and plot the Thermorph block over its serial console"
 )]
 struct Cli {
@@ -32,6 +37,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Interactive console: line editing, history, Tab completion; telemetry as a status line.
+    /// `.quit` or Ctrl-D leave (exit status 0), Ctrl-C too (130); nothing is sent on leaving.
     Connect {
         /// Serial port (e.g. /dev/ttyACM0, or the path `host-sim console --pty` prints).
         port: String,
@@ -49,7 +55,8 @@ enum Command {
         reply_timeout: Duration,
     },
     /// Turn the telemetry stream on and write every line as CSV (reconnects, marks gaps) until
-    /// the duration or Ctrl-C; `stream off` and the row count however it ends.
+    /// the duration (exit status 0) or Ctrl-C (130); `stream off` and the row count however it
+    /// ends.
     Record {
         /// Serial port.
         port: String,
@@ -76,7 +83,7 @@ enum Command {
         silence: Duration,
     },
     /// Run an experiment script (see `host_sim::console::desk::script`), every line checked
-    /// first; exit 1 at the first failure or on Ctrl-C, after sending `stop`.
+    /// first; exit 1 at the first failure, 130 on Ctrl-C, after sending `stop`.
     Run {
         /// Serial port (it comes first).
         port: String,
@@ -111,24 +118,14 @@ enum Command {
     },
     /// List serial ports with their USB identities; ST-LINK (VID 0483) ones are marked.
     Ports,
+    /// Print the shell's completion script (e.g. `thermorph-desk completions bash >
+    /// ~/.local/share/bash-completion/completions/thermorph-desk`).
+    Completions(host_sim::cli::CompletionsArgs),
 }
-
-/// Set by Ctrl-C (SIGINT, SIGTERM, SIGHUP): `record` and `run` stop, tidy up and report.
-static INTERRUPT: AtomicBool = AtomicBool::new(false);
 
 fn main() -> ExitCode {
-    host_sim::exit(run(Cli::parse()))
-}
-
-/// Make Ctrl-C set [`INTERRUPT`]; a second Ctrl-C ends the process at once, without tidying.
-fn catch_interrupt() -> anyhow::Result<()> {
-    ctrlc::set_handler(|| {
-        if INTERRUPT.swap(true, Ordering::SeqCst) {
-            eprintln!("interrupted again: leaving without tidying up");
-            std::process::exit(130);
-        }
-    })?;
-    Ok(())
+    // Usage errors: clap's message and usage, exit status 2 (`Cli::parse`).
+    host_sim::cli::exit(run(Cli::parse()))
 }
 
 /// Run the command.
@@ -151,6 +148,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }),
                 reply_timeout,
             },
+            // Ctrl-C at the prompt, or SIGINT between prompts: leave as `.quit` does, with 130.
+            host_sim::cli::catch_interrupt()?,
         )?,
         Command::Record {
             port,
@@ -162,7 +161,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             reconnect,
             silence,
         } => {
-            catch_interrupt()?;
+            let interrupt = host_sim::cli::catch_interrupt()?;
             let o = record::RecordOptions {
                 baud,
                 hz,
@@ -183,7 +182,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             bar.enable_steady_tick(Duration::from_millis(250));
             let started = std::time::Instant::now();
-            let result = record::record(&port, &out, &o, &INTERRUPT, &mut |t, s| {
+            let result = record::record(&port, &out, &o, interrupt, &mut |t, s| {
                 bar.set_position(started.elapsed().as_secs());
                 bar.set_message(format!("{} rows  {}", s.rows, t.summary()));
             });
@@ -211,7 +210,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             force,
             leave_running,
         } => {
-            catch_interrupt()?;
+            let interrupt = host_sim::cli::catch_interrupt()?;
             script::run_file(
                 &port,
                 &script,
@@ -222,7 +221,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     force,
                     leave_running,
                 },
-                &INTERRUPT,
+                interrupt,
                 &mut |l| println!("{l}"),
             )?;
             println!("script passed");
@@ -246,6 +245,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{p}");
             }
         }
+        Command::Completions(args) => host_sim::cli::completions(
+            &mut <Cli as clap::CommandFactory>::command(),
+            "thermorph-desk",
+            args.shell,
+            &mut std::io::stdout().lock(),
+        )?,
     }
     Ok(())
 }

@@ -19,6 +19,7 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -202,11 +203,29 @@ pub enum RunError {
     /// The summary could not be written as JSON.
     #[error("{0}")]
     Json(serde_json::Error),
+    /// The run was stopped (Ctrl-C) before the scene's end.
+    #[error("interrupted (Ctrl-C) at {at_s:.1} s of the scene's {duration_s} s")]
+    Interrupted {
+        /// Simulated time when it stopped, s.
+        at_s: f64,
+        /// The scene's duration, s.
+        duration_s: f64,
+    },
 }
 
 /// Play `scenario`; `progress` is called after each period with the fraction done.
 pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<RunResult, RunError> {
     run_with(scenario, progress, &mut |_, _| None)
+}
+
+/// [`run`], stopped with [`RunError::Interrupted`] at the end of the first period after `stop`
+/// is set (Ctrl-C: [`crate::cli::catch_interrupt`]).
+pub fn run_until(
+    scenario: &Scenario,
+    progress: &mut dyn FnMut(f64),
+    stop: &AtomicBool,
+) -> Result<RunResult, RunError> {
+    run_stoppable(scenario, progress, &mut |_, _| None, Some(stop))
 }
 
 /// Decides console lines from the supervisor's state (for experiments that enter modes back to
@@ -228,6 +247,16 @@ pub fn run_with(
     scenario: &Scenario,
     progress: &mut dyn FnMut(f64),
     react: &mut Reactor<'_>,
+) -> Result<RunResult, RunError> {
+    run_stoppable(scenario, progress, react, None)
+}
+
+/// [`run_with`], checking `stop` (if any) after each period.
+fn run_stoppable(
+    scenario: &Scenario,
+    progress: &mut dyn FnMut(f64),
+    react: &mut Reactor<'_>,
+    stop: Option<&AtomicBool>,
 ) -> Result<RunResult, RunError> {
     let closed_loop = !scenario.commands.is_empty();
     let mut board = SimBoard::new(
@@ -338,6 +367,12 @@ pub fn run_with(
             control,
         });
         progress((k + 1) as f64 / steps as f64);
+        if stop.is_some_and(|s| s.load(Ordering::SeqCst)) && k + 1 < steps {
+            return Err(RunError::Interrupted {
+                at_s: board.time_s(),
+                duration_s: scenario.duration_s,
+            });
+        }
     }
     keep_warnings(&mut said, board.time_s(), &mut warnings);
     let wall_s = started.elapsed().as_secs_f64();
@@ -848,18 +883,24 @@ impl Progress {
 }
 
 /// `host-sim run`: load the scene, run it with a progress bar, write the outputs, print the
-/// summary. (`--board ELF` is `runs::elf_run::cli`'s, in a host-sim built with `--features
-/// pil`; without it the binary refuses the option.)
-pub fn cli(args: &RunArgs) -> anyhow::Result<()> {
+/// summary. Once `stop` is set (Ctrl-C) the run ends at the end of its period, writing nothing,
+/// with [`RunError::Interrupted`]. (`--board ELF` is `runs::elf_run::cli`'s, in a host-sim
+/// built with `--features pil`; without it the binary refuses the option.)
+pub fn cli(args: &RunArgs, stop: &AtomicBool) -> anyhow::Result<()> {
     let scenario = crate::runs::scenario::load(&args.scene)?;
     let dir = args
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&scenario.name));
     let mut bar = Progress::new(!args.quiet);
-    let result = run(&scenario, &mut |f| bar.update(f));
+    let result = run_until(&scenario, &mut |f| bar.update(f), stop);
     bar.finish();
-    let result = result?;
+    let result = match result {
+        Err(e @ RunError::Interrupted { .. }) => {
+            anyhow::bail!("{e}; nothing written to {}", dir.display())
+        }
+        r => r?,
+    };
     finish(&result, &dir, args.quiet)
 }
 

@@ -13,6 +13,8 @@ pub const DESK: &str = env!("CARGO_BIN_EXE_thermorph-desk");
 /// How a desk run ended.
 pub struct Outcome {
     pub ok: bool,
+    /// The exit status (`None`: ended by a signal).
+    pub code: Option<i32>,
     pub stdout: String,
     pub stderr: String,
     pub took: Duration,
@@ -95,6 +97,7 @@ impl Running {
         self.feeder.join().unwrap();
         Outcome {
             ok: status.success(),
+            code: status.code(),
             stdout: self.out_t.join().unwrap(),
             stderr: self.err_t.join().unwrap(),
             took: self.started.elapsed(),

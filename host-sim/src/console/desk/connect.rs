@@ -11,10 +11,16 @@
 //! not know is refused here, never sent to the board.
 //!
 //! Leaving (`.quit`, Ctrl-D or Ctrl-C) sends nothing: the block stays in whatever mode it is in.
-//! Only a typed `stop` turns its outputs off.
+//! Only a typed `stop` turns its outputs off. Ctrl-C — typed at the prompt, or SIGINT between
+//! prompts — leaves as `.quit` does and sets the caller's `interrupt` flag (the desk's exit
+//! status 130). Lines typed on a terminal go through the line editor; from a pipe or a file
+//! they are read by a thread of their own, so that Ctrl-C and a lost port end the session
+//! while no line comes.
 
 use std::collections::VecDeque;
+use std::io::{BufRead, IsTerminal};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -152,8 +158,24 @@ fn no_reply(line: &str, path: &str, timeout: Duration) -> String {
     )
 }
 
-/// Run the interactive console on `path` until the user leaves or the port is lost.
-pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
+/// Standard input's lines, read by a thread of their own (standard input not a terminal): the
+/// channel closes at its end.
+fn piped_lines() -> Receiver<String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
+/// Run the interactive console on `path` until the user leaves, the port is lost or
+/// `interrupt` is set (Ctrl-C typed at the prompt sets it too).
+pub fn connect(path: &str, o: &ConnectOptions, interrupt: &AtomicBool) -> Result<(), DeskError> {
     let mut link = Link::open(path, o.baud)?;
     let mut reader = link.try_clone()?;
     // Bash-like completion: Tab completes the common part, a second Tab lists the choices.
@@ -268,13 +290,25 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
             }
         })
     };
+    let piped = (!std::io::stdin().is_terminal()).then(piped_lines);
     let mut result = Ok(());
     loop {
         if lost.load(Ordering::SeqCst) {
             result = Err(DeskError::PortLost(path.to_string()));
             break;
         }
-        match rl.readline("desk> ") {
+        if interrupt.load(Ordering::SeqCst) {
+            break;
+        }
+        let typed = match &piped {
+            None => rl.readline("desk> "),
+            Some(lines) => match lines.recv_timeout(Duration::from_millis(100)) {
+                Ok(l) => Ok(l),
+                Err(RecvTimeoutError::Timeout) => continue,
+                Err(RecvTimeoutError::Disconnected) => Err(ReadlineError::Eof),
+            },
+        };
+        match typed {
             Ok(line) => {
                 let line = line.trim();
                 if line.is_empty() {
@@ -308,7 +342,11 @@ pub fn connect(path: &str, o: &ConnectOptions) -> Result<(), DeskError> {
                     }
                 }
             }
-            Err(ReadlineError::Interrupted | ReadlineError::Eof) => break,
+            Err(ReadlineError::Interrupted) => {
+                interrupt.store(true, Ordering::SeqCst);
+                break;
+            }
+            Err(ReadlineError::Eof) => break,
             Err(e) => {
                 result = Err(DeskError::LineEditor(e));
                 break;
