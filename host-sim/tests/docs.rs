@@ -720,3 +720,80 @@ fn paper_figures_in_the_docs_are_todays() {
         wrong.join("\n")
     );
 }
+
+/// The README's headline envelope (issue 44: it had drifted from a rerun of the command
+/// printed beside it): the default cycle from 263 to 323 K ambient, its two-spring loading's
+/// range, how near straight it comes back, no fault, the hottest spring — each the sweep's
+/// figure rounded as written.
+#[test]
+fn the_readme_envelope_is_what_its_sweep_gives() {
+    const COMMAND: &str = "host-sim sweep cycle --set ambient=263K,273K,283K,298K,308K,318K,323K --set\nduration=900s";
+    let readme = read(&root().join("README.md"));
+    assert!(
+        readme.contains(&format!("(`{COMMAND}`)")),
+        "the README names another sweep"
+    );
+    let dir =
+        std::env::temp_dir().join(format!("thermorph-readme-envelope-{}", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args([
+            "sweep",
+            "cycle",
+            "--set",
+            "ambient=263K,273K,283K,298K,308K,318K,323K",
+        ])
+        .args(["--set", "duration=900s", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let csv = read(&dir.join("sweep.csv"));
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|c| c.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 7);
+    let all = |name: &str| rows.iter().map(|r| r[col(name)]).collect::<Vec<f64>>();
+    let max = |v: Vec<f64>| v.into_iter().fold(f64::MIN, f64::max);
+    let min = |v: Vec<f64>| v.into_iter().fold(f64::MAX, f64::min);
+    let mut wrong = Vec::new();
+    let load = all("full_loading_two_springs_deg");
+    check_after(
+        &mut wrong,
+        "README",
+        &readme,
+        "the default cycle loads ",
+        min(load.clone()),
+    );
+    check_after(
+        &mut wrong,
+        "README",
+        &readme,
+        &format!("loads {:.1}–", min(load.clone())),
+        max(load),
+    );
+    check_after(
+        &mut wrong,
+        "README",
+        &readme,
+        "comes back within ",
+        max(all("final_bend_deg")),
+    );
+    check_after(
+        &mut wrong,
+        "README",
+        &readme,
+        "the hottest spring ",
+        max(all("spring_peak_k")),
+    );
+    assert_eq!(max(all("faults")), 0.0, "a fault in the envelope");
+    assert!(readme.contains("of straight, no fault,"));
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(wrong.is_empty(), "{wrong:#?}");
+}
