@@ -291,7 +291,14 @@ fn connect_run_a_full_cycle_record_and_plot() {
     assert!(c.stdout.contains("< ok thermorph "), "{}", c.stdout);
     assert!(c.stdout.contains("< ok hot_k=358"), "{}", c.stdout);
     assert!(c.stdout.contains("< err bad-arguments"), "{}", c.stdout);
-    assert!(c.stdout.contains("left as it is"), "{}", c.stdout);
+    // Leaving says what the block is doing, as `run` does (issue 44).
+    assert!(
+        c.stdout.contains("left as it is, mode standby (phase ")
+            && c.stdout.contains("%, springs ")
+            && c.stdout.contains(", fault none (only `stop` turns it off)"),
+        "{}",
+        c.stdout
+    );
     // `.foo` is refused by the desk, with the desk's own commands; the board never sees it.
     assert!(
         c.stdout
@@ -302,8 +309,8 @@ fn connect_run_a_full_cycle_record_and_plot() {
     let seen = board.view().lines;
     assert_eq!(
         seen,
-        ["version", "get hot_k", "mode fly"],
-        "the board got {seen:?}"
+        ["version", "get hot_k", "mode fly", "status"],
+        "the board got {seen:?} (the last, the desk's own as it leaves)"
     );
     assert!(!c.stdout.contains("no reply"), "{}", c.stdout);
 

@@ -736,12 +736,19 @@ fn bending_panel(
     k_b: Option<&[f64]>,
     x_desc: Option<&str>,
 ) -> Result<PanelPx, PlotError> {
+    // A table without stiffness (a desk recording: the board does not measure it) gets no
+    // right axis: an empty 0–1 scale there reads as a stiffness of nothing.
+    let k_b = k_b.filter(|k| k.iter().any(|v| v.is_finite()));
     let (y, y2) = twin_ranges(bend, k_b);
     let blue = RGBColor(30, 90, 200);
     let green = RGBColor(20, 140, 60);
     let mut chart = panel_chart(
         area,
-        "Bending performance and stiffness",
+        if k_b.is_some() {
+            "Bending performance and stiffness"
+        } else {
+            "Bending performance"
+        },
         x.clone(),
         y.clone(),
         true,
@@ -758,13 +765,15 @@ fn bending_panel(
         mesh.x_desc(d);
     }
     mesh.draw().map_err(err)?;
-    chart
-        .configure_secondary_axes()
-        .y_desc("k_b, N·mm/rad")
-        .label_style((FONT, 13))
-        .axis_desc_style((FONT, 14).into_font().color(&green))
-        .draw()
-        .map_err(err)?;
+    if k_b.is_some() {
+        chart
+            .configure_secondary_axes()
+            .y_desc("k_b, N·mm/rad")
+            .label_style((FONT, 13))
+            .axis_desc_style((FONT, 14).into_font().color(&green))
+            .draw()
+            .map_err(err)?;
+    }
     let mut keys = Vec::new();
     let line = |label: &str, colour| Key {
         label: label.to_string(),
@@ -1473,6 +1482,31 @@ mod tests {
         let green = RGBColor(20, 140, 60);
         let x = b.plot_x_px.start + 5;
         assert!((b.plot_y_px.clone()).any(|y| is(px[y as usize][x as usize], green)));
+    }
+
+    #[test]
+    fn a_recording_without_stiffness_draws_no_stiffness_axis() {
+        // A desk recording: the bend, no k_b (the column there, empty).
+        let table = |k_b: &dyn Fn(f64) -> String| {
+            let mut csv = String::from("time_s,t1_k,t2_k,bend_deg,k_b_nmm_per_rad\n");
+            for i in 0..=100 {
+                let f = f64::from(i) / 100.0;
+                csv += &format!("{},{},290,{},{}\n", f * 100.0, 300.0 + 50.0 * f, 60.0 * f, k_b(f));
+            }
+            csv
+        };
+        // Dark pixels (axis labels) in the right axis's margin of the bending panel.
+        let right_axis_ink = |csv: &str, name: &str| {
+            let (info, px) = rendered(csv, name);
+            let b = info.panel_px[1].clone();
+            b.plot_y_px
+                .clone()
+                .flat_map(|y| (b.plot_x_px.end + 3..b.plot_x_px.end + RIGHT_PX as i32 - 3).map(move |x| (x, y)))
+                .filter(|&(x, y)| px[y as usize][x as usize][0] < 80)
+                .count()
+        };
+        assert!(right_axis_ink(&table(&|f| format!("{}", 1500.0 - 1190.0 * f)), "with-kb") > 50);
+        assert_eq!(right_axis_ink(&table(&|_| "-".to_string()), "without-kb"), 0);
     }
 
     #[test]

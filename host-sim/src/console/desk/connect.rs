@@ -377,7 +377,14 @@ pub fn connect(path: &str, o: &ConnectOptions, interrupt: &AtomicBool) -> Result
     if let Some(h) = &o.history {
         let _ = rl.save_history(h);
     }
-    println!("left {path}; the block was left as it is (only `stop` turns it off)");
+    // What the block is doing as the desk leaves it (as `run` says when it stops): asked once
+    // more, unless the port is gone.
+    let state = if lost.load(Ordering::SeqCst) {
+        "in a state unknown (the port was lost)".to_string()
+    } else {
+        super::script::state_of(&mut link, o.reply_timeout, &mut None)
+    };
+    println!("left {path}; the block was left as it is, {state} (only `stop` turns it off)");
     result
 }
 

@@ -618,25 +618,30 @@ pub fn run_file(
     result
 }
 
+/// What the block is doing, as its `status` says, for a person leaving it: `mode standby
+/// (phase -), heater 12.5 %, fan 0.0 %, springs -, fault none` (or why it is unknown).
+pub fn state_of(link: &mut Link, timeout: Duration, sink: &mut Option<CsvSink>) -> String {
+    match status(link, timeout, sink) {
+        Ok(f) => {
+            let g = |n| get(&f, n).unwrap_or("?").to_string();
+            format!(
+                "mode {} (phase {}), heater {} %, fan {} %, springs {}, fault {}",
+                g("mode"),
+                g("phase"),
+                g("heater_pct"),
+                g("fan_pct"),
+                g("springs"),
+                g("fault")
+            )
+        }
+        Err(e) => format!("in a state unknown ({e})"),
+    }
+}
+
 /// After a failed or interrupted run: send `stop` (unless [`RunOptions::leave_running`]) and
 /// say in what state the block is left.
 fn leave(link: &mut Link, o: &RunOptions, sink: &mut Option<CsvSink>, log: &mut dyn FnMut(&str)) {
-    let state =
-        |link: &mut Link, sink: &mut Option<CsvSink>| match status(link, o.reply_timeout, sink) {
-            Ok(f) => {
-                let g = |n| get(&f, n).unwrap_or("?").to_string();
-                format!(
-                    "mode {} (phase {}), heater {} %, fan {} %, springs {}, fault {}",
-                    g("mode"),
-                    g("phase"),
-                    g("heater_pct"),
-                    g("fan_pct"),
-                    g("springs"),
-                    g("fault")
-                )
-            }
-            Err(e) => format!("in a state unknown ({e})"),
-        };
+    let state = |link: &mut Link, sink: &mut Option<CsvSink>| state_of(link, o.reply_timeout, sink);
     if o.leave_running {
         let s = state(link, sink);
         log(&format!(
