@@ -142,6 +142,21 @@ fn desk_runs_records_and_plots_a_cycle_on_host_sim_console() {
         "{width}×{height}, {} bytes",
         bytes.len()
     );
+    // The walk-through's picture in docs/desk.md is today's plot of such a recording (issue 44:
+    // it had lost a panel): the same size and panels as this one.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    assert_eq!(
+        png_size(&root.join("docs/desk-cycle.png")),
+        (width, height),
+        "docs/desk-cycle.png is stale: redraw it as docs/desk.md says"
+    );
+    let panels = |s: &str| {
+        s.lines()
+            .find_map(|l| l.split(" px: ").nth(1))
+            .map(|p| p.trim_end_matches(')').to_string())
+    };
+    let page = std::fs::read_to_string(root.join("docs/desk.md")).unwrap();
+    assert_eq!(panels(&page), panels(&plot.stdout), "{}", plot.stdout);
     drop(console);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1491,7 +1491,13 @@ mod tests {
             let mut csv = String::from("time_s,t1_k,t2_k,bend_deg,k_b_nmm_per_rad\n");
             for i in 0..=100 {
                 let f = f64::from(i) / 100.0;
-                csv += &format!("{},{},290,{},{}\n", f * 100.0, 300.0 + 50.0 * f, 60.0 * f, k_b(f));
+                csv += &format!(
+                    "{},{},290,{},{}\n",
+                    f * 100.0,
+                    300.0 + 50.0 * f,
+                    60.0 * f,
+                    k_b(f)
+                );
             }
             csv
         };
@@ -1501,12 +1507,18 @@ mod tests {
             let b = info.panel_px[1].clone();
             b.plot_y_px
                 .clone()
-                .flat_map(|y| (b.plot_x_px.end + 3..b.plot_x_px.end + RIGHT_PX as i32 - 3).map(move |x| (x, y)))
+                .flat_map(|y| {
+                    (b.plot_x_px.end + 3..b.plot_x_px.end + RIGHT_PX as i32 - 3)
+                        .map(move |x| (x, y))
+                })
                 .filter(|&(x, y)| px[y as usize][x as usize][0] < 80)
                 .count()
         };
         assert!(right_axis_ink(&table(&|f| format!("{}", 1500.0 - 1190.0 * f)), "with-kb") > 50);
-        assert_eq!(right_axis_ink(&table(&|_| "-".to_string()), "without-kb"), 0);
+        assert_eq!(
+            right_axis_ink(&table(&|_| "-".to_string()), "without-kb"),
+            0
+        );
     }
 
     #[test]
