@@ -292,7 +292,7 @@ impl Mode {
                 StepPhase::Prewarm { .. } => "prewarm",
                 StepPhase::Spring { .. } => "spring",
                 StepPhase::Pulse { .. } => "pulse",
-                StepPhase::Hold => "hold",
+                StepPhase::Hold { .. } => "hold",
             },
             Mode::Recovery(r) => match r.phase {
                 RecoverPhase::Heat { .. } => "heat",

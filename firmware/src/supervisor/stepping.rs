@@ -56,8 +56,15 @@ pub enum StepPhase {
         /// Time left, ms.
         left_ms: u32,
     },
-    /// Done: holding `hot_k` with the springs off.
-    Hold,
+    /// Done: holding `hot_k` and the bend the stepping reached, each selected spring held in
+    /// its band below `spring_k`.
+    Hold {
+        /// The springs' band top, K: the hottest selected spring's estimate when the last
+        /// stepping phase ended (at most `spring_hot_k`), so the hold keeps the springs as the
+        /// stepping left them — no hotter, which would change how forming's cooling locks the
+        /// bend.
+        spring_k: f32,
+    },
 }
 
 /// A stepping mode's state.
@@ -108,7 +115,7 @@ impl Stepping {
     pub fn pause(&mut self, pause: bool) -> Result<(), PauseError> {
         let in_spring_phase = match self.phase {
             StepPhase::Prewarm { .. } | StepPhase::Spring { .. } | StepPhase::Pulse { .. } => true,
-            StepPhase::Soak { .. } | StepPhase::Rest | StepPhase::Hold => false,
+            StepPhase::Soak { .. } | StepPhase::Rest | StepPhase::Hold { .. } => false,
         };
         match (pause, self.paused) {
             (true, true) => Err(PauseError::AlreadyPaused),
@@ -197,7 +204,13 @@ impl Stepping {
                     };
                     self.phase = if *index + 1 >= steps {
                         c.event(EventKind::SteppingDone);
-                        StepPhase::Hold
+                        let reached = (0..SPRINGS)
+                            .filter(|&i| self.springs.contains(i))
+                            .map(|i| c.estimate.springs_k[i])
+                            .fold(f32::MIN, f32::max);
+                        StepPhase::Hold {
+                            spring_k: reached.min(s.spring_hot_k),
+                        }
                     } else {
                         StepPhase::Pulse {
                             index: *index + 1,
@@ -215,11 +228,11 @@ impl Stepping {
                     };
                 }
             }
-            StepPhase::Hold => {}
+            StepPhase::Hold { .. } => {}
         }
         // Hold and pause hold hot_k with nothing to run: an idle timeout ends them in standby.
         // (Rest ends by the springs' estimate: martensite, or as cool as the ambient allows.)
-        let idle = self.paused || matches!(self.phase, StepPhase::Hold);
+        let idle = self.paused || matches!(self.phase, StepPhase::Hold { .. });
         if !idle {
             self.idle_since = None;
         } else if now.seconds_since(*self.idle_since.get_or_insert(now)).s() > s.hold_timeout_s {
@@ -236,11 +249,24 @@ impl Stepping {
                     let band = c.band(self.springs, s.prewarm_k(c.estimate.ambient_k));
                     SpringMask::from_bits(band.bits() & c.safety.duty_room(&s).bits())
                 }
+                // The hold keeps the bend the stepping reached: the springs held in their band
+                // (a spring left to cool reverts and the soft wall lets the column relax: 64 →
+                // 37° over a 2.5-minute hold), any near its duty limit, or whose continuous
+                // on-time another period would take past its limit, sitting out.
+                StepPhase::Hold { spring_k } => {
+                    let band = c.band(self.springs, spring_k);
+                    let room = c.safety.duty_room(&s);
+                    let period_s = c.elapsed_ms.max(1) as f32 * 1e-3;
+                    let bits = (0..SPRINGS)
+                        .filter(|&i| band.contains(i) && room.contains(i))
+                        .filter(|&i| c.safety.spring_may_run(i, period_s, &s))
+                        .fold(0u8, |b, i| b | 1 << i);
+                    SpringMask::from_bits(bits)
+                }
                 StepPhase::Soak { .. }
                 | StepPhase::Rest
                 | StepPhase::Prewarm { on: false, .. }
-                | StepPhase::Pulse { .. }
-                | StepPhase::Hold => SpringMask::NONE,
+                | StepPhase::Pulse { .. } => SpringMask::NONE,
             }
         };
         ModeStep {

@@ -11,8 +11,9 @@ use crate::runs::series::Row;
 
 /// The figures, keyed as `host-sim paper --json` prints them: SPEC section 8's in its order,
 /// then the three the observer's readiness and spring control answer for (the soak, the
-/// recovery's stiffness at 25 s, the springs' peak).
-pub const KEYS: [&str; 16] = [
+/// recovery's stiffness at 25 s, the springs' peak), then the bend a stepping's hold loses
+/// before `mode form` (issue 44: a hold holds).
+pub const KEYS: [&str; 17] = [
     "preheat_time_s",
     "standby_overshoot_k",
     "standby_hold_band_k",
@@ -29,6 +30,7 @@ pub const KEYS: [&str; 16] = [
     "stepping_soak_s",
     "recovery_k_b_25s_ratio",
     "spring_peak_k",
+    "hold_angle_loss_deg",
 ];
 
 /// Figures the simulated block cannot reach, with why (docs/PLANT-API.md gives the evidence):
@@ -334,6 +336,22 @@ pub fn judge(cycle: &CycleFigures, one_spring: Option<&CycleFigures>) -> Vec<Fig
             "≤ 383 K",
             "the hottest any spring's wire gets over the whole run (the plant's truth)",
         ),
+        Figure {
+            // No thesis value (its forming followed stepping at once): the product's own
+            // requirement, a hold that keeps the bend the stepping reached.
+            thesis: serde_json::Value::Null,
+            ..judged(
+                "hold_angle_loss_deg",
+                "hold angle loss",
+                "deg",
+                0.0,
+                c.hold_angle_loss_deg,
+                (f64::MIN, 3.0),
+                "≤ 3°",
+                "bend at the end of stepping minus at the end of its hold (`mode form`, or \
+                 another mode)",
+            )
+        },
     ]
 }
 
@@ -394,6 +412,8 @@ pub struct CycleFigures {
     pub recovery_k_b_25s_ratio: Option<f64>,
     /// The hottest any spring's wire got over the whole run, K.
     pub spring_peak_k: Option<f64>,
+    /// Bend at the end of stepping minus at the end of the hold that follows it, degrees.
+    pub hold_angle_loss_deg: Option<f64>,
 }
 
 /// Measure SPEC section 8's figures on a cycle's rows.
@@ -446,6 +466,11 @@ pub fn measure(rows: &[Row]) -> CycleFigures {
         }
     }
     let k_b_hot = rows[s1].obs.k_b_nmm_per_rad;
+    // The hold: from stepping's end while the mode stays in its hold.
+    let held = (s1 + 1..rows.len())
+        .take_while(|&i| mode(&rows[i]) == "step-large" && phase(&rows[i]) == "hold")
+        .last();
+    f.hold_angle_loss_deg = held.map(|i| rows[s1].obs.bend_deg - rows[i].obs.bend_deg);
     let Some(fs) = first(s1, &|r| mode(r) == "form") else {
         return f;
     };

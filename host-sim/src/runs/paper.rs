@@ -222,7 +222,11 @@ pub fn print(table: &[Figure], json: bool, source: Option<&str>) -> anyhow::Resu
         println!(
             "{:<30} {:>12} {:>22} {:>14} {}",
             f.key,
-            f.thesis.to_string(),
+            if f.thesis.is_null() {
+                "—".to_string()
+            } else {
+                f.thesis.to_string()
+            },
             f.simulated.to_string(),
             f.tolerance.as_deref().unwrap_or("—"),
             f.verdict()
