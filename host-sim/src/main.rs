@@ -50,7 +50,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Decode MLX90640 dumps (SOURCES.md format) and print `pixel,row,col,value` in °C.
+    /// Decode MLX90640 dumps (text: docs/simulator.md) and print `pixel,row,col,value` in °C.
     Decode {
         /// EEPROM dump (832 words).
         #[arg(long)]
@@ -127,8 +127,9 @@ enum Command {
     /// Run posture control (`mode pose ANGLE SPRINGS form`) over targets, spring sets and
     /// ambients, camera on, and print the posture and bend-estimate tables (docs/posture.md).
     PoseTable,
-    /// Run the thesis's experiments (camera on, the firmware's supervisor) and print each
-    /// SPEC section 8 figure beside the thesis's, with its tolerance and pass/fail.
+    /// Run the thesis's experiments (camera on, the firmware's supervisor) and print the
+    /// thesis's figures (docs/product.md) beside the simulated ones, with tolerance and
+    /// pass/fail.
     Paper {
         /// Print one JSON object keyed by figure instead of the table.
         #[arg(long)]

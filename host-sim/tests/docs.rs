@@ -15,7 +15,12 @@
 //! - the thesis's figures quoted from `host-sim paper --json` (camera on: the table in
 //!   `docs/control-and-safety.md`; `--no-camera`: the table in `docs/PLANT-API.md` and the
 //!   figures quoted in `docs/simulator.md` and the autotune's paragraph) are today's, to the
-//!   decimals they are written with.
+//!   decimals they are written with;
+//! - nothing a user reads (the pages, every `--help`) sends them to the specification outside
+//!   the repository or says "(this round)", the README links `docs/product.md` and explains the
+//!   sensor-dump folder beside the checkout;
+//! - `docs/product.md`'s numbers are the code's: its `from` tables, the parameters' defaults,
+//!   the constants it cites, the regions, the commands and `host-sim paper`'s figures.
 
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -572,6 +577,16 @@ fn rounds_to(written: (f64, usize), sim: f64) -> bool {
     (written.0 - sim).abs() <= 0.5 * 10f64.powi(-(written.1 as i32)) + 1e-9
 }
 
+/// The cells (trimmed) of a table row; `\|` is a `|` inside a cell.
+fn cells(row: &str) -> Vec<String> {
+    row.replace("\\|", "\u{0}")
+        .trim()
+        .trim_matches('|')
+        .split('|')
+        .map(|c| c.trim().replace('\u{0}', "|"))
+        .collect()
+}
+
 /// The rows (cells, trimmed) of the first table after `heading` in `text`.
 fn table_after(text: &str, heading: &str) -> Vec<Vec<String>> {
     let at = text
@@ -582,13 +597,25 @@ fn table_after(text: &str, heading: &str) -> Vec<Vec<String>> {
         .skip_while(|l| !l.starts_with('|'))
         .take_while(|l| l.starts_with('|'))
         .skip(2)
-        .map(|l| {
-            l.trim_matches('|')
-                .split('|')
-                .map(|c| c.trim().to_string())
-                .collect()
-        })
+        .map(cells)
         .collect()
+}
+
+/// Every table in `text`: its header's cells and its rows' cells.
+fn tables(text: &str) -> Vec<(Vec<String>, Vec<Vec<String>>)> {
+    let mut out: Vec<(Vec<String>, Vec<Vec<String>>)> = Vec::new();
+    let mut in_table = false;
+    for line in text.lines() {
+        if !line.starts_with('|') {
+            in_table = false;
+        } else if !in_table {
+            in_table = true;
+            out.push((cells(line), Vec::new()));
+        } else if !line.starts_with("|--") && !line.starts_with("| --") {
+            out.last_mut().unwrap().1.push(cells(line));
+        }
+    }
+    out
 }
 
 /// In `text`, the number right after `before` rounds `sim`.
@@ -796,4 +823,280 @@ fn the_readme_envelope_is_what_its_sweep_gives() {
     assert!(readme.contains("of straight, no fault,"));
     let _ = std::fs::remove_dir_all(&dir);
     assert!(wrong.is_empty(), "{wrong:#?}");
+}
+
+/// The `--help` of `binary` and of each of its subcommands ([`cli`]'s): (what was run, text).
+fn help_texts(binary: &str) -> Vec<(String, String)> {
+    let help = |args: &[&str]| {
+        let out = Command::new(binary).args(args).output().unwrap();
+        assert!(out.status.success(), "{binary} {args:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let name = Path::new(binary).file_name().unwrap().to_string_lossy();
+    let mut texts = vec![(format!("{name} --help"), help(&["--help"]))];
+    for (command, _) in cli(binary) {
+        texts.push((
+            format!("{name} {command} --help"),
+            help(&[&command, "--help"]),
+        ));
+    }
+    texts
+}
+
+/// What in `text` sends a user outside the repository or speaks the workshop's language: the
+/// specification (a maintainers' file beside the checkout, not in a clone) or a section of it,
+/// and "(this round)".
+fn outside_references(text: &str) -> Vec<&'static str> {
+    let mut found: Vec<&'static str> = ["../shared/SPEC.md", "SPEC.md", "SPEC section"]
+        .into_iter()
+        .filter(|s| text.contains(s))
+        .collect();
+    if has_word(text, "SPEC") {
+        found.push("SPEC");
+    }
+    if text.to_lowercase().contains("(this round)") {
+        found.push("(this round)");
+    }
+    found
+}
+
+/// Issue 44 (a researcher's first hour): the README and `--help` sent readers to
+/// `../shared/SPEC.md`, which a clone does not have. No page a user reads (README.md,
+/// docs/*.md) and no `--help` of `host-sim`, `thermorph-desk` or any of their subcommands names
+/// the specification or a section of it, or says "(this round)"; docs/product.md describes
+/// the product and the README links it; the README still explains the sensor-dump folder
+/// beside the checkout (where, the override, what a clone without it does, where the dumps
+/// come from).
+#[test]
+fn nothing_a_user_reads_points_outside_the_repository() {
+    assert_eq!(
+        outside_references("see ../shared/SPEC.md, SPEC section 8 (this round)"),
+        [
+            "../shared/SPEC.md",
+            "SPEC.md",
+            "SPEC section",
+            "SPEC",
+            "(this round)"
+        ]
+    );
+    assert_eq!(outside_references("the SPEC's 50 mm"), ["SPEC"]);
+    assert!(outside_references("SPECS, a SPECTRUM, the spec, round 2").is_empty());
+
+    let mut texts: Vec<(String, String)> = pages()
+        .into_iter()
+        .map(|p| (p.display().to_string(), read(&root().join(&p))))
+        .collect();
+    let n_pages = texts.len();
+    texts.extend(help_texts(env!("CARGO_BIN_EXE_host-sim")));
+    texts.extend(help_texts(env!("CARGO_BIN_EXE_thermorph-desk")));
+    assert!(texts.len() >= n_pages + 15, "only {} texts", texts.len());
+    let wrong: Vec<String> = texts
+        .iter()
+        .filter_map(|(place, text)| {
+            let found = outside_references(text);
+            (!found.is_empty()).then(|| format!("{place}: {found:?}"))
+        })
+        .collect();
+    assert!(
+        wrong.is_empty(),
+        "what a user reads names the specification outside the repository (link \
+         docs/product.md's section instead; `--help`: \"the thesis's figures (docs/product.md)\") \
+         or says \"(this round)\":\n{}",
+        wrong.join("\n")
+    );
+
+    assert!(
+        root().join("docs/product.md").is_file(),
+        "no docs/product.md"
+    );
+    let readme = read(&root().join("README.md"));
+    assert!(
+        links(&readme)
+            .iter()
+            .any(|l| l.split('#').next() == Some("docs/product.md")),
+        "the README does not link docs/product.md"
+    );
+    for said in [
+        "../shared/data/mlx90640/",
+        "THERMORPH_DATA_DIR",
+        "SKIPPED",
+        "THERMORPH_REQUIRE_DATA=1",
+        "https://github.com/melexis/mlx90640-library",
+    ] {
+        assert!(
+            readme.contains(said),
+            "the README no longer explains the sensor-dump folder: no {said:?}"
+        );
+    }
+}
+
+/// A value the code holds, by the name docs/product.md gives it: a console parameter's default
+/// (`thermorph::settings::PARAMS`, as `get` shows it) or a constant the page cites by path.
+fn code_value(name: &str) -> Option<Vec<f64>> {
+    use host_sim::plant::params as plant;
+    use thermorph::block;
+    use thermorph::settings::{PARAMS, Settings};
+    if let Some(p) = PARAMS.iter().find(|p| p.name == name) {
+        return Some(vec![f64::from((p.get)(&Settings::DEFAULT))]);
+    }
+    let f = |x: f32| f64::from(x);
+    Some(match name {
+        "thermorph::block::CYLINDER_LENGTH_MM" => vec![f(block::CYLINDER_LENGTH_MM)],
+        "thermorph::block::CYLINDER_INNER_DIAMETER_MM" => {
+            vec![f(block::CYLINDER_INNER_DIAMETER_MM)]
+        }
+        "thermorph::block::CYLINDER_WALL_MM" => vec![f(block::CYLINDER_WALL_MM)],
+        "thermorph::block::LATTICE_UNIT_MM" => vec![f(block::LATTICE_UNIT_MM)],
+        "thermorph::block::LATTICE_GAP_MM" => vec![f(block::LATTICE_GAP_MM)],
+        "thermorph::block::LATTICE_UPPER_LAYER_MM" => vec![f(block::LATTICE_UPPER_LAYER_MM)],
+        "thermorph::block::LATTICE_LOWER_LAYER_MM" => vec![f(block::LATTICE_LOWER_LAYER_MM)],
+        "thermorph::block::PLATE_THICKNESS_MM" => vec![f(block::PLATE_THICKNESS_MM)],
+        "thermorph::block::PLATE_DIAMETER_MM" => vec![f(block::PLATE_DIAMETER_MM)],
+        "thermorph::block::SPRING_RADIUS_MM" => vec![f(block::SPRING_RADIUS_MM)],
+        "thermorph::block::SPRING_SPACING_DEG" => vec![f(block::SPRING_SPACING_DEG)],
+        "thermorph::block::CAMERA_DISTANCE_MM" => {
+            let (near, far) = block::CAMERA_DISTANCE_MM;
+            vec![f(near), f(far)]
+        }
+        "thermorph::mlx90640::COLS" => vec![thermorph::mlx90640::COLS as f64],
+        "thermorph::mlx90640::ROWS" => vec![thermorph::mlx90640::ROWS as f64],
+        "thermorph::app::CONTROL_PERIOD_MS" => vec![thermorph::app::CONTROL_PERIOD_MS as f64],
+        "host_sim::plant::params::SMP_TG_K" => vec![plant::SMP_TG_K],
+        "host_sim::plant::params::WIRE_DIAMETER_MM" => vec![plant::WIRE_DIAMETER_MM],
+        "host_sim::plant::params::SPRING_SUPPLY_V" => vec![plant::SPRING_SUPPLY_V],
+        "host_sim::plant::params::SPRING_SUPPLY_LIMIT_A" => vec![plant::SPRING_SUPPLY_LIMIT_A],
+        "host_sim::plant::params::HEATER_SUPPLY_V" => vec![plant::HEATER_SUPPLY_V],
+        "host_sim::plant::params::HEATER_SUPPLY_LIMIT_A" => vec![plant::HEATER_SUPPLY_LIMIT_A],
+        "host_sim::runs::paper::STEP_AT_S" => vec![host_sim::runs::paper::STEP_AT_S],
+        _ => return None,
+    })
+}
+
+/// The `code spans` of `text`.
+fn code_spans(text: &str) -> Vec<&str> {
+    text.split('`').skip(1).step_by(2).collect()
+}
+
+/// Whether the numbers written in `text` are `values`, rounded as written.
+fn written_as(text: &str, values: &[f64]) -> bool {
+    let written = numbers(text);
+    written.len() == values.len() && written.iter().zip(values).all(|(&w, &v)| rounds_to(w, v))
+}
+
+/// docs/product.md's numbers are the code's (issue 44: the product described in the project's
+/// own words, every number with the code that holds it): each row of a table whose last column
+/// is `from` holds the values of the names it cites; a parameter written `` `name` (N …`` holds
+/// its default; a number written `N … (`path`)` is that constant; the region table is MTTS's
+/// names; the console section names every command; the figures table is `host-sim paper`'s
+/// figures with the references, tolerances and definitions of `cycle_figures::judge`.
+#[test]
+fn product_page_numbers_are_the_codes() {
+    assert_eq!(cells(r"| a \| b | `c` |"), ["a | b", "`c`"]);
+    assert_eq!(code_spans("a `b` c `d`"), ["b", "d"]);
+    assert!(written_as("32 × 24", &[32.0, 24.0]) && written_as("1.8 mm", &[1.799_999_952]));
+
+    let page = read(&root().join("docs/product.md"));
+    let mut wrong = Vec::new();
+    let mut checked = 0;
+
+    // Tables with a `from` column.
+    for (header, rows) in tables(&page) {
+        if header.last().map(String::as_str) != Some("from") {
+            continue;
+        }
+        for row in rows {
+            let names = code_spans(row.last().unwrap());
+            let values: Option<Vec<f64>> = names
+                .iter()
+                .map(|n| code_value(n))
+                .collect::<Option<Vec<Vec<f64>>>>()
+                .map(|v| v.concat());
+            match values {
+                Some(v) if written_as(&row[row.len() - 2], &v) => checked += 1,
+                Some(v) => wrong.push(format!("{row:?}: the code holds {v:?}")),
+                None => wrong.push(format!("{row:?}: {names:?} is not a value the test knows")),
+            }
+        }
+    }
+
+    // `name` (N …): a parameter's default; N … (`path`): a constant.
+    for (i, _) in page.match_indices("` (") {
+        let Some(open) = page[..i].rfind('`') else {
+            continue;
+        };
+        let name = &page[open + 1..i];
+        let after = &page[i + 3..];
+        if thermorph::settings::PARAMS.iter().any(|p| p.name == name)
+            && after.starts_with(|c: char| c.is_ascii_digit())
+        {
+            let v = code_value(name).unwrap()[0];
+            match numbers(after).first() {
+                Some(&n) if rounds_to(n, v) => checked += 1,
+                n => wrong.push(format!("`{name}` ({n:?}: its default is {v}")),
+            }
+        }
+    }
+    for (i, _) in page.match_indices("(`") {
+        let path: String = page[i + 2..].chars().take_while(|c| *c != '`').collect();
+        if !path.contains("::") || !page[i + 2 + path.len()..].starts_with("`)") {
+            continue;
+        }
+        if let Some(v) = code_value(&path) {
+            match numbers(&page[..i]).last() {
+                Some(&n) if rounds_to(n, v[0]) => checked += 1,
+                n => wrong.push(format!("{n:?} (`{path}`): the code holds {v:?}")),
+            }
+        }
+    }
+
+    // The five regions, named as `status` names them.
+    let regions = table_after(&page, "## Region temperatures");
+    let names: Vec<&str> = regions.iter().map(|r| r[1].as_str()).collect();
+    assert_eq!(names, thermorph::mtts::REGION_NAMES, "the regions' names");
+    let labels: Vec<&str> = regions.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(labels, ["T1", "T2", "T3", "T4", "T5"]);
+
+    // The console section names every command.
+    let at = page.find("## The console").expect("a console section");
+    let section = &page[at..at + page[at + 3..].find("\n## ").unwrap()];
+    for c in thermorph::command::COMMANDS {
+        if !section.contains(&format!("`{}`", c.name)) {
+            wrong.push(format!("the console section does not name `{}`", c.name));
+        }
+    }
+
+    // The figures: `host-sim paper`'s, as `cycle_figures::judge` defines them.
+    let figures = host_sim::runs::cycle_figures::judge(&Default::default(), None);
+    let rows = table_after(&page, "## Figures");
+    let listed: Vec<String> = rows
+        .iter()
+        .map(|r| r[0].trim_matches('`').to_string())
+        .collect();
+    assert_eq!(
+        listed,
+        host_sim::runs::cycle_figures::KEYS,
+        "the figures table's keys, in order"
+    );
+    for (row, fig) in rows.iter().zip(&figures) {
+        let thesis: Vec<f64> = match &fig.thesis {
+            serde_json::Value::Array(a) => a.iter().map(|x| x.as_f64().unwrap()).collect(),
+            x => vec![x.as_f64().unwrap()],
+        };
+        if !written_as(&row[1], &thesis)
+            || Some(row[2].as_str()) != fig.tolerance.as_deref()
+            || row[3] != fig.how
+        {
+            wrong.push(format!(
+                "figures: {row:?}: the code has {thesis:?} | {:?} | {:?}",
+                fig.tolerance, fig.how
+            ));
+        }
+    }
+
+    assert!(
+        wrong.is_empty(),
+        "docs/product.md against the code:\n{}",
+        wrong.join("\n")
+    );
+    assert!(checked >= 45, "only {checked} numbers checked");
 }

@@ -82,8 +82,8 @@ enum Command {
         #[arg(long, default_value = "3", value_parser = script::seconds)]
         silence: Duration,
     },
-    /// Run an experiment script (see `host_sim::console::desk::script`), every line checked
-    /// first; exit 1 at the first failure, 130 on Ctrl-C, after sending `stop`.
+    /// Run an experiment script (its format: docs/desk.md), every line checked first;
+    /// exit 1 at the first failure, 130 on Ctrl-C, after sending `stop`.
     Run {
         /// Serial port (it comes first).
         port: String,
