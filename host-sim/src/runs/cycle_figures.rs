@@ -511,7 +511,11 @@ mod tests {
         // The tolerance as numbers, for a sweep's band; none where a figure is only reported.
         assert_eq!(get("forming_time_s").limits, Some((40.0, 60.0)));
         assert_eq!(get("stepping_soak_s").limits, Some((0.0, 40.0)));
-        assert!(table.iter().all(|f| f.limits.is_some() == f.tolerance.is_some()));
+        assert!(
+            table
+                .iter()
+                .all(|f| f.limits.is_some() == f.tolerance.is_some())
+        );
         assert_eq!(get("recovery_time_s").pass, Some(false));
         assert_eq!(get("recovery_time_s").verdict(), "FAIL");
         // Not shown: reported as null, not judged.
