@@ -903,7 +903,10 @@ pub fn write_pngs(
                 .x_label_formatter(&tick);
             if column.count {
                 let n = (y.end as usize).min(10) + 1;
-                mesh.y_labels(n).y_label_formatter(&count_tick);
+                // Gridlines at the integers only.
+                mesh.y_labels(n)
+                    .y_max_light_lines(0)
+                    .y_label_formatter(&count_tick);
             } else {
                 mesh.y_label_formatter(&tick);
             }
