@@ -3,8 +3,12 @@
 //! This module owns the sweep: the grid (every combination of the `--set` lists, the last key
 //! varying fastest), running its cases in parallel across the cores (rayon) with a progress
 //! bar, one CSV row per case (the run's summary figures), a PNG of each figure against the
-//! first swept key, shards (`--shard K/N`: every N-th case from K, so a cluster's job array
-//! spreads a large sweep over machines) and joining the shards' CSVs (`--merge`).
+//! first swept key with more than one value (named and in units, the thesis's value and
+//! tolerance drawn, failing cases red), each case's verdict as `host-sim run`'s table judges
+//! the thesis's figures (`--check`: exit 1 when one fails), shards (`--shard K/N`: every N-th
+//! case from K, so a cluster's job array spreads a large sweep over machines) and joining the
+//! shards' CSVs (`--merge`). It owns the names and units of its own columns ([`RUN_COLUMNS`])
+//! and of the swept keys ([`SWEPT_KEYS`]).
 //!
 //! A key is any key of the scene file, dotted for a table's (`ambient`, `initial`,
 //! `duration`, `camera.noise`, `camera.seed`, `fidelity.camera`, `plant.heater_power`, …); a
