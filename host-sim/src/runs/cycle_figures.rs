@@ -65,6 +65,12 @@ pub struct Figure {
     pub simulated: serde_json::Value,
     /// The tolerance, as printed (`None`: reported, not judged).
     pub tolerance: Option<String>,
+    /// The tolerance as numbers: the closed range `[lo, hi]` the simulated value (each value,
+    /// for a list) must lie in to pass (`None`: reported, not judged). A one-sided tolerance
+    /// ("≤ 40 s") has the other side at its floor (0, or `f64::MIN`). Not in the JSON; a
+    /// sweep's plots draw it as a band.
+    #[serde(skip)]
+    pub limits: Option<(f64, f64)>,
     /// Within the tolerance (`None`: not judged, or the run does not show it).
     pub pass: Option<bool>,
     /// How it is measured.
@@ -88,6 +94,7 @@ impl Figure {
             thesis: serde_json::json!(thesis),
             simulated: num(sim),
             tolerance: None,
+            limits: None,
             pass: None,
             how: how.into(),
         }
@@ -153,6 +160,7 @@ fn judged(
     Figure {
         pass: sim.map(|x| (lo..=hi).contains(&x)),
         tolerance: Some(tolerance.into()),
+        limits: Some((lo, hi)),
         ..Figure::reported(key, name, unit, sim, thesis, how)
     }
 }
@@ -221,6 +229,7 @@ pub fn judge(cycle: &CycleFigures, one_spring: Option<&CycleFigures>) -> Vec<Fig
                 serde_json::Value::Null
             },
             tolerance: Some("each 2–4° ±1°".into()),
+            limits: Some((1.0, 5.0)),
             pass: drops_shown
                 .then(|| drops.len() == 3 && drops.iter().all(|d| (1.0..=5.0).contains(d))),
             how: "bend at each pulse's start minus at its end (three pulses)".into(),
@@ -524,6 +533,14 @@ mod tests {
         assert_eq!(keys, KEYS);
         let get = |k: &str| table.iter().find(|x| x.key == k).unwrap();
         assert_eq!(get("forming_time_s").pass, Some(true));
+        // The tolerance as numbers, for a sweep's band; none where a figure is only reported.
+        assert_eq!(get("forming_time_s").limits, Some((40.0, 60.0)));
+        assert_eq!(get("stepping_soak_s").limits, Some((0.0, 40.0)));
+        assert!(
+            table
+                .iter()
+                .all(|f| f.limits.is_some() == f.tolerance.is_some())
+        );
         assert_eq!(get("recovery_time_s").pass, Some(false));
         assert_eq!(get("recovery_time_s").verdict(), "FAIL");
         // Not shown: reported as null, not judged.
