@@ -10,6 +10,7 @@
 use core::fmt;
 
 use crate::console::ConsoleError;
+use crate::decimal::parse as number;
 use crate::outputs::SpringMask;
 use crate::settings::PARAMS;
 use crate::supervisor::mode::ModeId;
@@ -318,95 +319,6 @@ pub const COMMANDS: &[CommandSpec] = &[
         help: "every parameter to its default (save to keep)",
     },
 ];
-
-/// Exact powers of ten in f64 (10^22 is the last).
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// A console number, `[+|-]digits[.digits][(e|E)[+|-]digits]` (`.5` and `5.` too), finite.
-///
-/// By hand rather than `str::parse::<f32>`: core's parser, correctly rounded for any input,
-/// links a 10 KiB table of powers of five and about 6 KiB of code — 6 % of the board's flash —
-/// for inputs no console line carries. Here the first 18 significant digits make an exact
-/// integer, scaled once by an exact power of ten in f64 and rounded to f32: the same value as
-/// core's for every input of up to 15 significant digits with a decimal exponent within ±22
-/// (f64's one rounding then f32's; a test compares the two on the shortest, three-decimal and
-/// exponent forms of 200 000 random f32s), within an ulp beyond. Not inlined: three commands
-/// parse numbers, and one copy is what the board's flash has room for.
-#[inline(never)]
-fn number(word: &str) -> Option<f32> {
-    let b = word.as_bytes();
-    let (neg, mut i) = match b.first()? {
-        b'-' => (true, 1),
-        b'+' => (false, 1),
-        _ => (false, 0),
-    };
-    let (mut m, mut exp10, mut any) = (0u64, 0i32, false);
-    let mut digits = |i: &mut usize, fraction: bool, m: &mut u64, exp10: &mut i32| {
-        while let Some(d) = b.get(*i).filter(|c| c.is_ascii_digit()) {
-            if *m < 100_000_000_000_000_000 {
-                *m = *m * 10 + u64::from(d - b'0');
-                *exp10 -= i32::from(fraction);
-            } else {
-                *exp10 += i32::from(!fraction);
-            }
-            any = true;
-            *i += 1;
-        }
-    };
-    digits(&mut i, false, &mut m, &mut exp10);
-    if b.get(i) == Some(&b'.') {
-        i += 1;
-        digits(&mut i, true, &mut m, &mut exp10);
-    }
-    if !any {
-        return None;
-    }
-    if matches!(b.get(i), Some(b'e' | b'E')) {
-        i += 1;
-        let sign = match b.get(i) {
-            Some(b'-') => {
-                i += 1;
-                -1
-            }
-            Some(b'+') => {
-                i += 1;
-                1
-            }
-            _ => 1,
-        };
-        let (mut e, start) = (0i32, i);
-        while let Some(d) = b.get(i).filter(|c| c.is_ascii_digit()) {
-            e = (e * 10 + i32::from(d - b'0')).min(100_000);
-            i += 1;
-        }
-        if i == start {
-            return None;
-        }
-        exp10 += sign * e;
-    }
-    if i != b.len() {
-        return None;
-    }
-    let mut v = m as f64;
-    while exp10 > 22 {
-        v *= POW10[22];
-        exp10 -= 22;
-    }
-    while exp10 < -22 {
-        v /= POW10[22];
-        exp10 += 22;
-    }
-    v = if exp10 >= 0 {
-        v * POW10[exp10 as usize]
-    } else {
-        v / POW10[(-exp10) as usize]
-    };
-    let v = (if neg { -v } else { v }) as f32;
-    v.is_finite().then_some(v)
-}
 
 /// `mode pose`'s arguments after `pose`: ANGLE [SPRINGS] [form].
 fn parse_pose<'a>(mut words: impl Iterator<Item = &'a str>) -> Result<Command, ParseError> {

@@ -10,7 +10,7 @@ use super::events::{EventKind, EventLog};
 use super::safety::Fault;
 use super::{Mode, Supervisor};
 use crate::command::COMMANDS;
-use crate::decimal::{Fixed, Thousandths};
+use crate::decimal::{Fixed, Shortest, Thousandths};
 use crate::observer::Estimate;
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::settings::{PARAMS, Param, Settings};
@@ -287,8 +287,8 @@ impl Reply {
     }
 
     pub(super) fn stream_on(hz: f32) -> Reply {
-        // `{hz}`'s text for any rate typed with up to six places (see `Fixed::trimmed`).
-        Reply::with(|r| write!(r, "ok stream on {} Hz", Fixed::trimmed(hz, 6)))
+        // The rate as typed (its shortest text).
+        Reply::with(|r| write!(r, "ok stream on {} Hz", Shortest::new(hz)))
     }
 
     pub(super) fn fault_latched(f: Option<Fault>) -> Reply {
@@ -325,16 +325,19 @@ impl Reply {
     }
 }
 
-/// A parameter's value in its console unit, formatted by the parameter alone (never by the
-/// value): a count as a whole number, any other value with three decimals (`hot_k=358.000 K`
-/// whether 358 or 357.5 was set).
+/// A parameter's value in its console unit: a count as a whole number, any other value in the
+/// fewest decimals that read back as it ([`Shortest`]: `hot_k=358 K`, `ki=0.0004 1/(K*s)`; a
+/// percentage kept as a fraction, the fewest whose fraction gives it: `60 %`), so that
+/// `set NAME <what get showed>` changes nothing.
 fn write_param(r: &mut impl Write, p: &Param, v: f32) -> fmt::Result {
     if !v.is_finite() {
         r.write_str("-")
     } else if p.integer {
         write!(r, "{}", libm::roundf(v) as i32)
+    } else if p.percent {
+        write!(r, "{}", Shortest::percent(v))
     } else {
-        write!(r, "{}", Fixed::new(v, 3))
+        write!(r, "{}", Shortest::new(v))
     }
 }
 

@@ -144,7 +144,7 @@ fn large_stepping_runs_four_steps_and_three_pulses_in_30_s() {
 fn pause_holds_the_timer_and_resume_finishes_it() {
     let mut r = Rig::new();
     r.run(60.0);
-    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0.000 s");
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
     r.line("mode step-small C");
     while r.sup.mode().phase_name() != "spring" {
         r.run(0.25);
@@ -316,12 +316,12 @@ fn bad_measurements_are_ignored_and_time_never_runs_back() {
 #[test]
 fn set_get_and_spring_limits() {
     let mut r = Rig::new();
-    assert_eq!(r.line("set step_s 5"), "ok step_s=5.000 s");
-    assert_eq!(r.line("get step_s"), "ok step_s=5.000 s");
+    assert_eq!(r.line("set step_s 5"), "ok step_s=5 s");
+    assert_eq!(r.line("get step_s"), "ok step_s=5 s");
     assert!(r.line("set step_s 9").starts_with("err conflict"));
     assert!(
         r.line("set hot_k 400")
-            .starts_with("err out-of-range: hot_k must be in [338.000, 368.000] K")
+            .starts_with("err out-of-range: hot_k must be in [338, 368] K")
     );
     assert!(r.line("help").starts_with("ok commands: help [COMMAND];"));
     assert_eq!(
@@ -545,10 +545,7 @@ fn autotune_settings_past_a_safe_relay_are_refused() {
         r.line("set tune_timeout_s 3600")
             .starts_with("err out-of-range")
     );
-    assert_eq!(
-        r.line("set tune_timeout_s 900"),
-        "ok tune_timeout_s=900.000 s"
-    );
+    assert_eq!(r.line("set tune_timeout_s 900"), "ok tune_timeout_s=900 s");
 }
 
 #[test]
@@ -681,8 +678,8 @@ fn a_short_gap_does_not_end_a_springs_on_time() {
             .starts_with("err out-of-range")
     );
     // With no pre-warm, a short gap is fine where the phases it joins fit the limit.
-    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0.000 s");
-    assert_eq!(r.line("set step_s 3"), "ok step_s=3.000 s");
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
+    assert_eq!(r.line("set step_s 3"), "ok step_s=3 s");
     assert_eq!(r.line("set large_steps 2"), "ok large_steps=2");
     assert!(r.line("set pulse_s 0.5").starts_with("ok pulse_s=0.5"));
     assert!(r.line("set large_steps 3").starts_with("err conflict"));
@@ -1070,22 +1067,31 @@ fn back_to_back_steppings_keep_every_spring_in_its_band() {
 // ---------------------------------------------------------------------------------------------
 // Issue 22: the console's answers.
 
-/// `get` formats a value by its parameter, never by the value set, and lists every parameter
+/// `get` writes a count whole and any other value in the fewest decimals that read back as
+/// the value stored (issue 44: `set ki 0.0004` answered `ki=0.000`), and lists every parameter
 /// in one uncut reply.
 #[test]
-fn get_formats_by_parameter_and_lists_every_one() {
+fn get_writes_what_reads_back_and_lists_every_one() {
     let mut r = Rig::new();
-    assert_eq!(r.line("set hot_k 358"), "ok hot_k=358.000 K");
-    assert_eq!(r.line("set hot_k 357.5"), "ok hot_k=357.500 K");
-    assert_eq!(r.line("get hot_k"), "ok hot_k=357.500 K");
+    assert_eq!(r.line("set hot_k 358"), "ok hot_k=358 K");
+    assert_eq!(r.line("set hot_k 357.5"), "ok hot_k=357.5 K");
+    assert_eq!(r.line("get hot_k"), "ok hot_k=357.5 K");
+    assert_eq!(r.line("set ki 0.0004"), "ok ki=0.0004 1/(K*s)");
+    assert_eq!(r.line("set kp 0.1234567"), "ok kp=0.1234567 1/K");
+    assert_eq!(r.line("get kp"), "ok kp=0.1234567 1/K");
+    assert_eq!(r.line("set kd 1e-20"), "ok kd=1e-20 s/K");
+    assert_eq!(
+        r.line("set cam_azimuth_deg -12.25"),
+        "ok cam_azimuth_deg=-12.25 deg"
+    );
     assert_eq!(
         r.line("set spring_duty_max_pct 60"),
-        "ok spring_duty_max_pct=60.000 %"
+        "ok spring_duty_max_pct=60 %"
     );
     assert_eq!(r.line("get large_steps"), "ok large_steps=4");
     assert_eq!(
         r.line("set kp 12.5"),
-        "err out-of-range: kp must be in [0.000, 10.000] 1/K"
+        "err out-of-range: kp must be in [0, 10] 1/K"
     );
     let all = r.line("get");
     assert!(!all.ends_with(" ..."), "cut: {all}");
@@ -1095,6 +1101,50 @@ fn get_formats_by_parameter_and_lists_every_one() {
             "{} missing",
             p.name
         );
+    }
+}
+
+proptest::proptest! {
+    /// What `set` stored is what `set`'s reply and `get` show, to the bit: for every
+    /// parameter, values typed in the shortest form and with 0 to 9 decimals,
+    /// parse(get(set(x))) == x as f32 (a percentage: the same percentage once kept as a
+    /// fraction), and setting what `get` showed changes nothing.
+    #[test]
+    fn a_value_reads_back_as_set(
+        i in 0..PARAMS.len(),
+        at in 0.0f64..=1.0,
+        decimals in proptest::option::of(0usize..=9),
+    ) {
+        let p = &PARAMS[i];
+        let v = f64::from(p.min) + at * f64::from(p.max - p.min);
+        let typed = match decimals {
+            _ if p.integer => std::format!("{}", v.round()),
+            Some(d) => std::format!("{v:.d$}"),
+            None => std::format!("{}", v as f32),
+        };
+        let x: f32 = typed.parse().unwrap();
+        proptest::prop_assume!((p.min..=p.max).contains(&x));
+        let mut r = Rig::new();
+        let reply = r.line(&std::format!("set {} {typed}", p.name));
+        // Another parameter's relation may refuse it (`err conflict`).
+        proptest::prop_assume!(!reply.starts_with("err conflict"), "{}", reply);
+        let prefix = std::format!("ok {}=", p.name);
+        let shown = reply
+            .strip_prefix(&prefix)
+            .and_then(|rest| rest.split(' ').next())
+            .unwrap_or_else(|| panic!("set {} {typed}: {reply}", p.name));
+        let read = crate::decimal::parse(shown).unwrap();
+        proptest::prop_assert_eq!(shown.parse::<f32>().ok(), Some(read), "{}", reply);
+        if p.percent {
+            // Kept as a fraction: the text's fraction gives the same percentage as x's.
+            proptest::prop_assert_eq!(read / 100.0 * 100.0, x / 100.0 * 100.0, "{}", reply);
+        } else {
+            proptest::prop_assert_eq!(read, x, "{}", reply);
+        }
+        proptest::prop_assert_eq!(r.line(&std::format!("get {}", p.name)), reply.clone());
+        let before = r.sup.settings().encode();
+        proptest::prop_assert_eq!(r.line(&std::format!("set {} {shown}", p.name)), reply);
+        proptest::prop_assert_eq!(r.sup.settings().encode(), before);
     }
 }
 
