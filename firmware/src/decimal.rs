@@ -165,9 +165,13 @@ fn scale(mut v: f64, mut exp10: i32) -> f64 {
 /// (f64's one rounding then f32's; a test compares the two on the shortest, three-decimal and
 /// exponent forms of 200 000 random f32s), within an ulp beyond. Not inlined: three commands
 /// parse numbers, and one copy is what the board's flash has room for.
-#[inline(never)]
 pub fn parse(word: &str) -> Option<f32> {
-    let b = word.as_bytes();
+    parse_bytes(word.as_bytes())
+}
+
+/// [`parse`] of a word's bytes.
+#[inline(never)]
+pub fn parse_bytes(b: &[u8]) -> Option<f32> {
     let (neg, mut i) = match b.first()? {
         b'-' => (true, 1),
         b'+' => (false, 1),

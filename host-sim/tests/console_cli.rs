@@ -369,3 +369,43 @@ fn answered(line: &[u8], cap: usize) -> bool {
     }
     overflow || binary || kept_blank.iter().any(|blank| !blank)
 }
+
+/// Issue 44, a researcher's first hour, through `host-sim console`: a value reads back as set,
+/// a refused value says what to write instead, a mistyped name is named.
+#[test]
+fn first_hour_replies() {
+    let dir = temp_dir("first-hour");
+    let input = [
+        "set ki 0.0004",
+        "set kp 0.1234567",
+        "get kp",
+        "set spring_duty_max_pct 60",
+        "set large_steps 2.5",
+        "set hot_k 360 extra",
+        "set hot_k 360K",
+        "set hot_k 360 K",
+        "stauts",
+        "set hotk 360",
+        "get temperature",
+    ]
+    .join("\r\n")
+        + "\r\n";
+    let (lines, _) = session(&dir.join("settings.bin"), &input);
+    assert_eq!(
+        lines,
+        [
+            "ok ki=0.0004 1/(K*s)",
+            "ok kp=0.1234567 1/K",
+            "ok kp=0.1234567 1/K",
+            "ok spring_duty_max_pct=60 %",
+            "err bad-arguments: large_steps takes a whole number, 1 to 10",
+            "err bad-arguments: one value expected, extra `extra`",
+            "err bad-arguments: `360K`: write the number without its unit, the unit is K",
+            "err bad-arguments: `360 K`: write the number without its unit, the unit is K",
+            "err unknown-command: unknown command; did you mean status?",
+            "err unknown-name: unknown parameter hotk; did you mean hot_k?",
+            "err unknown-name: unknown parameter temperature; `help set` lists them",
+        ]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use thermorph::command::{ArgError, COMMANDS, ParseError};
+use thermorph::command::{ArgError, COMMANDS, ParseError, Word};
 use thermorph::console::MAX_LINE;
 use thermorph::settings::{PARAMS, Settings};
 use thermorph::supervisor::mode::ModeId;
@@ -150,9 +150,9 @@ fn firmware_error_codes() -> Vec<String> {
         ParseError::LineTooLong,
         ParseError::BinaryInput,
         ParseError::LostBytes,
-        ParseError::UnknownCommand,
+        ParseError::UnknownCommand(None),
         ParseError::BadArguments(ArgError::NotANumber),
-        ParseError::UnknownName,
+        ParseError::UnknownName(Word::new("x"), None),
         ParseError::Busy,
     ]
     .iter()
@@ -162,9 +162,9 @@ fn firmware_error_codes() -> Vec<String> {
             ParseError::LineTooLong
             | ParseError::BinaryInput
             | ParseError::LostBytes
-            | ParseError::UnknownCommand
+            | ParseError::UnknownCommand(_)
             | ParseError::BadArguments(_)
-            | ParseError::UnknownName
+            | ParseError::UnknownName(..)
             | ParseError::Busy => e.code().to_string(),
         }
     })

@@ -333,7 +333,7 @@ fn set_get_and_spring_limits() {
         r.line("HELP save"),
         "ok save: store every parameter (survives a reset)"
     );
-    assert_eq!(parse("help fly"), Err(ParseError::UnknownCommand));
+    assert_eq!(parse("help fly"), Err(ParseError::UnknownCommand(None)));
     assert_eq!(
         parse("help mode set"),
         Err(ParseError::BadArguments(crate::command::ArgError::TooMany(
