@@ -107,7 +107,8 @@ impl Shortest {
 
     /// A percentage kept as a fraction (`value` is the fraction × 100): the fewest decimals
     /// whose hundredth, times 100, is `value` again — what `set` stores for the text gives the
-    /// same percentage (`60` for 0.6 × 100 = 60.000004).
+    /// same percentage (`60` for 0.6 × 100 = 60.000004). A value no fraction × 100 gives is
+    /// written with ten significant digits.
     pub const fn percent(value: f32) -> Shortest {
         Shortest { value, per: 100.0 }
     }
@@ -389,12 +390,13 @@ impl Text {
     fn shortest(&mut self, a: f32, per: f32) {
         let x = f64::from(a);
         // The value rounded to a last digit of 10^q, for q = 0, −1, …: the first that reads
-        // back as `a`. Nine significant digits always do, so the digits fit a u32 (`a` below
-        // 10^9 has them at q = 0).
+        // back as `a`. Nine significant digits always do for `per` 1, so the digits fit a u32
+        // (`a` below 10^9 has them at q = 0); ten end the search for any `per` (a percentage no
+        // fraction gives, such as 120: 1.2 × 100 is 120.00001).
         let mut q = 0i32;
         let d = loop {
             let d = (scale(x, -q) + 0.5) as u32;
-            if scale(f64::from(d), q) as f32 / per * per == a {
+            if scale(f64::from(d), q) as f32 / per * per == a || d >= 1_000_000_000 {
                 break d;
             }
             q -= 1;
@@ -670,6 +672,31 @@ mod tests {
         ] {
             assert_eq!(format!("{}", Shortest::new(v)), want, "{v:e}");
         }
+    }
+
+    #[test]
+    fn a_percentage_reads_back_as_its_fraction() {
+        let mut x = 5u64;
+        for i in 0..300_000 {
+            // Fractions of every size up to 2, and those of typed percentages.
+            let f = match i % 2 {
+                0 => (xorshift(&mut x) >> 40) as f32 / (1u64 << 23) as f32,
+                _ => {
+                    format!("{}", (xorshift(&mut x) % 200_000) as f32 / 1000.0)
+                        .parse::<f32>()
+                        .unwrap()
+                        / 100.0
+                }
+            };
+            let v = f * 100.0;
+            let text = format!("{}", Shortest::percent(v));
+            let c = parse(&text).unwrap();
+            assert_eq!(c / 100.0 * 100.0, v, "{f:e}: {text}");
+            assert!(text.len() <= 12, "{f:e}: {text}");
+        }
+        assert_eq!(format!("{}", Shortest::percent(0.6 * 100.0)), "60");
+        // Not a fraction × 100: ten digits, and the search ends.
+        assert_eq!(format!("{}", Shortest::percent(120.0)), "120.0000000");
     }
 
     proptest::proptest! {

@@ -256,7 +256,7 @@ impl Reply {
             r.write_str("ok")?;
             for p in PARAMS {
                 write!(r, " {}=", p.name)?;
-                write_param(r, p, (p.get)(s))?;
+                write_param(r, p, (p.get)(s), true)?;
             }
             Ok(())
         })
@@ -266,7 +266,7 @@ impl Reply {
         match PARAMS.get(i) {
             Some(p) => Reply::with(|r| {
                 write!(r, "ok {}=", p.name)?;
-                write_param(r, p, (p.get)(s))?;
+                write_param(r, p, (p.get)(s), true)?;
                 if !p.unit.is_empty() {
                     write!(r, " {}", p.unit)?;
                 }
@@ -279,9 +279,9 @@ impl Reply {
     pub(super) fn out_of_range(p: &Param, min: f32, max: f32) -> Reply {
         Reply::with(|r| {
             write!(r, "err out-of-range: {} must be in [", p.name)?;
-            write_param(r, p, min)?;
+            write_param(r, p, min, false)?;
             r.write_str(", ")?;
-            write_param(r, p, max)?;
+            write_param(r, p, max, false)?;
             write!(r, "] {}", p.unit)
         })
     }
@@ -327,14 +327,15 @@ impl Reply {
 
 /// A parameter's value in its console unit: a count as a whole number, any other value in the
 /// fewest decimals that read back as it ([`Shortest`]: `hot_k=358 K`, `ki=0.0004 1/(K*s)`; a
-/// percentage kept as a fraction, the fewest whose fraction gives it: `60 %`), so that
-/// `set NAME <what get showed>` changes nothing.
-fn write_param(r: &mut impl Write, p: &Param, v: f32) -> fmt::Result {
+/// `stored` percentage, kept as a fraction, in the fewest whose fraction gives it: `60 %`), so
+/// that `set NAME <what get showed>` changes nothing. A range's bound (not `stored`) is the
+/// table's number.
+fn write_param(r: &mut impl Write, p: &Param, v: f32, stored: bool) -> fmt::Result {
     if !v.is_finite() {
         r.write_str("-")
     } else if p.integer {
         write!(r, "{}", libm::roundf(v) as i32)
-    } else if p.percent {
+    } else if p.percent && stored {
         write!(r, "{}", Shortest::percent(v))
     } else {
         write!(r, "{}", Shortest::new(v))

@@ -1093,6 +1093,11 @@ fn get_writes_what_reads_back_and_lists_every_one() {
         r.line("set kp 12.5"),
         "err out-of-range: kp must be in [0, 10] 1/K"
     );
+    // A percentage's range as the table has it (120, not the 120.00001 that 1.2 × 100 is).
+    assert_eq!(
+        r.line("set trim_ia_pct 130"),
+        "err out-of-range: trim_ia_pct must be in [80, 120] %"
+    );
     let all = r.line("get");
     assert!(!all.ends_with(" ..."), "cut: {all}");
     for p in PARAMS {
