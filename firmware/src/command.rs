@@ -297,6 +297,8 @@ pub enum Command {
     Get(Option<u8>),
     /// Write a parameter (index into [`PARAMS`]) in its console unit.
     Set(u8, f32),
+    /// Every parameter for a person: one `#` line each with value, unit, default and range.
+    Settings,
     /// Tune the PID gains with a relay test.
     Autotune,
     /// Print the event log.
@@ -373,7 +375,12 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "set",
         args: "NAME VALUE",
-        help: "write a parameter (unit as get shows)",
+        help: "write a parameter, the number alone in its unit (settings shows them)",
+    },
+    CommandSpec {
+        name: "settings",
+        args: "",
+        help: "one # line a parameter: value, unit, default, range; * where not the default",
     },
     CommandSpec {
         name: "autotune",
@@ -388,12 +395,12 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "stream",
         args: "on|off [HZ]",
-        help: "telemetry lines starting with #",
+        help: "telemetry lines starting with #, HZ up to 10 (default 4)",
     },
     CommandSpec {
         name: "estop",
         args: "",
-        help: "emergency stop (latched)",
+        help: "emergency stop, every output off; latched until `reset` with the button released",
     },
     CommandSpec {
         name: "save",
@@ -558,6 +565,7 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
         "save" => none(Command::Save),
         "load" => none(Command::Load),
         "defaults" => none(Command::Defaults),
+        "settings" => none(Command::Settings),
         "mode" => {
             let name = a.ok_or(bad(ArgError::NoMode))?;
             let mode = lookup(name, &|i| mode_names().nth(i).map(|(n, _)| n))

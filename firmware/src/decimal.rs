@@ -121,8 +121,7 @@ impl fmt::Display for Shortest {
     fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
         let v = self.value;
         let a = v.abs();
-        // NaN fails the comparison.
-        if !(a < 1e9) {
+        if a.is_nan() || a >= 1e9 {
             return Fixed::new(v, 0).fmt(f);
         }
         let mut text = Text::new();

@@ -409,3 +409,75 @@ fn first_hour_replies() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 44 through `host-sim console`: `help` names the parameters, the stream's range and how
+/// to clear an e-stop; `settings` lists every parameter for a person (`#` lines, then `ok`),
+/// while `get` stays one line.
+#[test]
+fn first_hour_help_and_settings() {
+    let dir = temp_dir("first-hour-settings");
+    let input = "set hot_k 360\r\nhelp set\r\nhelp stream\r\nhelp estop\r\nsettings\r\nget\r\n";
+    let (lines, _) = session(&dir.join("settings.bin"), input);
+    assert_eq!(lines[0], "ok hot_k=360 K");
+    let names: Vec<&str> = thermorph::settings::PARAMS.iter().map(|p| p.name).collect();
+    assert_eq!(
+        lines[1],
+        format!(
+            "ok set NAME VALUE: write a parameter, the number alone in its unit (settings shows \
+             them); NAME: {}",
+            names.join(" ")
+        )
+    );
+    assert_eq!(
+        lines[2],
+        "ok stream on|off [HZ]: telemetry lines starting with #, HZ up to 10 (default 4)"
+    );
+    assert_eq!(
+        lines[3],
+        "ok estop: emergency stop, every output off; latched until `reset` with the button \
+         released"
+    );
+    let listing = &lines[4..4 + names.len()];
+    for (line, name) in listing.iter().zip(&names) {
+        assert!(
+            line.starts_with("# ") && line[4..].starts_with(name),
+            "{line}"
+        );
+    }
+    assert_eq!(
+        listing[1],
+        "# * hot_k                       360         K        default 358, 338 to 368"
+    );
+    assert_eq!(listing.iter().filter(|l| l.starts_with("# *")).count(), 1);
+    assert_eq!(
+        lines[4 + names.len()],
+        "ok 81 parameters, 1 not the default (*)"
+    );
+    let get = &lines[5 + names.len()];
+    assert!(
+        get.starts_with("ok standby_k=323 hot_k=360 form_end_k=323 kp=0.139 "),
+        "{get}"
+    );
+    assert_eq!(lines.len(), 6 + names.len());
+    // docs/console.md's example listing (after the same `set hot_k 360`) is this one.
+    let doc = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/console.md"),
+    )
+    .unwrap();
+    let example = doc
+        .split("> settings\n")
+        .nth(1)
+        .expect("the settings example");
+    let example = &example[..example.find("```").unwrap()];
+    let mut shown = 0;
+    for l in example.lines() {
+        if l.starts_with('#') {
+            assert!(listing.iter().any(|x| x == l), "docs/console.md: {l}");
+            shown += 1;
+        } else if l.starts_with("ok") {
+            assert_eq!(l, lines[4 + names.len()]);
+        }
+    }
+    assert!(shown >= 4, "{example}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

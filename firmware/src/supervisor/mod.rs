@@ -892,6 +892,7 @@ impl Supervisor {
             Command::Log => Reply::log(&self.events),
             Command::Get(None) => Reply::get_all(&self.settings),
             Command::Get(Some(i)) => Reply::get(&self.settings, i as usize),
+            Command::Settings => Reply::settings(&self.settings),
             Command::Set(i, v) => {
                 let Some(p) = PARAMS.get(i as usize) else {
                     return Reply::err("unknown-name", "no such parameter");

@@ -24,6 +24,7 @@ pub const REPLY_CAP: usize = 2048;
 pub struct Reply {
     buf: heapless::String<REPLY_CAP>,
     cut: bool,
+    listing: bool,
 }
 
 impl fmt::Debug for Reply {
@@ -56,7 +57,15 @@ impl Reply {
         Reply {
             buf: heapless::String::new(),
             cut: false,
+            listing: false,
         }
+    }
+
+    /// Whether `settings`' listing comes before this line: one `#` line a parameter
+    /// ([`write_setting`]), written by the caller from the supervisor's settings of the same
+    /// period, then this reply. Every line stays a line of its own (the protocol's `#` lines).
+    pub fn lists_settings(&self) -> bool {
+        self.listing
     }
 
     /// Return the line (without its end).
@@ -156,15 +165,23 @@ impl Reply {
     }
 
     /// `help`: every command with its arguments; `help COMMAND` (`topic`, an index into
-    /// [`COMMANDS`]): that command's arguments and what it does.
+    /// [`COMMANDS`]): that command's arguments and what it does, and for a command that takes
+    /// a NAME (`get`, `set`) every parameter's name.
     pub(super) fn help(topic: Option<u8>) -> Reply {
         if let Some(c) = topic.and_then(|i| COMMANDS.get(i as usize)) {
             return Reply::with(|r| {
                 if c.args.is_empty() {
-                    write!(r, "ok {}: {}", c.name, c.help)
+                    write!(r, "ok {}: {}", c.name, c.help)?;
                 } else {
-                    write!(r, "ok {} {}: {}", c.name, c.args, c.help)
+                    write!(r, "ok {} {}: {}", c.name, c.args, c.help)?;
                 }
+                if matches!(c.name, "get" | "set") {
+                    r.write_str("; NAME:")?;
+                    for p in PARAMS {
+                        write!(r, " {}", p.name)?;
+                    }
+                }
+                Ok(())
             });
         }
         Reply::with(|r| {
@@ -251,6 +268,24 @@ impl Reply {
         })
     }
 
+    /// `settings`' reply, after its listing: how many parameters, and how many are not their
+    /// defaults (marked `*`).
+    pub(super) fn settings(s: &Settings) -> Reply {
+        let changed = PARAMS
+            .iter()
+            .filter(|p| (p.get)(s) != (p.get)(&DEFAULTS))
+            .count();
+        let mut r = Reply::with(|r| {
+            write!(
+                r,
+                "ok {} parameters, {changed} not the default (*)",
+                PARAMS.len()
+            )
+        });
+        r.listing = true;
+        r
+    }
+
     pub(super) fn get_all(s: &Settings) -> Reply {
         Reply::with(|r| {
             r.write_str("ok")?;
@@ -330,7 +365,8 @@ impl Reply {
 /// `stored` percentage, kept as a fraction, in the fewest whose fraction gives it: `60 %`), so
 /// that `set NAME <what get showed>` changes nothing. A range's bound (not `stored`) is the
 /// table's number.
-fn write_param(r: &mut impl Write, p: &Param, v: f32, stored: bool) -> fmt::Result {
+#[inline(never)]
+fn write_param(r: &mut dyn Write, p: &Param, v: f32, stored: bool) -> fmt::Result {
     if !v.is_finite() {
         r.write_str("-")
     } else if p.integer {
@@ -339,6 +375,72 @@ fn write_param(r: &mut impl Write, p: &Param, v: f32, stored: bool) -> fmt::Resu
         write!(r, "{}", Shortest::percent(v))
     } else {
         write!(r, "{}", Shortest::new(v))
+    }
+}
+
+/// One line of `settings`' listing, with its `#` and CR LF: parameter `i`'s name, value, unit,
+/// default and range, `*` before the name where the value is not the default:
+///
+/// ```text
+/// # * hot_k                       360         K        default 358, 338 to 368
+/// #   kp                          0.139       1/K      default 0.139, 0 to 10
+/// ```
+///
+/// Columns: `# `, the mark and a space; the name (28 wide: the longest and a space); the value
+/// as `get` writes it (12 wide); the unit (9 wide); then `default D, MIN to MAX`. Nothing for an
+/// `i` past [`PARAMS`].
+#[inline(never)]
+pub fn write_setting(out: &mut dyn Write, s: &Settings, i: usize) -> fmt::Result {
+    let Some(p) = PARAMS.get(i) else {
+        return Ok(());
+    };
+    let (v, d) = ((p.get)(s), (p.get)(&DEFAULTS));
+    // Through the trait object, not the board's one writer inlined here (flash: its pushes
+    // of padding become a memset routine).
+    let out = core::hint::black_box(out);
+    // Columns padded by hand: `{:<27}` pads with `write_char`, one more routine in flash.
+    let pad = |out: &mut dyn Write, wrote: usize, width: usize| {
+        out.write_str(
+            SPACES
+                .get(..width.saturating_sub(wrote))
+                .unwrap_or_default(),
+        )
+    };
+    out.write_str(if v == d { "#   " } else { "# * " })?;
+    out.write_str(p.name)?;
+    pad(out, p.name.len(), 28)?;
+    let mut width = Width(0);
+    write_param(&mut width, p, v, true)?;
+    write_param(out, p, v, true)?;
+    pad(out, width.0, 12)?;
+    out.write_str(p.unit)?;
+    pad(out, p.unit.len(), 9)?;
+    out.write_str("default ")?;
+    write_param(out, p, d, true)?;
+    out.write_str(", ")?;
+    write_param(out, p, p.min, false)?;
+    out.write_str(" to ")?;
+    write_param(out, p, p.max, false)?;
+    out.write_str("\r\n")
+}
+
+/// How many lines `settings`' listing has ([`write_setting`]'s `i` below it): one a parameter.
+pub const SETTING_LINES: usize = PARAMS.len();
+
+/// The defaults `settings` compares with: one copy in flash, not one built on the stack for
+/// each use of the constant.
+static DEFAULTS: Settings = Settings::DEFAULT;
+
+/// `settings`' columns' padding.
+const SPACES: &str = "                            ";
+
+/// Counts the bytes written to it.
+struct Width(usize);
+
+impl Write for Width {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        self.0 += s.len();
+        Ok(())
     }
 }
 

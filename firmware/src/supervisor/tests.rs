@@ -1153,6 +1153,116 @@ proptest::proptest! {
     }
 }
 
+/// Issue 44: `help` says what a person needs first: the parameters' names (`help set`,
+/// `help get`), the stream's range and default (the constants'), how an e-stop is cleared.
+#[test]
+fn help_names_the_parameters_the_stream_range_and_how_to_clear_an_estop() {
+    let mut r = Rig::new();
+    for line in ["help set", "help get"] {
+        let reply = r.line(line);
+        let names = reply
+            .split("; NAME: ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("{reply}"));
+        let want: Vec<&str> = PARAMS.iter().map(|p| p.name).collect();
+        assert_eq!(names.split(' ').collect::<Vec<_>>(), want, "{line}");
+        assert!(!reply.ends_with(" ..."), "cut: {reply}");
+    }
+    let stream = r.line("help stream");
+    let (max, default) = (
+        std::format!("up to {STREAM_MAX_HZ}"),
+        std::format!("default {STREAM_DEFAULT_HZ})"),
+    );
+    assert!(
+        stream.contains(&max) && stream.contains(&default),
+        "{stream}"
+    );
+    assert!(
+        r.line(&std::format!("stream on {STREAM_MAX_HZ}"))
+            .starts_with("ok")
+    );
+    let above = r.line(&std::format!("stream on {}", STREAM_MAX_HZ + 0.5));
+    assert_eq!(
+        above,
+        std::format!("err out-of-range: stream rate must be in (0, {STREAM_MAX_HZ}] Hz")
+    );
+    assert_eq!(
+        r.line("help estop"),
+        "ok estop: emergency stop, every output off; latched until `reset` with the button \
+         released"
+    );
+    // What the help says clears it does.
+    r.run(1.0);
+    assert!(r.line("estop").starts_with("ok"));
+    assert_eq!(r.sup.fault().map(|f| f.code()), Some("estop"));
+    assert!(r.line("reset").starts_with("ok"));
+    assert!(r.sup.fault().is_none());
+}
+
+/// Issue 44: `settings`, the listing a person reads (Marlin's M503): one `#` line a parameter
+/// with value, unit, default and range, `*` where not the default; `get` stays one line.
+#[test]
+fn settings_lists_every_parameter_for_a_person() {
+    use crate::supervisor::report::{SETTING_LINES, write_setting};
+    let mut r = Rig::new();
+    assert_eq!(r.line("set hot_k 360"), "ok hot_k=360 K");
+    assert_eq!(r.line("set large_steps 3"), "ok large_steps=3");
+    let c = parse("settings").unwrap();
+    let reply = r.sup.step(Millis(r.now_ms), None, Some(c)).reply.unwrap();
+    assert!(reply.lists_settings());
+    assert_eq!(reply.as_str(), "ok 81 parameters, 2 not the default (*)");
+    assert!(
+        !r.sup
+            .step(Millis(r.now_ms), None, parse("get").ok())
+            .reply
+            .unwrap()
+            .lists_settings()
+    );
+    let mut text = std::string::String::new();
+    for i in 0..SETTING_LINES {
+        write_setting(&mut text, r.sup.settings(), i).unwrap();
+    }
+    let lines: Vec<&str> = text.split_terminator("\r\n").collect();
+    assert_eq!(lines.len(), PARAMS.len());
+    assert_eq!(
+        lines[1],
+        "# * hot_k                       360         K        default 358, 338 to 368"
+    );
+    assert_eq!(
+        lines[3],
+        "#   kp                          0.139       1/K      default 0.139, 0 to 10"
+    );
+    let steps = PARAMS.iter().position(|p| p.name == "large_steps").unwrap();
+    assert_eq!(
+        lines[steps],
+        "# * large_steps                 3                    default 4, 1 to 10"
+    );
+    for (line, p) in lines.iter().zip(PARAMS) {
+        assert!(line.starts_with("# ") && line.len() <= 96, "{line}");
+        // The columns: mark, name, value, unit.
+        assert_eq!(line.get(4..32).map(str::trim_end), Some(p.name), "{line}");
+        assert_eq!(line.get(44..53).map(str::trim_end), Some(p.unit), "{line}");
+        let value = line.get(32..44).unwrap().trim_end();
+        let get = r.sup.step(
+            Millis(r.now_ms),
+            None,
+            Some(Command::Get(Some(
+                PARAMS.iter().position(|q| q.name == p.name).unwrap() as u8,
+            ))),
+        );
+        let get = get.reply.unwrap();
+        assert!(
+            get.as_str()
+                .starts_with(&std::format!("ok {}={value}", p.name)),
+            "{line}"
+        );
+        assert_eq!(
+            line.starts_with("# *"),
+            p.name == "hot_k" || p.name == "large_steps"
+        );
+    }
+}
+
 /// An autotune says when it is done, with what it measured and the gains it put in use (which
 /// are the settings' now, in RAM: `save` keeps them); one that gives up says so.
 #[test]
