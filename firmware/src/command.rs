@@ -271,8 +271,12 @@ pub enum Command {
     Help(Option<u8>),
     /// Show the firmware version.
     Version,
-    /// Show mode, temperatures, outputs and faults.
-    Status,
+    /// Show mode, temperatures, outputs and faults; `short`: only what a person watches
+    /// (mode, phase, target, Tc, outputs, bend, fault).
+    Status {
+        /// `status short`.
+        short: bool,
+    },
     /// Enter a mode; the springs for the stepping modes (default: the last used, at first A).
     Mode(ModeId, Option<SpringMask>),
     /// `mode pose ANGLE [SPRINGS] [form]`: bend to `target_deg` with the springs (default: the
@@ -339,8 +343,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     },
     CommandSpec {
         name: "status",
-        args: "",
-        help: "mode, temperatures, outputs, fault",
+        args: "[short]",
+        help: "mode, temperatures, outputs, fault; short: mode, Tc, outputs, bend, fault",
     },
     CommandSpec {
         name: "mode",
@@ -554,7 +558,13 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
             _ => Err(bad(ArgError::TooMany(index))),
         },
         "version" => none(Command::Version),
-        "status" => none(Command::Status),
+        "status" => match (a, b) {
+            (None, _) => Ok(Command::Status { short: false }),
+            (Some(w), None) if w.eq_ignore_ascii_case("short") => {
+                Ok(Command::Status { short: true })
+            }
+            _ => Err(bad(ArgError::TooMany(index))),
+        },
         "pause" => none(Command::Pause),
         "resume" => none(Command::Resume),
         "stop" => none(Command::Stop),
@@ -767,7 +777,7 @@ mod tests {
         assert_eq!(parse("stream"), bad(ArgError::OnOrOff));
         assert_eq!(parse("stream on"), Ok(Command::Stream(true, None)));
         let status = COMMANDS.iter().position(|c| c.name == "status").unwrap() as u8;
-        assert_eq!(parse("status now"), bad(ArgError::NoneTaken(status)));
+        assert_eq!(parse("status now"), bad(ArgError::TooMany(status)));
         assert_eq!(parse("frobnicate"), Err(ParseError::UnknownCommand(None)));
         assert_eq!(parse("SAVE"), Ok(Command::Save));
         assert_eq!(parse("defaults"), Ok(Command::Defaults));
@@ -829,7 +839,8 @@ mod tests {
             said("set hot_k 360 an-extra-word-of-forty-bytes-or-so"),
             "one value expected, extra `an-extra-word-of-forty-b...`"
         );
-        assert_eq!(said("status now"), "`status` takes no arguments");
+        assert_eq!(said("status now"), "usage: status [short]");
+        assert_eq!(said("version now"), "`version` takes no arguments");
         assert_eq!(said("get a b"), "usage: get [NAME]");
         assert_eq!(said("stream maybe"), "usage: stream on|off [HZ]");
         assert_eq!(said("load now"), "`load` takes no arguments");
@@ -925,6 +936,13 @@ mod tests {
             parse_read(Err(ConsoleError::BinaryInput)),
             Err(ParseError::BinaryInput)
         );
-        assert_eq!(parse_read(Ok("status")), Ok(Command::Status));
+        assert_eq!(
+            parse_read(Ok("status")),
+            Ok(Command::Status { short: false })
+        );
+        assert_eq!(
+            parse_read(Ok("STATUS Short")),
+            Ok(Command::Status { short: true })
+        );
     }
 }

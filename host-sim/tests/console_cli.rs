@@ -387,6 +387,7 @@ fn first_hour_replies() {
         "stauts",
         "set hotk 360",
         "get temperature",
+        "status short",
     ]
     .join("\r\n")
         + "\r\n";
@@ -405,6 +406,8 @@ fn first_hour_replies() {
             "err unknown-command: unknown command; did you mean status?",
             "err unknown-name: unknown parameter hotk; did you mean hot_k?",
             "err unknown-name: unknown parameter temperature; `help set` lists them",
+            "ok mode=stopped phase=- target_k=- tc_k=- heater_pct=0.0 fan_pct=0.0 springs=- \
+             bend_deg=0.00 bend_sd_deg=1.50 fault=none",
         ]
     );
     std::fs::remove_dir_all(&dir).unwrap();

@@ -385,7 +385,7 @@ fn console_doc_status_table_is_the_replys_fields() {
     };
     sup.step(Millis(100), Some(&m), None);
     let reply = sup
-        .step(Millis(150), None, Some(Command::Status))
+        .step(Millis(150), None, Some(Command::Status { short: false }))
         .reply
         .unwrap();
     let fields: Vec<&str> = reply

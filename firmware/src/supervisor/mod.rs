@@ -888,7 +888,7 @@ impl Supervisor {
         match c {
             Command::Help(topic) => Reply::help(topic),
             Command::Version => Reply::version(),
-            Command::Status => Reply::status(self, now),
+            Command::Status { short } => Reply::status(self, now, short),
             Command::Log => Reply::log(&self.events),
             Command::Get(None) => Reply::get_all(&self.settings),
             Command::Get(Some(i)) => Reply::get(&self.settings, i as usize),

@@ -202,42 +202,16 @@ impl Reply {
         Reply::with(|r| write!(r, "ok thermorph {}", crate::VERSION))
     }
 
-    pub(super) fn status(s: &Supervisor, now: Millis) -> Reply {
+    /// `status`: every field (docs/console.md's table); `short`: the same fields' subset a
+    /// person watches, in the same order and format (mode, phase, target, Tc, outputs, bend,
+    /// fault).
+    pub(super) fn status(s: &Supervisor, now: Millis, short: bool) -> Reply {
         Reply::with(|r| {
             write!(r, "ok mode={} phase={}", s.mode.name(), s.mode.phase_name())?;
             write_k(r, "target_k", s.target_k())?;
             write_k(r, "tc_k", s.tc_k)?;
-            match s.last {
-                Some(m) => {
-                    for (i, t) in m.regions.iter().enumerate() {
-                        match t {
-                            Some(t) => write!(r, " t{}_k={}", i + 1, Fixed::new(t.k(), 3))?,
-                            None => write!(r, " t{}_k=-", i + 1)?,
-                        }
-                    }
-                    write!(
-                        r,
-                        " quality={} frame={} age_s={} filled={}",
-                        m.quality.name(),
-                        m.seq,
-                        Fixed::new(now.seconds_since(m.at).s(), 2),
-                        m.filled_pixels
-                    )?;
-                }
-                None => {
-                    r.write_str(" t1_k=- t2_k=- t3_k=- t4_k=- t5_k=- quality=- frame=- age_s=-")?
-                }
-            }
-            // The lattice's exposed fraction the last frame's fit shows, and the design MTTS
-            // fits with (the configured one, or what the frames adopted in its place).
-            match s.last.and_then(|m| m.exposure) {
-                Some(e) => write!(
-                    r,
-                    " exposed_pct={} design_pct={}",
-                    Fixed::new(e.fitted_pct, 1),
-                    Fixed::new(e.design_pct, 1)
-                )?,
-                None => r.write_str(" exposed_pct=- design_pct=-")?,
+            if !short {
+                write_measurement(r, s, now)?;
             }
             write!(
                 r,
@@ -246,10 +220,14 @@ impl Reply {
                 Fixed::new(s.outputs.fan.pct(), 1),
                 s.outputs.springs
             )?;
-            write!(r, " select={}", s.springs)?;
-            write_channels(r, s)?;
+            if !short {
+                write!(r, " select={}", s.springs)?;
+                write_channels(r, s)?;
+            }
             write_bend(r, &s.posture.bend())?;
-            write_estimate(r, &s.observer.estimate())?;
+            if !short {
+                write_estimate(r, &s.observer.estimate())?;
+            }
             match s.fault {
                 Some(f) => write!(r, " fault={} reason=\"{}\"", f.code(), f.reason()),
                 None => r.write_str(" fault=none"),
@@ -441,6 +419,40 @@ impl Write for Width {
     fn write_str(&mut self, s: &str) -> fmt::Result {
         self.0 += s.len();
         Ok(())
+    }
+}
+
+/// `status`' fields of the last frame: the regions, the measurement's quality, number, age and
+/// filled pixels, and the lattice's exposed fraction with the design MTTS fits with (the
+/// configured one, or what the frames adopted in its place).
+fn write_measurement(r: &mut impl Write, s: &Supervisor, now: Millis) -> fmt::Result {
+    match s.last {
+        Some(m) => {
+            for (i, t) in m.regions.iter().enumerate() {
+                match t {
+                    Some(t) => write!(r, " t{}_k={}", i + 1, Fixed::new(t.k(), 3))?,
+                    None => write!(r, " t{}_k=-", i + 1)?,
+                }
+            }
+            write!(
+                r,
+                " quality={} frame={} age_s={} filled={}",
+                m.quality.name(),
+                m.seq,
+                Fixed::new(now.seconds_since(m.at).s(), 2),
+                m.filled_pixels
+            )?;
+        }
+        None => r.write_str(" t1_k=- t2_k=- t3_k=- t4_k=- t5_k=- quality=- frame=- age_s=-")?,
+    }
+    match s.last.and_then(|m| m.exposure) {
+        Some(e) => write!(
+            r,
+            " exposed_pct={} design_pct={}",
+            Fixed::new(e.fitted_pct, 1),
+            Fixed::new(e.design_pct, 1)
+        ),
+        None => r.write_str(" exposed_pct=- design_pct=-"),
     }
 }
 

@@ -1199,6 +1199,44 @@ fn help_names_the_parameters_the_stream_range_and_how_to_clear_an_estop() {
     assert!(r.sup.fault().is_none());
 }
 
+/// Issue 44: `status short` is `status`' fields a person watches, in the same order and format.
+#[test]
+fn status_short_is_the_watched_fields_of_status() {
+    let mut r = Rig::new();
+    r.run(5.0);
+    let full = r.line("status");
+    let short = r.line("status short");
+    let names = |reply: &str| -> Vec<std::string::String> {
+        reply
+            .split(' ')
+            .skip(1)
+            .map(|f| f.split('=').next().unwrap().into())
+            .collect()
+    };
+    assert_eq!(
+        names(&short),
+        [
+            "mode",
+            "phase",
+            "target_k",
+            "tc_k",
+            "heater_pct",
+            "fan_pct",
+            "springs",
+            "bend_deg",
+            "bend_sd_deg",
+            "fault"
+        ]
+    );
+    for field in short.split(' ').skip(1) {
+        assert!(
+            full.contains(&std::format!(" {field}")),
+            "{field} in {full}"
+        );
+    }
+    assert!(short.len() < 200 && full.len() > 600, "{short}");
+}
+
 /// Issue 44: `settings`, the listing a person reads (Marlin's M503): one `#` line a parameter
 /// with value, unit, default and range, `*` where not the default; `get` stays one line.
 #[test]
