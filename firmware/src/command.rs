@@ -2,14 +2,17 @@
 //! list, and [`parse`] turns a line into a typed [`Command`] for `Supervisor::step`.
 //!
 //! Words are separated by spaces or tabs and are case-insensitive. Parsing checks the shape of
-//! each argument (mode names, spring letters, parameter names, numbers); the supervisor checks
-//! what depends on its state (ranges that involve other settings, a latched fault). A refused
-//! argument says what was wrong ([`ArgError`]): `err bad-arguments: unknown mode `fly`…` keeps
-//! its stable code and names the reason.
+//! each argument (mode names, spring letters, parameter names, numbers, a whole number for a
+//! count); the supervisor checks what depends on its state (ranges that involve other
+//! settings, a latched fault). A refused argument says what was wrong ([`ArgError`]):
+//! `err bad-arguments: unknown mode; one of …` keeps its stable code and names the reason, and
+//! an unknown command or parameter name near a known one is answered with it
+//! (`did you mean status?`, [`lookup`]).
 
 use core::fmt;
 
 use crate::console::ConsoleError;
+use crate::decimal::parse as number;
 use crate::outputs::SpringMask;
 use crate::settings::PARAMS;
 use crate::supervisor::mode::ModeId;
@@ -24,12 +27,14 @@ pub enum ParseError {
     BinaryInput,
     /// Bytes of the line were lost on the way in (receive overrun).
     LostBytes,
-    /// The first word is not a command.
-    UnknownCommand,
+    /// The first word is not a command (the one it is near enough to suggest, an index into
+    /// [`COMMANDS`]).
+    UnknownCommand(Option<u8>),
     /// The command's arguments are wrong; the reason says how.
     BadArguments(ArgError),
-    /// `get` or `set` named no parameter.
-    UnknownName,
+    /// `get` or `set` named no parameter: the word, and the parameter it is near enough to
+    /// suggest (an index into [`PARAMS`]).
+    UnknownName(Word, Option<u8>),
     /// Too many commands were waiting for their replies (the board's bound).
     Busy,
 }
@@ -41,9 +46,9 @@ impl ParseError {
             Self::LineTooLong => "line-too-long",
             Self::BinaryInput => "binary-input",
             Self::LostBytes => "lost-bytes",
-            Self::UnknownCommand => "unknown-command",
+            Self::UnknownCommand(_) => "unknown-command",
             Self::BadArguments(_) => "bad-arguments",
-            Self::UnknownName => "unknown-name",
+            Self::UnknownName(..) => "unknown-name",
             Self::Busy => "busy",
         }
     }
@@ -57,12 +62,75 @@ impl fmt::Display for ParseError {
             Self::LineTooLong => f.write_str("line longer than 96 bytes, discarded"),
             Self::BinaryInput => f.write_str("line holds non-printable bytes"),
             Self::LostBytes => f.write_str("bytes of this line were lost, line discarded"),
-            Self::UnknownCommand => f.write_str("unknown command, try `help`"),
+            Self::UnknownCommand(None) => f.write_str("unknown command, try `help`"),
+            Self::UnknownCommand(Some(i)) => {
+                write!(f, "unknown command; did you mean {}?", command_name(*i))
+            }
             Self::BadArguments(why) => write!(f, "{why}"),
-            Self::UnknownName => f.write_str("no such parameter, try `get`"),
+            Self::UnknownName(w, near) => {
+                write!(f, "unknown parameter {w}")?;
+                match near {
+                    Some(i) => write!(f, "; did you mean {}?", param_name(*i)),
+                    None => f.write_str("; `help set` lists them"),
+                }
+            }
             Self::Busy => f.write_str("too many commands waiting for replies, line discarded"),
         }
     }
+}
+
+/// A word of a refused line, kept for its message: its first [`Word::CAP`] bytes (a longer one
+/// is written cut, with `...`), each byte that is not ASCII as `?` (the console's lines are
+/// printable ASCII; `parse` may be given any text).
+#[derive(Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub struct Word {
+    bytes: [u8; Word::CAP],
+    len: u8,
+    cut: bool,
+}
+
+impl Word {
+    /// Most bytes kept.
+    pub const CAP: usize = 24;
+
+    /// Keep `w`.
+    #[inline(never)]
+    pub fn new(w: &str) -> Word {
+        let n = w.len().min(Word::CAP);
+        let mut bytes = [0; Word::CAP];
+        bytes[..n].copy_from_slice(&w.as_bytes()[..n]);
+        Word {
+            bytes,
+            len: n as u8,
+            cut: n < w.len(),
+        }
+    }
+}
+
+impl fmt::Display for Word {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for &b in self.bytes.iter().take(usize::from(self.len)) {
+            fmt::Write::write_char(f, if b.is_ascii() { char::from(b) } else { '?' })?;
+        }
+        f.write_str(if self.cut { "..." } else { "" })
+    }
+}
+
+impl fmt::Debug for Word {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "`{self}`")
+    }
+}
+
+/// Command `i`'s name (`?` past the table's end).
+fn command_name(i: u8) -> &'static str {
+    COMMANDS.get(usize::from(i)).map_or("?", |c| c.name)
+}
+
+/// Parameter `i`'s name (`?` past the table's end).
+fn param_name(i: u8) -> &'static str {
+    PARAMS.get(usize::from(i)).map_or("?", |p| p.name)
 }
 
 /// What was wrong with a command's arguments (the message of `err bad-arguments`).
@@ -87,8 +155,13 @@ pub enum ArgError {
     NoValue,
     /// A value that is not a finite number.
     NotANumber,
-    /// A word after `set`'s value (a unit: values are written in the unit `get` shows).
-    UnitNotExpected,
+    /// `set`'s value written with its unit (`360K`, or `358 K` as two words): the text and
+    /// the parameter (an index into [`PARAMS`]).
+    WithUnit(Word, u8),
+    /// A word after `set`'s value that is not its unit.
+    Extra(Word),
+    /// A count (an index into [`PARAMS`]) set to a value with a fraction.
+    NotWhole(u8),
     /// `stream` without `on` or `off`.
     OnOrOff,
     /// `stream off` with a rate.
@@ -132,9 +205,29 @@ impl fmt::Display for ArgError {
             Self::NoName => f.write_str("usage: set NAME VALUE (names: `get`)"),
             Self::NoValue => f.write_str("no value; usage: set NAME VALUE"),
             Self::NotANumber => f.write_str("not a number"),
-            Self::UnitNotExpected => {
-                f.write_str("no unit expected: the value alone, in the unit `get` shows")
-            }
+            Self::WithUnit(w, i) => match PARAMS.get(usize::from(i)) {
+                Some(p) if !p.unit.is_empty() => write!(
+                    f,
+                    "`{w}`: write the number without its unit, the unit is {}",
+                    p.unit
+                ),
+                _ => write!(
+                    f,
+                    "`{w}`: write the number alone, {} has no unit",
+                    param_name(i)
+                ),
+            },
+            Self::Extra(w) => write!(f, "one value expected, extra `{w}`"),
+            Self::NotWhole(i) => match PARAMS.get(usize::from(i)) {
+                Some(p) => write!(
+                    f,
+                    "{} takes a whole number, {} to {}",
+                    p.name,
+                    crate::decimal::Shortest::new(p.min),
+                    crate::decimal::Shortest::new(p.max)
+                ),
+                None => f.write_str("a whole number expected"),
+            },
             Self::OnOrOff => f.write_str("usage: stream on|off [HZ]"),
             Self::RateWithOff => f.write_str("`stream off` takes no rate"),
             Self::PoseUsage => {
@@ -178,8 +271,12 @@ pub enum Command {
     Help(Option<u8>),
     /// Show the firmware version.
     Version,
-    /// Show mode, temperatures, outputs and faults.
-    Status,
+    /// Show mode, temperatures, outputs and faults; `short`: only what a person watches
+    /// (mode, phase, target, Tc, outputs, bend, fault).
+    Status {
+        /// `status short`.
+        short: bool,
+    },
     /// Enter a mode; the springs for the stepping modes (default: the last used, at first A).
     Mode(ModeId, Option<SpringMask>),
     /// `mode pose ANGLE [SPRINGS] [form]`: bend to `target_deg` with the springs (default: the
@@ -204,6 +301,8 @@ pub enum Command {
     Get(Option<u8>),
     /// Write a parameter (index into [`PARAMS`]) in its console unit.
     Set(u8, f32),
+    /// Every parameter for a person: one `#` line each with value, unit, default and range.
+    Settings,
     /// Tune the PID gains with a relay test.
     Autotune,
     /// Print the event log.
@@ -244,8 +343,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     },
     CommandSpec {
         name: "status",
-        args: "",
-        help: "mode, temperatures, outputs, fault",
+        args: "[short]",
+        help: "mode, temperatures, outputs, fault; short: mode, Tc, outputs, bend, fault",
     },
     CommandSpec {
         name: "mode",
@@ -280,7 +379,12 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "set",
         args: "NAME VALUE",
-        help: "write a parameter (unit as get shows)",
+        help: "write a parameter, the number alone in its unit (settings shows them)",
+    },
+    CommandSpec {
+        name: "settings",
+        args: "",
+        help: "one # line a parameter: value, unit, default, range; * where not the default",
     },
     CommandSpec {
         name: "autotune",
@@ -295,12 +399,12 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "stream",
         args: "on|off [HZ]",
-        help: "telemetry lines starting with #",
+        help: "telemetry lines starting with #, HZ up to 10 (default 4)",
     },
     CommandSpec {
         name: "estop",
         args: "",
-        help: "emergency stop (latched)",
+        help: "emergency stop, every output off; latched until `reset` with the button released",
     },
     CommandSpec {
         name: "save",
@@ -318,95 +422,6 @@ pub const COMMANDS: &[CommandSpec] = &[
         help: "every parameter to its default (save to keep)",
     },
 ];
-
-/// Exact powers of ten in f64 (10^22 is the last).
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// A console number, `[+|-]digits[.digits][(e|E)[+|-]digits]` (`.5` and `5.` too), finite.
-///
-/// By hand rather than `str::parse::<f32>`: core's parser, correctly rounded for any input,
-/// links a 10 KiB table of powers of five and about 6 KiB of code — 6 % of the board's flash —
-/// for inputs no console line carries. Here the first 18 significant digits make an exact
-/// integer, scaled once by an exact power of ten in f64 and rounded to f32: the same value as
-/// core's for every input of up to 15 significant digits with a decimal exponent within ±22
-/// (f64's one rounding then f32's; a test compares the two on the shortest, three-decimal and
-/// exponent forms of 200 000 random f32s), within an ulp beyond. Not inlined: three commands
-/// parse numbers, and one copy is what the board's flash has room for.
-#[inline(never)]
-fn number(word: &str) -> Option<f32> {
-    let b = word.as_bytes();
-    let (neg, mut i) = match b.first()? {
-        b'-' => (true, 1),
-        b'+' => (false, 1),
-        _ => (false, 0),
-    };
-    let (mut m, mut exp10, mut any) = (0u64, 0i32, false);
-    let mut digits = |i: &mut usize, fraction: bool, m: &mut u64, exp10: &mut i32| {
-        while let Some(d) = b.get(*i).filter(|c| c.is_ascii_digit()) {
-            if *m < 100_000_000_000_000_000 {
-                *m = *m * 10 + u64::from(d - b'0');
-                *exp10 -= i32::from(fraction);
-            } else {
-                *exp10 += i32::from(!fraction);
-            }
-            any = true;
-            *i += 1;
-        }
-    };
-    digits(&mut i, false, &mut m, &mut exp10);
-    if b.get(i) == Some(&b'.') {
-        i += 1;
-        digits(&mut i, true, &mut m, &mut exp10);
-    }
-    if !any {
-        return None;
-    }
-    if matches!(b.get(i), Some(b'e' | b'E')) {
-        i += 1;
-        let sign = match b.get(i) {
-            Some(b'-') => {
-                i += 1;
-                -1
-            }
-            Some(b'+') => {
-                i += 1;
-                1
-            }
-            _ => 1,
-        };
-        let (mut e, start) = (0i32, i);
-        while let Some(d) = b.get(i).filter(|c| c.is_ascii_digit()) {
-            e = (e * 10 + i32::from(d - b'0')).min(100_000);
-            i += 1;
-        }
-        if i == start {
-            return None;
-        }
-        exp10 += sign * e;
-    }
-    if i != b.len() {
-        return None;
-    }
-    let mut v = m as f64;
-    while exp10 > 22 {
-        v *= POW10[22];
-        exp10 -= 22;
-    }
-    while exp10 < -22 {
-        v /= POW10[22];
-        exp10 += 22;
-    }
-    v = if exp10 >= 0 {
-        v * POW10[exp10 as usize]
-    } else {
-        v / POW10[(-exp10) as usize]
-    };
-    let v = (if neg { -v } else { v }) as f32;
-    v.is_finite().then_some(v)
-}
 
 /// `mode pose`'s arguments after `pose`: ANGLE [SPRINGS] [form].
 fn parse_pose<'a>(mut words: impl Iterator<Item = &'a str>) -> Result<Command, ParseError> {
@@ -433,46 +448,123 @@ fn parse_pose<'a>(mut words: impl Iterator<Item = &'a str>) -> Result<Command, P
     })
 }
 
+/// Whether `a` becomes `b` (case-insensitive) in at most `k` edits: a letter inserted,
+/// deleted or replaced, or two neighbours swapped (the optimal string alignment distance).
+/// Recursive, at most `k` deep (the console asks for 2 at most): no allocation, no table.
+#[inline(never)]
+fn within(a: &[u8], b: &[u8], k: u8) -> bool {
+    let same = |i: usize, j: usize| match (a.get(i), b.get(j)) {
+        (Some(x), Some(y)) => x.eq_ignore_ascii_case(y),
+        _ => false,
+    };
+    let mut i = 0;
+    while same(i, i) {
+        i += 1;
+    }
+    let (left_a, left_b) = (a.len().saturating_sub(i), b.len().saturating_sub(i));
+    if left_a == 0 || left_b == 0 {
+        return left_a.max(left_b) <= usize::from(k);
+    }
+    if k == 0 {
+        return false;
+    }
+    let (a0, b0) = (
+        a.get(i..).unwrap_or_default(),
+        b.get(i..).unwrap_or_default(),
+    );
+    let (a1, b1) = (
+        a0.get(1..).unwrap_or_default(),
+        b0.get(1..).unwrap_or_default(),
+    );
+    let (a2, b2) = (
+        a1.get(1..).unwrap_or_default(),
+        b1.get(1..).unwrap_or_default(),
+    );
+    // a[i] deleted, b[i] inserted, a[i] replaced, or a[i] and a[i + 1] swapped.
+    within(a1, b0, k - 1)
+        || within(a0, b1, k - 1)
+        || within(a1, b1, k - 1)
+        || (same(i, i + 1) && same(i + 1, i) && within(a2, b2, k - 1))
+}
+
+/// Where `word` is among the names `name(0)`, `name(1)`, … (case-insensitive): `Ok` with its
+/// index, or `Err` with the index of the closest name if one is near enough to suggest — one
+/// edit away (a letter wrong, missing, extra, or two swapped: [`within`]) for a word of up to
+/// four letters, two for a longer one; the first in table order among equals. (The desk's own
+/// did-you-mean allows two edits for any word; the console's commands are short.)
+#[inline(never)]
+pub fn lookup(word: &str, name: &dyn Fn(usize) -> Option<&'static str>) -> Result<u8, Option<u8>> {
+    let limit = if word.len() <= 4 { 1 } else { 2 };
+    for k in 0..=limit {
+        let mut i = 0;
+        while let Some(n) = name(i) {
+            if within(word.as_bytes(), n.as_bytes(), k) {
+                return if k == 0 {
+                    Ok(i as u8)
+                } else {
+                    Err(Some(i as u8))
+                };
+            }
+            i += 1;
+        }
+    }
+    Err(None)
+}
+
+/// The command called `word`.
+fn command_index(word: &str) -> Result<u8, ParseError> {
+    lookup(word, &|i| COMMANDS.get(i).map(|c| c.name)).map_err(ParseError::UnknownCommand)
+}
+
+/// `set NAME WORD`'s refusal when WORD is not a number: a number with its unit stuck to it
+/// (`360K`, `12.5%`) says so, anything else is not a number.
+fn not_a_number(word: &str, param: u8) -> ArgError {
+    let b = word.as_bytes();
+    let n = b
+        .iter()
+        .rposition(|c| c.is_ascii_digit() || *c == b'.')
+        .map_or(0, |i| i + 1);
+    if n > 0 && n < b.len() && crate::decimal::parse_bytes(&b[..n]).is_some() {
+        ArgError::WithUnit(Word::new(word), param)
+    } else {
+        ArgError::NotANumber
+    }
+}
+
 /// Parse one line (without its end).
 pub fn parse(line: &str) -> Result<Command, ParseError> {
     let mut words = line.split([' ', '\t']).filter(|w| !w.is_empty());
-    let verb = words.next().ok_or(ParseError::UnknownCommand)?;
-    let index = COMMANDS
-        .iter()
-        .position(|c| c.name.eq_ignore_ascii_case(verb))
-        .ok_or(ParseError::UnknownCommand)?;
-    let spec = &COMMANDS[index];
+    let verb = words.next().ok_or(ParseError::UnknownCommand(None))?;
+    let index = command_index(verb)?;
+    let spec = &COMMANDS[usize::from(index)];
     let bad = ParseError::BadArguments;
     let a = words.next();
     if spec.name == "mode" && a.is_some_and(|w| w.eq_ignore_ascii_case("pose")) {
         return parse_pose(words);
     }
     let b = words.next();
-    if words.next().is_some() {
-        // `set hot_k 358 K`: a unit after the value.
-        let why = if spec.name == "set" {
-            ArgError::UnitNotExpected
-        } else {
-            ArgError::TooMany(index as u8)
-        };
-        return Err(bad(why));
+    let c = words.next();
+    if c.is_some() && spec.name != "set" {
+        return Err(bad(ArgError::TooMany(index)));
     }
     let none = |cmd: Command| match (a, b) {
         (None, None) => Ok(cmd),
-        _ => Err(bad(ArgError::NoneTaken(index as u8))),
+        _ => Err(bad(ArgError::NoneTaken(index))),
     };
     match spec.name {
         "help" => match (a, b) {
             (None, None) => Ok(Command::Help(None)),
-            (Some(word), None) => COMMANDS
-                .iter()
-                .position(|c| c.name.eq_ignore_ascii_case(word))
-                .map(|i| Command::Help(Some(i as u8)))
-                .ok_or(ParseError::UnknownCommand),
-            _ => Err(bad(ArgError::TooMany(index as u8))),
+            (Some(word), None) => Ok(Command::Help(Some(command_index(word)?))),
+            _ => Err(bad(ArgError::TooMany(index))),
         },
         "version" => none(Command::Version),
-        "status" => none(Command::Status),
+        "status" => match (a, b) {
+            (None, _) => Ok(Command::Status { short: false }),
+            (Some(w), None) if w.eq_ignore_ascii_case("short") => {
+                Ok(Command::Status { short: true })
+            }
+            _ => Err(bad(ArgError::TooMany(index))),
+        },
         "pause" => none(Command::Pause),
         "resume" => none(Command::Resume),
         "stop" => none(Command::Stop),
@@ -483,9 +575,14 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
         "save" => none(Command::Save),
         "load" => none(Command::Load),
         "defaults" => none(Command::Defaults),
+        "settings" => none(Command::Settings),
         "mode" => {
             let name = a.ok_or(bad(ArgError::NoMode))?;
-            let mode = ModeId::requested(name).ok_or(bad(ArgError::UnknownMode))?;
+            let mode = lookup(name, &|i| mode_names().nth(i).map(|(n, _)| n))
+                .ok()
+                .and_then(|i| mode_names().nth(usize::from(i)))
+                .ok_or(bad(ArgError::UnknownMode))?
+                .1;
             let springs = match b {
                 None => None,
                 Some(w) => Some(SpringMask::parse(w).ok_or(bad(ArgError::UnknownSprings))?),
@@ -498,12 +595,28 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
         "get" => match (a, b) {
             (None, None) => Ok(Command::Get(None)),
             (Some(n), None) => Ok(Command::Get(Some(param_index(n)?))),
-            _ => Err(bad(ArgError::TooMany(index as u8))),
+            _ => Err(bad(ArgError::TooMany(index))),
         },
         "set" => {
             let i = param_index(a.ok_or(bad(ArgError::NoName))?)?;
-            let v = number(b.ok_or(bad(ArgError::NoValue))?).ok_or(bad(ArgError::NotANumber))?;
-            Ok(Command::Set(i, v))
+            let p = &PARAMS[usize::from(i)];
+            let w = b.ok_or(bad(ArgError::NoValue))?;
+            let v = number(w);
+            match c {
+                // `358 K`: the value and its unit, as two words.
+                Some(unit) if v.is_some() && unit.eq_ignore_ascii_case(p.unit) => {
+                    let start = w.as_ptr() as usize - line.as_ptr() as usize;
+                    let end = unit.as_ptr() as usize - line.as_ptr() as usize + unit.len();
+                    let both = line.get(start..end).unwrap_or(w);
+                    Err(bad(ArgError::WithUnit(Word::new(both), i)))
+                }
+                Some(extra) => Err(bad(ArgError::Extra(Word::new(extra)))),
+                None => match v {
+                    None => Err(bad(not_a_number(w, i))),
+                    Some(v) if p.integer && v != libm::roundf(v) => Err(bad(ArgError::NotWhole(i))),
+                    Some(v) => Ok(Command::Set(i, v)),
+                },
+            }
         }
         "stream" => {
             let on = match a {
@@ -518,16 +631,14 @@ pub fn parse(line: &str) -> Result<Command, ParseError> {
             };
             Ok(Command::Stream(on, hz))
         }
-        _ => Err(ParseError::UnknownCommand),
+        _ => Err(ParseError::UnknownCommand(None)),
     }
 }
 
+/// The parameter called `name`.
 fn param_index(name: &str) -> Result<u8, ParseError> {
-    PARAMS
-        .iter()
-        .position(|q| q.name.eq_ignore_ascii_case(name))
-        .map(|i| i as u8)
-        .ok_or(ParseError::UnknownName)
+    lookup(name, &|i| PARAMS.get(i).map(|p| p.name))
+        .map_err(|near| ParseError::UnknownName(Word::new(name), near))
 }
 
 #[cfg(test)]
@@ -644,15 +755,30 @@ mod tests {
         assert_eq!(parse("set hot_k inf"), bad(ArgError::NotANumber));
         assert_eq!(parse("set hot_k"), bad(ArgError::NoValue));
         assert_eq!(parse("set"), bad(ArgError::NoName));
-        assert_eq!(parse("set hot_k 358 K"), bad(ArgError::UnitNotExpected));
-        assert_eq!(parse("set nope 1"), Err(ParseError::UnknownName));
+        let hot_k = param_index("hot_k").unwrap();
+        assert_eq!(
+            parse("set hot_k 358 K"),
+            bad(ArgError::WithUnit(Word::new("358 K"), hot_k))
+        );
+        assert_eq!(
+            parse("set hot_k 360K"),
+            bad(ArgError::WithUnit(Word::new("360K"), hot_k))
+        );
+        assert_eq!(
+            parse("set hot_k 360 extra"),
+            bad(ArgError::Extra(Word::new("extra")))
+        );
+        assert_eq!(
+            parse("set nope 1"),
+            Err(ParseError::UnknownName(Word::new("nope"), None))
+        );
         assert_eq!(parse("get"), Ok(Command::Get(None)));
         assert_eq!(parse("stream off 3"), bad(ArgError::RateWithOff));
         assert_eq!(parse("stream"), bad(ArgError::OnOrOff));
         assert_eq!(parse("stream on"), Ok(Command::Stream(true, None)));
         let status = COMMANDS.iter().position(|c| c.name == "status").unwrap() as u8;
-        assert_eq!(parse("status now"), bad(ArgError::NoneTaken(status)));
-        assert_eq!(parse("frobnicate"), Err(ParseError::UnknownCommand));
+        assert_eq!(parse("status now"), bad(ArgError::TooMany(status)));
+        assert_eq!(parse("frobnicate"), Err(ParseError::UnknownCommand(None)));
         assert_eq!(parse("SAVE"), Ok(Command::Save));
         assert_eq!(parse("defaults"), Ok(Command::Defaults));
     }
@@ -674,17 +800,54 @@ mod tests {
             "springs are for step-small and step-large and pose only"
         );
         assert_eq!(said("set hot_k abc"), "not a number");
+        // Issue 44: what was wrong, with a hint.
         assert_eq!(
             said("set hot_k 358 K"),
-            "no unit expected: the value alone, in the unit `get` shows"
+            "`358 K`: write the number without its unit, the unit is K"
         );
-        assert_eq!(said("status now"), "`status` takes no arguments");
+        assert_eq!(
+            said("set hot_k 360K"),
+            "`360K`: write the number without its unit, the unit is K"
+        );
+        assert_eq!(
+            said("set spring_duty_max_pct 50%"),
+            "`50%`: write the number without its unit, the unit is %"
+        );
+        assert_eq!(
+            said("set large_steps 4x"),
+            "`4x`: write the number alone, large_steps has no unit"
+        );
+        assert_eq!(
+            said("set hot_k 360 extra"),
+            "one value expected, extra `extra`"
+        );
+        assert_eq!(
+            said("set large_steps 2.5"),
+            "large_steps takes a whole number, 1 to 10"
+        );
+        assert_eq!(
+            said("set ki 1e-3 1/(k*s)"),
+            "`1e-3 1/(k*s)`: write the number without its unit, the unit is 1/(K*s)"
+        );
+        assert_eq!(
+            said("set hot_k 1e"),
+            "`1e`: write the number without its unit, the unit is K"
+        );
+        assert_eq!(said("set hot_k 0x10"), "not a number");
+        assert_eq!(said("set hot_k K"), "not a number");
+        assert_eq!(
+            said("set hot_k 360 an-extra-word-of-forty-bytes-or-so"),
+            "one value expected, extra `an-extra-word-of-forty-b...`"
+        );
+        assert_eq!(said("status now"), "usage: status [short]");
+        assert_eq!(said("version now"), "`version` takes no arguments");
         assert_eq!(said("get a b"), "usage: get [NAME]");
         assert_eq!(said("stream maybe"), "usage: stream on|off [HZ]");
         assert_eq!(said("load now"), "`load` takes no arguments");
+        assert_eq!(said("set hot_k b c"), "one value expected, extra `c`");
         assert_eq!(
             said("set a b c"),
-            "no unit expected: the value alone, in the unit `get` shows"
+            "unknown parameter a; `help set` lists them"
         );
         // Every message fits a reply with room to spare.
         for line in [
@@ -700,6 +863,69 @@ mod tests {
         }
     }
 
+    /// Issue 44: an unknown command or parameter near a known one names it.
+    #[test]
+    fn did_you_mean() {
+        let said = |line: &str| std::format!("{}", parse(line).unwrap_err());
+        assert_eq!(said("stauts"), "unknown command; did you mean status?");
+        assert_eq!(said("STAUTS"), "unknown command; did you mean status?");
+        assert_eq!(said("hlep"), "unknown command; did you mean help?");
+        assert_eq!(said("stpo"), "unknown command; did you mean stop?");
+        assert_eq!(said("defualts"), "unknown command; did you mean defaults?");
+        assert_eq!(said("autotun"), "unknown command; did you mean autotune?");
+        assert_eq!(said("help stram"), "unknown command; did you mean stream?");
+        assert_eq!(
+            said("set hotk 360"),
+            "unknown parameter hotk; did you mean hot_k?"
+        );
+        assert_eq!(
+            said("get Hot-K"),
+            "unknown parameter Hot-K; did you mean hot_k?"
+        );
+        assert_eq!(
+            said("set stepp_s 3"),
+            "unknown parameter stepp_s; did you mean step_s?"
+        );
+        assert_eq!(
+            said("get sma_as"),
+            "unknown parameter sma_as; did you mean sma_as_k?"
+        );
+        // Too far from every name: no guess.
+        for (line, want) in [
+            ("frobnicate", "unknown command, try `help`"),
+            ("fly", "unknown command, try `help`"),
+            ("xy", "unknown command, try `help`"),
+            (
+                "get temperature",
+                "unknown parameter temperature; `help set` lists them",
+            ),
+        ] {
+            assert_eq!(said(line), want, "{line}");
+        }
+        // The rule: one edit for a word of up to four letters, two beyond; a swap is one.
+        let distance = |a: &str, b: &str| (0..9).find(|&k| within(a.as_bytes(), b.as_bytes(), k));
+        assert_eq!(distance("stauts", "status"), Some(1));
+        assert_eq!(distance("status", "STATUS"), Some(0));
+        assert_eq!(distance("sttus", "status"), Some(1));
+        assert_eq!(distance("kitten", "sitting"), Some(3));
+        assert_eq!(distance("ab", "abcdef"), Some(4));
+        assert_eq!(distance("ca", "abc"), Some(3));
+        assert_eq!(distance("", ""), Some(0));
+        let two = |i: usize| ["log", "load"].get(i).copied();
+        assert_eq!(lookup("lgo", &two), Err(Some(0)));
+        assert_eq!(lookup("lod", &two), Err(Some(0)));
+        assert_eq!(lookup("LOAD", &two), Ok(1));
+        assert_eq!(lookup("lo", &two), Err(Some(0)));
+        assert_eq!(lookup("x", &two), Err(None));
+        // Every name is found as itself, whatever its case.
+        for (i, c) in COMMANDS.iter().enumerate() {
+            assert_eq!(command_index(&c.name.to_ascii_uppercase()), Ok(i as u8));
+        }
+        for (i, p) in PARAMS.iter().enumerate() {
+            assert_eq!(param_index(p.name), Ok(i as u8));
+        }
+    }
+
     #[test]
     fn reader_refusals_keep_their_reason() {
         assert_eq!(
@@ -710,6 +936,13 @@ mod tests {
             parse_read(Err(ConsoleError::BinaryInput)),
             Err(ParseError::BinaryInput)
         );
-        assert_eq!(parse_read(Ok("status")), Ok(Command::Status));
+        assert_eq!(
+            parse_read(Ok("status")),
+            Ok(Command::Status { short: false })
+        );
+        assert_eq!(
+            parse_read(Ok("STATUS Short")),
+            Ok(Command::Status { short: true })
+        );
     }
 }

@@ -6,8 +6,10 @@
 //! [`Fixed`] writes the text `format!("{:.N}", x)` writes for an `f32` with integer arithmetic on
 //! its bits: the exact binary value rounded to `N` decimals, an exact tie to the even last digit,
 //! `-0.0` for a negative value that rounds to zero, `NaN`, `inf` and `-inf`, and the `+` flag,
-//! width, fill, alignment and `0` flag as core applies them to a float. [`Thousandths`] writes a
-//! whole count of thousandths (milliseconds as seconds) with three decimals.
+//! width, fill, alignment and `0` flag as core applies them to a float. [`Shortest`] writes an
+//! `f32` in the fewest decimals that [`parse`] reads back as the same `f32` (a parameter's value,
+//! so that what `set` stored is what `get` shows). [`Thousandths`] writes a whole count of
+//! thousandths (milliseconds as seconds) with three decimals. [`parse`] reads a console number.
 
 use core::fmt::{self, Alignment, Formatter, Write};
 
@@ -25,7 +27,6 @@ const DIGITS: usize = 39 + MAX_DECIMALS as usize;
 pub struct Fixed {
     value: f32,
     decimals: u8,
-    trim: bool,
 }
 
 impl Fixed {
@@ -34,22 +35,6 @@ impl Fixed {
         Fixed {
             value,
             decimals: min_u8(decimals, MAX_DECIMALS),
-            trim: false,
-        }
-    }
-
-    /// Write `value` with at most `max_decimals` decimals: [`Fixed::new`]'s text without its
-    /// trailing zeros, and without the point when no decimal is left (`2`, `0.5`, `2.25`).
-    ///
-    /// That is the text `{}` writes for a value typed as a decimal of at most `max_decimals`
-    /// places whose digits the `f32` keeps: any of at most 6 significant digits, and every one of
-    /// the 10^7 six-place values in (0, 10] (`stream on`'s rates; each checked against std). Any
-    /// other value is rounded to `max_decimals` places where `{}` writes its shortest round-trip
-    /// digits (`0.0000001` as `0`, `1/3` as `0.333333` for `0.33333334`).
-    pub const fn trimmed(value: f32, max_decimals: u8) -> Fixed {
-        Fixed {
-            trim: true,
-            ..Fixed::new(value, max_decimals)
         }
     }
 }
@@ -75,7 +60,7 @@ impl fmt::Display for Fixed {
             return pad(f, sign, b"inf");
         }
         let mut text = Text::new();
-        text.point(&scaled(v, self.decimals), self.decimals, self.trim);
+        text.point(&scaled(v, self.decimals), self.decimals, false);
         pad(f, sign, text.as_bytes())
     }
 }
@@ -95,6 +80,153 @@ impl fmt::Display for Thousandths {
         text.point(&Digits::of(self.0), 3, false);
         pad(f, if f.sign_plus() { "+" } else { "" }, text.as_bytes())
     }
+}
+
+/// An `f32` in the fewest decimals that [`parse`] reads back as the same `f32`: `358`, `0.139`,
+/// `0.0004`, `0.1234567` — a parameter as `get` shows it, so the text `set` took reads back as
+/// the value it stored.
+///
+/// The digits are the value rounded to that many decimals (at most [`PLAIN_DECIMALS`]), so the
+/// text is `{}`'s (the shortest round-trip digits) for every `f32` from 0.001 to 2^24 (checked
+/// on random ones; above, where every `f32` is whole, the whole number); below 0.001 a value
+/// that needs more decimals is written with an exponent and the fewest significant digits (at
+/// most nine) that read back, `{:e}`'s digits (`1e-20`, `1.2345679e-30`). Zero is `0` (also
+/// `-0.0`); a value of 10^9 or more, infinite or NaN is written as [`Fixed::new`]`(value, 0)`
+/// writes it (no parameter's range reaches 10^9).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shortest {
+    value: f32,
+    per: f32,
+}
+
+impl Shortest {
+    /// Write `value` in the fewest decimals that read back as it.
+    pub const fn new(value: f32) -> Shortest {
+        Shortest { value, per: 1.0 }
+    }
+
+    /// A percentage kept as a fraction (`value` is the fraction × 100): the fewest decimals
+    /// whose hundredth, times 100, is `value` again — what `set` stores for the text gives the
+    /// same percentage (`60` for 0.6 × 100 = 60.000004). A value no fraction × 100 gives is
+    /// written with ten significant digits.
+    pub const fn percent(value: f32) -> Shortest {
+        Shortest { value, per: 100.0 }
+    }
+}
+
+/// Most decimals [`Shortest`] writes without an exponent.
+pub const PLAIN_DECIMALS: usize = 12;
+
+impl fmt::Display for Shortest {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        let v = self.value;
+        let a = v.abs();
+        if a.is_nan() || a >= 1e9 {
+            return Fixed::new(v, 0).fmt(f);
+        }
+        let mut text = Text::new();
+        text.shortest(a, self.per);
+        pad(f, if v < 0.0 { "-" } else { "" }, text.as_bytes())
+    }
+}
+
+/// Exact powers of ten in f64 (10^22 is the last).
+const POW10_F64: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// `v` × 10^`exp10`, by exact powers of ten in f64 ([`parse`]'s arithmetic). Not inlined:
+/// [`parse`] and [`Shortest`] share it.
+#[inline(never)]
+fn scale(mut v: f64, mut exp10: i32) -> f64 {
+    while exp10 > 22 {
+        v *= POW10_F64[22];
+        exp10 -= 22;
+    }
+    while exp10 < -22 {
+        v /= POW10_F64[22];
+        exp10 += 22;
+    }
+    if exp10 >= 0 {
+        v * POW10_F64[exp10 as usize]
+    } else {
+        v / POW10_F64[(-exp10) as usize]
+    }
+}
+
+/// A console number, `[+|-]digits[.digits][(e|E)[+|-]digits]` (`.5` and `5.` too), finite.
+///
+/// By hand rather than `str::parse::<f32>`: core's parser, correctly rounded for any input,
+/// links a 10 KiB table of powers of five and about 6 KiB of code — 6 % of the board's flash —
+/// for inputs no console line carries. Here the first 18 significant digits make an exact
+/// integer, scaled once by an exact power of ten in f64 and rounded to f32: the same value as
+/// core's for every input of up to 15 significant digits with a decimal exponent within ±22
+/// (f64's one rounding then f32's; a test compares the two on the shortest, three-decimal and
+/// exponent forms of 200 000 random f32s), within an ulp beyond. Not inlined: three commands
+/// parse numbers, and one copy is what the board's flash has room for.
+pub fn parse(word: &str) -> Option<f32> {
+    parse_bytes(word.as_bytes())
+}
+
+/// [`parse`] of a word's bytes.
+#[inline(never)]
+pub fn parse_bytes(b: &[u8]) -> Option<f32> {
+    let (neg, mut i) = match b.first()? {
+        b'-' => (true, 1),
+        b'+' => (false, 1),
+        _ => (false, 0),
+    };
+    let (mut m, mut exp10, mut any) = (0u64, 0i32, false);
+    let mut digits = |i: &mut usize, fraction: bool, m: &mut u64, exp10: &mut i32| {
+        while let Some(d) = b.get(*i).filter(|c| c.is_ascii_digit()) {
+            if *m < 100_000_000_000_000_000 {
+                *m = *m * 10 + u64::from(d - b'0');
+                *exp10 -= i32::from(fraction);
+            } else {
+                *exp10 += i32::from(!fraction);
+            }
+            any = true;
+            *i += 1;
+        }
+    };
+    digits(&mut i, false, &mut m, &mut exp10);
+    if b.get(i) == Some(&b'.') {
+        i += 1;
+        digits(&mut i, true, &mut m, &mut exp10);
+    }
+    if !any {
+        return None;
+    }
+    if matches!(b.get(i), Some(b'e' | b'E')) {
+        i += 1;
+        let sign = match b.get(i) {
+            Some(b'-') => {
+                i += 1;
+                -1
+            }
+            Some(b'+') => {
+                i += 1;
+                1
+            }
+            _ => 1,
+        };
+        let (mut e, start) = (0i32, i);
+        while let Some(d) = b.get(i).filter(|c| c.is_ascii_digit()) {
+            e = (e * 10 + i32::from(d - b'0')).min(100_000);
+            i += 1;
+        }
+        if i == start {
+            return None;
+        }
+        exp10 += sign * e;
+    }
+    if i != b.len() {
+        return None;
+    }
+    let v = scale(m as f64, exp10);
+    let v = (if neg { -v } else { v }) as f32;
+    v.is_finite().then_some(v)
 }
 
 /// A whole number's decimal digits, least significant first.
@@ -248,6 +380,38 @@ impl Text {
         }
         for i in (decimals - kept..decimals).rev() {
             self.push(b'0' + digits.at(i));
+        }
+    }
+
+    /// Write `a` (finite, at least 0, below 10^9) as [`Shortest`] does: the text of the first
+    /// candidate `c` with `c` / `per` × `per` = `a`.
+    #[inline(never)]
+    fn shortest(&mut self, a: f32, per: f32) {
+        let x = f64::from(a);
+        // The value rounded to a last digit of 10^q, for q = 0, −1, …: the first that reads
+        // back as `a`. Nine significant digits always do for `per` 1, so the digits fit a u32
+        // (`a` below 10^9 has them at q = 0); ten end the search for any `per` (a percentage no
+        // fraction gives, such as 120: 1.2 × 100 is 120.00001).
+        let mut q = 0i32;
+        let d = loop {
+            let d = (scale(x, -q) + 0.5) as u32;
+            if scale(f64::from(d), q) as f32 / per * per == a || d >= 1_000_000_000 {
+                break d;
+            }
+            q -= 1;
+        };
+        let digits = Digits::of(u64::from(d));
+        if q >= -(PLAIN_DECIMALS as i32) {
+            return self.point(&digits, (-q) as u8, false);
+        }
+        // d.ddd × 10^e: the point after the first digit, trailing zeros dropped.
+        let last = digits.len - 1;
+        self.point(&digits, last as u8, true);
+        self.push(b'e');
+        self.push(b'-');
+        let e = Digits::of(u64::from((q + last as i32).unsigned_abs()));
+        for i in (0..e.len).rev() {
+            self.push(b'0' + e.at(i));
         }
     }
 
@@ -443,44 +607,106 @@ mod tests {
         }
     }
 
+    /// `Shortest(v)` reads back as `v` through [`parse`] and through std's parser.
+    fn reads_back(v: f32) -> String {
+        let text = format!("{}", Shortest::new(v));
+        assert_eq!(
+            parse(&text),
+            Some(v),
+            "{v:e} ({:#010x}): {text}",
+            v.to_bits()
+        );
+        assert_eq!(text.parse::<f32>().ok(), Some(v), "{v:e}: {text}");
+        text
+    }
+
     #[test]
-    fn trimmed_is_what_display_writes_for_typed_values() {
-        // Every value of at most four places in (0, 10], and random six-place ones: a rate as
-        // `stream on` takes it.
+    fn shortest_is_what_display_writes_and_reads_back() {
+        // Every value of at most four places in (0, 10], and random six-place ones: what a
+        // person types (a rate, a gain).
         for k in 1..=100_000u32 {
             let typed = format!("{}.{:04}", k / 10_000, k % 10_000);
             let v: f32 = typed.parse().unwrap();
-            assert_eq!(
-                format!("{}", Fixed::trimmed(v, 6)),
-                format!("{v}"),
-                "{typed}"
-            );
+            assert_eq!(reads_back(v), format!("{v}"), "{typed}");
         }
         let mut x = 11u64;
-        for _ in 0..100_000 {
+        for i in 0..200_000 {
             let k = xorshift(&mut x) % 10_000_000 + 1;
             let typed = format!("{}.{:06}", k / 1_000_000, k % 1_000_000);
             let v: f32 = typed.parse().unwrap();
-            assert_eq!(
-                format!("{}", Fixed::trimmed(v, 6)),
-                format!("{v}"),
-                "{typed}"
-            );
+            assert_eq!(reads_back(v), format!("{v}"), "{typed}");
+            // Random bit patterns of every size from 10^-3 to 10^9: std's shortest digits
+            // below 2^24 (above, every f32 is whole: written whole, where std rounds to its
+            // shortest digits and pads with zeros).
+            let bits = xorshift(&mut x) as u32;
+            let v = f32::from_bits(bits & 0x807F_FFFF | (117 + (i % 41)) << 23);
+            let text = reads_back(v);
+            if v.abs() >= 1e-3 && v.abs() < 16_777_216.0 {
+                assert_eq!(text, format!("{v}"));
+            }
+            // Below 10^-3 with an exponent: std's shortest digits too.
+            let v = f32::from_bits(bits & 0x807F_FFFF | (i % 117) << 23);
+            let text = reads_back(v);
+            if text.contains('e') {
+                assert_eq!(text, format!("{v:e}"));
+            }
         }
-        for v in [
-            0.0,
-            -0.0,
-            f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            4.0,
-            -2.5,
-            0.5,
+        for (v, want) in [
+            (0.0, "0"),
+            (-0.0, "0"),
+            (358.0, "358"),
+            (0.139, "0.139"),
+            (0.0004, "0.0004"),
+            (0.1234567, "0.1234567"),
+            (-180.0, "-180"),
+            (58.90909, "58.90909"),
+            (1.5e-7, "0.00000015"),
+            (1e-20, "1e-20"),
+            (1.234_567_9e-30, "1.2345679e-30"),
+            (f32::MIN_POSITIVE, "1.1754944e-38"),
+            (f32::from_bits(1), "1e-45"),
+            (1e9, "1000000000"),
+            (f32::INFINITY, "inf"),
+            (f32::NAN, "NaN"),
         ] {
-            assert_eq!(format!("{}", Fixed::trimmed(v, 6)), format!("{v}"));
+            assert_eq!(format!("{}", Shortest::new(v)), want, "{v:e}");
         }
-        assert_eq!(format!("{}", Fixed::trimmed(1.0 / 3.0, 6)), "0.333333");
-        assert_eq!(format!("{}", Fixed::trimmed(2.5, 0)), "2");
+    }
+
+    #[test]
+    fn a_percentage_reads_back_as_its_fraction() {
+        let mut x = 5u64;
+        for i in 0..300_000 {
+            // Fractions of every size up to 2, and those of typed percentages.
+            let f = match i % 2 {
+                0 => (xorshift(&mut x) >> 40) as f32 / (1u64 << 23) as f32,
+                _ => {
+                    format!("{}", (xorshift(&mut x) % 200_000) as f32 / 1000.0)
+                        .parse::<f32>()
+                        .unwrap()
+                        / 100.0
+                }
+            };
+            let v = f * 100.0;
+            let text = format!("{}", Shortest::percent(v));
+            let c = parse(&text).unwrap();
+            assert_eq!(c / 100.0 * 100.0, v, "{f:e}: {text}");
+            assert!(text.len() <= 12, "{f:e}: {text}");
+        }
+        assert_eq!(format!("{}", Shortest::percent(0.6 * 100.0)), "60");
+        // Not a fraction × 100: ten digits, and the search ends.
+        assert_eq!(format!("{}", Shortest::percent(120.0)), "120.0000000");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_f32_below_1e9_reads_back(bits in proptest::prelude::any::<u32>()) {
+            let v = f32::from_bits(bits);
+            if v.is_finite() && v.abs() < 1e9 && v != 0.0 {
+                let text = reads_back(v);
+                proptest::prop_assert!(text.len() <= 16, "{}", text);
+            }
+        }
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! Every tunable number of the controller in one table: targets, gains, weights, durations and
 //! limits, with units and ranges.
 //!
-//! This module owns the parameter list. [`PARAMS`] drives the console's `get` and `set`, the
-//! `help` text, docs/console.md's list and the stored settings record, so a parameter exists in
+//! This module owns the parameter list. [`PARAMS`] drives the console's `get`, `set` and
+//! `settings`, docs/console.md's list and the stored settings record, so a parameter exists in
 //! exactly one place. Values are `f32` in the unit the name ends with (`_k` Kelvin, `_s`
 //! seconds, `_pct` percent, gains per Kelvin of error on a duty fraction).
 
@@ -474,7 +474,10 @@ pub struct Param {
     pub min: f32,
     /// Largest accepted value.
     pub max: f32,
-    /// One-line description.
+    /// One-line description (docs/console.md's table, the desk's completion). Not on the
+    /// board, whose flash cannot spare the 2.5 KB of text: its console's `settings` shows each
+    /// parameter's value, unit, default and range, and docs/console.md what each is.
+    #[cfg(not(target_os = "none"))]
     pub help: &'static str,
     /// Read the value.
     pub get: fn(&Settings) -> f32,
@@ -482,6 +485,8 @@ pub struct Param {
     pub set: fn(&mut Settings, f32),
     /// The value is a whole number.
     pub integer: bool,
+    /// The value is shown in percent and kept as a fraction (`set` stores it / 100).
+    pub percent: bool,
     /// Whether the parameter is a safety limit, and which way relaxes it: while a fault is
     /// latched `set` and `load` may tighten a limit but never relax one (SPEC section 5).
     pub relax: Relax,
@@ -516,10 +521,12 @@ macro_rules! param {
             unit: $unit,
             min: $min,
             max: $max,
+            #[cfg(not(target_os = "none"))]
             help: $help,
             get: |$s: &Settings| $field,
             set: |$s: &mut Settings, v: f32| $field = v,
             integer: false,
+            percent: false,
             relax: Relax::No,
         }
     };
@@ -534,10 +541,12 @@ macro_rules! count {
             unit: "",
             min: $min,
             max: $max,
+            #[cfg(not(target_os = "none"))]
             help: $help,
             get: |$s: &Settings| $field as f32,
             set: |$s: &mut Settings, v: f32| $field = v as _,
             integer: true,
+            percent: false,
             relax: Relax::No,
         }
     };
@@ -551,10 +560,12 @@ macro_rules! pct {
             unit: "%",
             min: $min,
             max: $max,
+            #[cfg(not(target_os = "none"))]
             help: $help,
             get: |$s: &Settings| $field * 100.0,
             set: |$s: &mut Settings, v: f32| $field = v / 100.0,
             integer: false,
+            percent: true,
             relax: Relax::No,
         }
     };

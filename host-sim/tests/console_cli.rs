@@ -58,7 +58,7 @@ fn settings_survive_a_restart_and_a_bad_file_falls_back_to_defaults() {
     let dir = temp_dir("stdin");
     let file = dir.join("settings.bin");
     let (lines, err) = session(&file, "set hot_k 360\r\nsave\r\n\r\nfrobnicate\n");
-    assert_eq!(lines[0], "ok hot_k=360.000 K");
+    assert_eq!(lines[0], "ok hot_k=360 K");
     assert!(lines[1].starts_with("ok saved "), "{lines:?}");
     assert_eq!(lines[2], "err unknown-command: unknown command, try `help`");
     assert_eq!(lines.len(), 3, "a blank line gets no reply");
@@ -72,11 +72,11 @@ fn settings_survive_a_restart_and_a_bad_file_falls_back_to_defaults() {
     assert_eq!(
         lines,
         [
-            "ok hot_k=360.000 K",
+            "ok hot_k=360 K",
             "ok defaults in use (`save` keeps them)",
-            "ok hot_k=358.000 K",
+            "ok hot_k=358 K",
             &lines[3],
-            "ok hot_k=360.000 K"
+            "ok hot_k=360 K"
         ]
     );
     assert!(lines[3].starts_with("ok loaded "));
@@ -90,7 +90,7 @@ fn settings_survive_a_restart_and_a_bad_file_falls_back_to_defaults() {
         lines,
         [
             "# warning: stored settings not used (CRC mismatch); defaults in use",
-            "ok hot_k=358.000 K",
+            "ok hot_k=358 K",
             "err bad-record: CRC mismatch; defaults in use"
         ]
     );
@@ -368,4 +368,119 @@ fn answered(line: &[u8], cap: usize) -> bool {
         }
     }
     overflow || binary || kept_blank.iter().any(|blank| !blank)
+}
+
+/// Issue 44, a researcher's first hour, through `host-sim console`: a value reads back as set,
+/// a refused value says what to write instead, a mistyped name is named.
+#[test]
+fn first_hour_replies() {
+    let dir = temp_dir("first-hour");
+    let input = [
+        "set ki 0.0004",
+        "set kp 0.1234567",
+        "get kp",
+        "set spring_duty_max_pct 60",
+        "set large_steps 2.5",
+        "set hot_k 360 extra",
+        "set hot_k 360K",
+        "set hot_k 360 K",
+        "stauts",
+        "set hotk 360",
+        "get temperature",
+        "status short",
+    ]
+    .join("\r\n")
+        + "\r\n";
+    let (lines, _) = session(&dir.join("settings.bin"), &input);
+    assert_eq!(
+        lines,
+        [
+            "ok ki=0.0004 1/(K*s)",
+            "ok kp=0.1234567 1/K",
+            "ok kp=0.1234567 1/K",
+            "ok spring_duty_max_pct=60 %",
+            "err bad-arguments: large_steps takes a whole number, 1 to 10",
+            "err bad-arguments: one value expected, extra `extra`",
+            "err bad-arguments: `360K`: write the number without its unit, the unit is K",
+            "err bad-arguments: `360 K`: write the number without its unit, the unit is K",
+            "err unknown-command: unknown command; did you mean status?",
+            "err unknown-name: unknown parameter hotk; did you mean hot_k?",
+            "err unknown-name: unknown parameter temperature; `help set` lists them",
+            "ok mode=stopped phase=- target_k=- tc_k=- heater_pct=0.0 fan_pct=0.0 springs=- \
+             bend_deg=0.00 bend_sd_deg=1.50 fault=none",
+        ]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 44 through `host-sim console`: `help` names the parameters, the stream's range and how
+/// to clear an e-stop; `settings` lists every parameter for a person (`#` lines, then `ok`),
+/// while `get` stays one line.
+#[test]
+fn first_hour_help_and_settings() {
+    let dir = temp_dir("first-hour-settings");
+    let input = "set hot_k 360\r\nhelp set\r\nhelp stream\r\nhelp estop\r\nsettings\r\nget\r\n";
+    let (lines, _) = session(&dir.join("settings.bin"), input);
+    assert_eq!(lines[0], "ok hot_k=360 K");
+    let names: Vec<&str> = thermorph::settings::PARAMS.iter().map(|p| p.name).collect();
+    assert_eq!(
+        lines[1],
+        format!(
+            "ok set NAME VALUE: write a parameter, the number alone in its unit (settings shows \
+             them); NAME: {}",
+            names.join(" ")
+        )
+    );
+    assert_eq!(
+        lines[2],
+        "ok stream on|off [HZ]: telemetry lines starting with #, HZ up to 10 (default 4)"
+    );
+    assert_eq!(
+        lines[3],
+        "ok estop: emergency stop, every output off; latched until `reset` with the button \
+         released"
+    );
+    let listing = &lines[4..4 + names.len()];
+    for (line, name) in listing.iter().zip(&names) {
+        assert!(
+            line.starts_with("# ") && line[4..].starts_with(name),
+            "{line}"
+        );
+    }
+    assert_eq!(
+        listing[1],
+        "# * hot_k                       360         K        default 358, 338 to 368"
+    );
+    assert_eq!(listing.iter().filter(|l| l.starts_with("# *")).count(), 1);
+    assert_eq!(
+        lines[4 + names.len()],
+        "ok 81 parameters, 1 not the default (*)"
+    );
+    let get = &lines[5 + names.len()];
+    assert!(
+        get.starts_with("ok standby_k=323 hot_k=360 form_end_k=323 kp=0.139 "),
+        "{get}"
+    );
+    assert_eq!(lines.len(), 6 + names.len());
+    // docs/console.md's example listing (after the same `set hot_k 360`) is this one.
+    let doc = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/console.md"),
+    )
+    .unwrap();
+    let example = doc
+        .split("> settings\n")
+        .nth(1)
+        .expect("the settings example");
+    let example = &example[..example.find("```").unwrap()];
+    let mut shown = 0;
+    for l in example.lines() {
+        if l.starts_with('#') {
+            assert!(listing.iter().any(|x| x == l), "docs/console.md: {l}");
+            shown += 1;
+        } else if l.starts_with("ok") {
+            assert_eq!(l, lines[4 + names.len()]);
+        }
+    }
+    assert!(shown >= 4, "{example}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use thermorph::command::{ArgError, COMMANDS, ParseError};
+use thermorph::command::{ArgError, COMMANDS, ParseError, Word};
 use thermorph::console::MAX_LINE;
 use thermorph::settings::{PARAMS, Settings};
 use thermorph::supervisor::mode::ModeId;
@@ -150,9 +150,9 @@ fn firmware_error_codes() -> Vec<String> {
         ParseError::LineTooLong,
         ParseError::BinaryInput,
         ParseError::LostBytes,
-        ParseError::UnknownCommand,
+        ParseError::UnknownCommand(None),
         ParseError::BadArguments(ArgError::NotANumber),
-        ParseError::UnknownName,
+        ParseError::UnknownName(Word::new("x"), None),
         ParseError::Busy,
     ]
     .iter()
@@ -162,9 +162,9 @@ fn firmware_error_codes() -> Vec<String> {
             ParseError::LineTooLong
             | ParseError::BinaryInput
             | ParseError::LostBytes
-            | ParseError::UnknownCommand
+            | ParseError::UnknownCommand(_)
             | ParseError::BadArguments(_)
-            | ParseError::UnknownName
+            | ParseError::UnknownName(..)
             | ParseError::Busy => e.code().to_string(),
         }
     })
@@ -319,4 +319,100 @@ fn console_doc_telemetry_table_is_the_field_list() {
         .collect::<Vec<_>>()
         .join(" ");
     assert!(text.contains(&format!("`# {line}`")), "{line}");
+}
+
+/// Issue 44: the page says what the firmware does about `stream`'s rate: its maximum
+/// (`STREAM_MAX_HZ`; the page once said 20 where the console refused above 10) and default.
+#[test]
+fn console_doc_states_the_streams_maximum_and_default() {
+    use thermorph::supervisor::{STREAM_DEFAULT_HZ, STREAM_MAX_HZ};
+    let rows = table(&console_md(), "## Commands", "| command |");
+    let row = rows
+        .iter()
+        .find(|r| r[0] == "`stream`")
+        .expect("the stream row");
+    let said = |before: &str| -> f32 {
+        let at = row[2]
+            .find(before)
+            .unwrap_or_else(|| panic!("the stream row says no {before:?}: {}", row[2]));
+        let rest = &row[2][at + before.len()..];
+        let end = rest
+            .find(|c: char| !c.is_ascii_digit() && c != '.')
+            .unwrap_or(rest.len());
+        rest[..end].parse().unwrap()
+    };
+    assert_eq!(
+        said("at most "),
+        STREAM_MAX_HZ,
+        "docs/console.md: {}",
+        row[2]
+    );
+    assert_eq!(
+        said("default "),
+        STREAM_DEFAULT_HZ,
+        "docs/console.md: {}",
+        row[2]
+    );
+    // And `help stream` says the same.
+    let help = COMMANDS.iter().find(|c| c.name == "stream").unwrap().help;
+    assert!(
+        help.contains(&format!(
+            "up to {STREAM_MAX_HZ} (default {STREAM_DEFAULT_HZ})"
+        )),
+        "{help}"
+    );
+}
+
+/// Issue 44: the page's table of `status`' fields is the reply's, in order (`spring_a` and
+/// `supply_v` only where the board senses its springs, `reason` only with a fault).
+#[test]
+fn console_doc_status_table_is_the_replys_fields() {
+    use thermorph::command::Command;
+    use thermorph::measurement::{Measurement, Quality};
+    use thermorph::supervisor::Supervisor;
+    use thermorph::units::{Kelvin, Millis};
+    let mut sup = Supervisor::new(Millis(0), Settings::DEFAULT);
+    let m = Measurement {
+        at: Millis(100),
+        seq: 1,
+        regions: [300.0, 299.0, 298.0, 298.0, 298.0].map(Kelvin::new),
+        hottest: Kelvin::new(300.0),
+        filled_pixels: 0,
+        quality: Quality::Resolved,
+        bound: Kelvin::lit(0.5),
+        tilt: None,
+        exposure: None,
+    };
+    sup.step(Millis(100), Some(&m), None);
+    let reply = sup
+        .step(Millis(150), None, Some(Command::Status { short: false }))
+        .reply
+        .unwrap();
+    let fields: Vec<&str> = reply
+        .as_str()
+        .strip_prefix("ok ")
+        .unwrap()
+        .split(' ')
+        .map(|f| f.split('=').next().unwrap())
+        .collect();
+    let rows = table(&console_md(), "## Reading `status`", "| field | meaning |");
+    let mut documented: Vec<&str> = Vec::new();
+    for r in &rows {
+        let names: Vec<&str> = r[0].split(", ").map(|n| n.trim_matches('`')).collect();
+        for n in names {
+            // `first` … `last`: the reply's fields from one to the other.
+            if let Some((first, last)) = n.split_once("` … `") {
+                let a = fields.iter().position(|f| *f == first).expect(first);
+                let b = fields.iter().position(|f| *f == last).expect(last);
+                documented.extend(&fields[a..=b]);
+            } else {
+                documented.push(n);
+            }
+        }
+    }
+    documented.retain(|f| !matches!(*f, "spring_a" | "supply_v"));
+    assert_eq!(
+        fields, documented,
+        "docs/console.md's status table, in order"
+    );
 }

@@ -888,10 +888,11 @@ impl Supervisor {
         match c {
             Command::Help(topic) => Reply::help(topic),
             Command::Version => Reply::version(),
-            Command::Status => Reply::status(self, now),
+            Command::Status { short } => Reply::status(self, now, short),
             Command::Log => Reply::log(&self.events),
             Command::Get(None) => Reply::get_all(&self.settings),
             Command::Get(Some(i)) => Reply::get(&self.settings, i as usize),
+            Command::Settings => Reply::settings(&self.settings),
             Command::Set(i, v) => {
                 let Some(p) = PARAMS.get(i as usize) else {
                     return Reply::err("unknown-name", "no such parameter");

@@ -129,13 +129,6 @@ impl ModeId {
             ModeId::Standby | ModeId::Stopped | ModeId::Faulted => false,
         }
     }
-
-    /// The requestable mode called `name` (case-insensitive).
-    pub fn requested(name: &str) -> Option<ModeId> {
-        ModeId::ALL
-            .into_iter()
-            .find(|m| m.requestable() && m.name().eq_ignore_ascii_case(name))
-    }
 }
 
 /// The supervisor's mode; each variant carries its own state.

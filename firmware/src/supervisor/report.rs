@@ -10,7 +10,7 @@ use super::events::{EventKind, EventLog};
 use super::safety::Fault;
 use super::{Mode, Supervisor};
 use crate::command::COMMANDS;
-use crate::decimal::{Fixed, Thousandths};
+use crate::decimal::{Fixed, Shortest, Thousandths};
 use crate::observer::Estimate;
 use crate::outputs::{SPRINGS, SpringMask};
 use crate::settings::{PARAMS, Param, Settings};
@@ -24,6 +24,7 @@ pub const REPLY_CAP: usize = 2048;
 pub struct Reply {
     buf: heapless::String<REPLY_CAP>,
     cut: bool,
+    listing: bool,
 }
 
 impl fmt::Debug for Reply {
@@ -56,7 +57,15 @@ impl Reply {
         Reply {
             buf: heapless::String::new(),
             cut: false,
+            listing: false,
         }
+    }
+
+    /// Whether `settings`' listing comes before this line: one `#` line a parameter
+    /// ([`write_setting`]), written by the caller from the supervisor's settings of the same
+    /// period, then this reply. Every line stays a line of its own (the protocol's `#` lines).
+    pub fn lists_settings(&self) -> bool {
+        self.listing
     }
 
     /// Return the line (without its end).
@@ -156,15 +165,23 @@ impl Reply {
     }
 
     /// `help`: every command with its arguments; `help COMMAND` (`topic`, an index into
-    /// [`COMMANDS`]): that command's arguments and what it does.
+    /// [`COMMANDS`]): that command's arguments and what it does, and for a command that takes
+    /// a NAME (`get`, `set`) every parameter's name.
     pub(super) fn help(topic: Option<u8>) -> Reply {
         if let Some(c) = topic.and_then(|i| COMMANDS.get(i as usize)) {
             return Reply::with(|r| {
                 if c.args.is_empty() {
-                    write!(r, "ok {}: {}", c.name, c.help)
+                    write!(r, "ok {}: {}", c.name, c.help)?;
                 } else {
-                    write!(r, "ok {} {}: {}", c.name, c.args, c.help)
+                    write!(r, "ok {} {}: {}", c.name, c.args, c.help)?;
                 }
+                if matches!(c.name, "get" | "set") {
+                    r.write_str("; NAME:")?;
+                    for p in PARAMS {
+                        write!(r, " {}", p.name)?;
+                    }
+                }
+                Ok(())
             });
         }
         Reply::with(|r| {
@@ -185,42 +202,16 @@ impl Reply {
         Reply::with(|r| write!(r, "ok thermorph {}", crate::VERSION))
     }
 
-    pub(super) fn status(s: &Supervisor, now: Millis) -> Reply {
+    /// `status`: every field (docs/console.md's table); `short`: the same fields' subset a
+    /// person watches, in the same order and format (mode, phase, target, Tc, outputs, bend,
+    /// fault).
+    pub(super) fn status(s: &Supervisor, now: Millis, short: bool) -> Reply {
         Reply::with(|r| {
             write!(r, "ok mode={} phase={}", s.mode.name(), s.mode.phase_name())?;
             write_k(r, "target_k", s.target_k())?;
             write_k(r, "tc_k", s.tc_k)?;
-            match s.last {
-                Some(m) => {
-                    for (i, t) in m.regions.iter().enumerate() {
-                        match t {
-                            Some(t) => write!(r, " t{}_k={}", i + 1, Fixed::new(t.k(), 3))?,
-                            None => write!(r, " t{}_k=-", i + 1)?,
-                        }
-                    }
-                    write!(
-                        r,
-                        " quality={} frame={} age_s={} filled={}",
-                        m.quality.name(),
-                        m.seq,
-                        Fixed::new(now.seconds_since(m.at).s(), 2),
-                        m.filled_pixels
-                    )?;
-                }
-                None => {
-                    r.write_str(" t1_k=- t2_k=- t3_k=- t4_k=- t5_k=- quality=- frame=- age_s=-")?
-                }
-            }
-            // The lattice's exposed fraction the last frame's fit shows, and the design MTTS
-            // fits with (the configured one, or what the frames adopted in its place).
-            match s.last.and_then(|m| m.exposure) {
-                Some(e) => write!(
-                    r,
-                    " exposed_pct={} design_pct={}",
-                    Fixed::new(e.fitted_pct, 1),
-                    Fixed::new(e.design_pct, 1)
-                )?,
-                None => r.write_str(" exposed_pct=- design_pct=-")?,
+            if !short {
+                write_measurement(r, s, now)?;
             }
             write!(
                 r,
@@ -229,10 +220,14 @@ impl Reply {
                 Fixed::new(s.outputs.fan.pct(), 1),
                 s.outputs.springs
             )?;
-            write!(r, " select={}", s.springs)?;
-            write_channels(r, s)?;
+            if !short {
+                write!(r, " select={}", s.springs)?;
+                write_channels(r, s)?;
+            }
             write_bend(r, &s.posture.bend())?;
-            write_estimate(r, &s.observer.estimate())?;
+            if !short {
+                write_estimate(r, &s.observer.estimate())?;
+            }
             match s.fault {
                 Some(f) => write!(r, " fault={} reason=\"{}\"", f.code(), f.reason()),
                 None => r.write_str(" fault=none"),
@@ -251,12 +246,30 @@ impl Reply {
         })
     }
 
+    /// `settings`' reply, after its listing: how many parameters, and how many are not their
+    /// defaults (marked `*`).
+    pub(super) fn settings(s: &Settings) -> Reply {
+        let changed = PARAMS
+            .iter()
+            .filter(|p| (p.get)(s) != (p.get)(&DEFAULTS))
+            .count();
+        let mut r = Reply::with(|r| {
+            write!(
+                r,
+                "ok {} parameters, {changed} not the default (*)",
+                PARAMS.len()
+            )
+        });
+        r.listing = true;
+        r
+    }
+
     pub(super) fn get_all(s: &Settings) -> Reply {
         Reply::with(|r| {
             r.write_str("ok")?;
             for p in PARAMS {
                 write!(r, " {}=", p.name)?;
-                write_param(r, p, (p.get)(s))?;
+                write_param(r, p, (p.get)(s), true)?;
             }
             Ok(())
         })
@@ -266,7 +279,7 @@ impl Reply {
         match PARAMS.get(i) {
             Some(p) => Reply::with(|r| {
                 write!(r, "ok {}=", p.name)?;
-                write_param(r, p, (p.get)(s))?;
+                write_param(r, p, (p.get)(s), true)?;
                 if !p.unit.is_empty() {
                     write!(r, " {}", p.unit)?;
                 }
@@ -279,16 +292,16 @@ impl Reply {
     pub(super) fn out_of_range(p: &Param, min: f32, max: f32) -> Reply {
         Reply::with(|r| {
             write!(r, "err out-of-range: {} must be in [", p.name)?;
-            write_param(r, p, min)?;
+            write_param(r, p, min, false)?;
             r.write_str(", ")?;
-            write_param(r, p, max)?;
+            write_param(r, p, max, false)?;
             write!(r, "] {}", p.unit)
         })
     }
 
     pub(super) fn stream_on(hz: f32) -> Reply {
-        // `{hz}`'s text for any rate typed with up to six places (see `Fixed::trimmed`).
-        Reply::with(|r| write!(r, "ok stream on {} Hz", Fixed::trimmed(hz, 6)))
+        // The rate as typed (its shortest text).
+        Reply::with(|r| write!(r, "ok stream on {} Hz", Shortest::new(hz)))
     }
 
     pub(super) fn fault_latched(f: Option<Fault>) -> Reply {
@@ -325,16 +338,121 @@ impl Reply {
     }
 }
 
-/// A parameter's value in its console unit, formatted by the parameter alone (never by the
-/// value): a count as a whole number, any other value with three decimals (`hot_k=358.000 K`
-/// whether 358 or 357.5 was set).
-fn write_param(r: &mut impl Write, p: &Param, v: f32) -> fmt::Result {
+/// A parameter's value in its console unit: a count as a whole number, any other value in the
+/// fewest decimals that read back as it ([`Shortest`]: `hot_k=358 K`, `ki=0.0004 1/(K*s)`; a
+/// `stored` percentage, kept as a fraction, in the fewest whose fraction gives it: `60 %`), so
+/// that `set NAME <what get showed>` changes nothing. A range's bound (not `stored`) is the
+/// table's number.
+#[inline(never)]
+fn write_param(r: &mut dyn Write, p: &Param, v: f32, stored: bool) -> fmt::Result {
     if !v.is_finite() {
         r.write_str("-")
     } else if p.integer {
         write!(r, "{}", libm::roundf(v) as i32)
+    } else if p.percent && stored {
+        write!(r, "{}", Shortest::percent(v))
     } else {
-        write!(r, "{}", Fixed::new(v, 3))
+        write!(r, "{}", Shortest::new(v))
+    }
+}
+
+/// One line of `settings`' listing, with its `#` and CR LF: parameter `i`'s name, value, unit,
+/// default and range, `*` before the name where the value is not the default:
+///
+/// ```text
+/// # * hot_k                       360         K        default 358, 338 to 368
+/// #   kp                          0.139       1/K      default 0.139, 0 to 10
+/// ```
+///
+/// Columns: `# `, the mark and a space; the name (28 wide: the longest and a space); the value
+/// as `get` writes it (12 wide); the unit (9 wide); then `default D, MIN to MAX`. Nothing for an
+/// `i` past [`PARAMS`].
+#[inline(never)]
+pub fn write_setting(out: &mut dyn Write, s: &Settings, i: usize) -> fmt::Result {
+    let Some(p) = PARAMS.get(i) else {
+        return Ok(());
+    };
+    let (v, d) = ((p.get)(s), (p.get)(&DEFAULTS));
+    // Through the trait object, not the board's one writer inlined here (flash: its pushes
+    // of padding become a memset routine).
+    let out = core::hint::black_box(out);
+    // Columns padded by hand: `{:<27}` pads with `write_char`, one more routine in flash.
+    let pad = |out: &mut dyn Write, wrote: usize, width: usize| {
+        out.write_str(
+            SPACES
+                .get(..width.saturating_sub(wrote))
+                .unwrap_or_default(),
+        )
+    };
+    out.write_str(if v == d { "#   " } else { "# * " })?;
+    out.write_str(p.name)?;
+    pad(out, p.name.len(), 28)?;
+    let mut width = Width(0);
+    write_param(&mut width, p, v, true)?;
+    write_param(out, p, v, true)?;
+    pad(out, width.0, 12)?;
+    out.write_str(p.unit)?;
+    pad(out, p.unit.len(), 9)?;
+    out.write_str("default ")?;
+    write_param(out, p, d, true)?;
+    out.write_str(", ")?;
+    write_param(out, p, p.min, false)?;
+    out.write_str(" to ")?;
+    write_param(out, p, p.max, false)?;
+    out.write_str("\r\n")
+}
+
+/// How many lines `settings`' listing has ([`write_setting`]'s `i` below it): one a parameter.
+pub const SETTING_LINES: usize = PARAMS.len();
+
+/// The defaults `settings` compares with: one copy in flash, not one built on the stack for
+/// each use of the constant.
+static DEFAULTS: Settings = Settings::DEFAULT;
+
+/// `settings`' columns' padding.
+const SPACES: &str = "                            ";
+
+/// Counts the bytes written to it.
+struct Width(usize);
+
+impl Write for Width {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        self.0 += s.len();
+        Ok(())
+    }
+}
+
+/// `status`' fields of the last frame: the regions, the measurement's quality, number, age and
+/// filled pixels, and the lattice's exposed fraction with the design MTTS fits with (the
+/// configured one, or what the frames adopted in its place).
+fn write_measurement(r: &mut impl Write, s: &Supervisor, now: Millis) -> fmt::Result {
+    match s.last {
+        Some(m) => {
+            for (i, t) in m.regions.iter().enumerate() {
+                match t {
+                    Some(t) => write!(r, " t{}_k={}", i + 1, Fixed::new(t.k(), 3))?,
+                    None => write!(r, " t{}_k=-", i + 1)?,
+                }
+            }
+            write!(
+                r,
+                " quality={} frame={} age_s={} filled={}",
+                m.quality.name(),
+                m.seq,
+                Fixed::new(now.seconds_since(m.at).s(), 2),
+                m.filled_pixels
+            )?;
+        }
+        None => r.write_str(" t1_k=- t2_k=- t3_k=- t4_k=- t5_k=- quality=- frame=- age_s=-")?,
+    }
+    match s.last.and_then(|m| m.exposure) {
+        Some(e) => write!(
+            r,
+            " exposed_pct={} design_pct={}",
+            Fixed::new(e.fitted_pct, 1),
+            Fixed::new(e.design_pct, 1)
+        ),
+        None => r.write_str(" exposed_pct=- design_pct=-"),
     }
 }
 

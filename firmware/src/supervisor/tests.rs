@@ -144,7 +144,7 @@ fn large_stepping_runs_four_steps_and_three_pulses_in_30_s() {
 fn pause_holds_the_timer_and_resume_finishes_it() {
     let mut r = Rig::new();
     r.run(60.0);
-    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0.000 s");
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
     r.line("mode step-small C");
     while r.sup.mode().phase_name() != "spring" {
         r.run(0.25);
@@ -316,12 +316,12 @@ fn bad_measurements_are_ignored_and_time_never_runs_back() {
 #[test]
 fn set_get_and_spring_limits() {
     let mut r = Rig::new();
-    assert_eq!(r.line("set step_s 5"), "ok step_s=5.000 s");
-    assert_eq!(r.line("get step_s"), "ok step_s=5.000 s");
+    assert_eq!(r.line("set step_s 5"), "ok step_s=5 s");
+    assert_eq!(r.line("get step_s"), "ok step_s=5 s");
     assert!(r.line("set step_s 9").starts_with("err conflict"));
     assert!(
         r.line("set hot_k 400")
-            .starts_with("err out-of-range: hot_k must be in [338.000, 368.000] K")
+            .starts_with("err out-of-range: hot_k must be in [338, 368] K")
     );
     assert!(r.line("help").starts_with("ok commands: help [COMMAND];"));
     assert_eq!(
@@ -333,7 +333,7 @@ fn set_get_and_spring_limits() {
         r.line("HELP save"),
         "ok save: store every parameter (survives a reset)"
     );
-    assert_eq!(parse("help fly"), Err(ParseError::UnknownCommand));
+    assert_eq!(parse("help fly"), Err(ParseError::UnknownCommand(None)));
     assert_eq!(
         parse("help mode set"),
         Err(ParseError::BadArguments(crate::command::ArgError::TooMany(
@@ -545,10 +545,7 @@ fn autotune_settings_past_a_safe_relay_are_refused() {
         r.line("set tune_timeout_s 3600")
             .starts_with("err out-of-range")
     );
-    assert_eq!(
-        r.line("set tune_timeout_s 900"),
-        "ok tune_timeout_s=900.000 s"
-    );
+    assert_eq!(r.line("set tune_timeout_s 900"), "ok tune_timeout_s=900 s");
 }
 
 #[test]
@@ -681,8 +678,8 @@ fn a_short_gap_does_not_end_a_springs_on_time() {
             .starts_with("err out-of-range")
     );
     // With no pre-warm, a short gap is fine where the phases it joins fit the limit.
-    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0.000 s");
-    assert_eq!(r.line("set step_s 3"), "ok step_s=3.000 s");
+    assert_eq!(r.line("set prewarm_s 0"), "ok prewarm_s=0 s");
+    assert_eq!(r.line("set step_s 3"), "ok step_s=3 s");
     assert_eq!(r.line("set large_steps 2"), "ok large_steps=2");
     assert!(r.line("set pulse_s 0.5").starts_with("ok pulse_s=0.5"));
     assert!(r.line("set large_steps 3").starts_with("err conflict"));
@@ -1070,22 +1067,36 @@ fn back_to_back_steppings_keep_every_spring_in_its_band() {
 // ---------------------------------------------------------------------------------------------
 // Issue 22: the console's answers.
 
-/// `get` formats a value by its parameter, never by the value set, and lists every parameter
+/// `get` writes a count whole and any other value in the fewest decimals that read back as
+/// the value stored (issue 44: `set ki 0.0004` answered `ki=0.000`), and lists every parameter
 /// in one uncut reply.
 #[test]
-fn get_formats_by_parameter_and_lists_every_one() {
+fn get_writes_what_reads_back_and_lists_every_one() {
     let mut r = Rig::new();
-    assert_eq!(r.line("set hot_k 358"), "ok hot_k=358.000 K");
-    assert_eq!(r.line("set hot_k 357.5"), "ok hot_k=357.500 K");
-    assert_eq!(r.line("get hot_k"), "ok hot_k=357.500 K");
+    assert_eq!(r.line("set hot_k 358"), "ok hot_k=358 K");
+    assert_eq!(r.line("set hot_k 357.5"), "ok hot_k=357.5 K");
+    assert_eq!(r.line("get hot_k"), "ok hot_k=357.5 K");
+    assert_eq!(r.line("set ki 0.0004"), "ok ki=0.0004 1/(K*s)");
+    assert_eq!(r.line("set kp 0.1234567"), "ok kp=0.1234567 1/K");
+    assert_eq!(r.line("get kp"), "ok kp=0.1234567 1/K");
+    assert_eq!(r.line("set kd 1e-20"), "ok kd=1e-20 s/K");
+    assert_eq!(
+        r.line("set cam_azimuth_deg -12.25"),
+        "ok cam_azimuth_deg=-12.25 deg"
+    );
     assert_eq!(
         r.line("set spring_duty_max_pct 60"),
-        "ok spring_duty_max_pct=60.000 %"
+        "ok spring_duty_max_pct=60 %"
     );
     assert_eq!(r.line("get large_steps"), "ok large_steps=4");
     assert_eq!(
         r.line("set kp 12.5"),
-        "err out-of-range: kp must be in [0.000, 10.000] 1/K"
+        "err out-of-range: kp must be in [0, 10] 1/K"
+    );
+    // A percentage's range as the table has it (120, not the 120.00001 that 1.2 × 100 is).
+    assert_eq!(
+        r.line("set trim_ia_pct 130"),
+        "err out-of-range: trim_ia_pct must be in [80, 120] %"
     );
     let all = r.line("get");
     assert!(!all.ends_with(" ..."), "cut: {all}");
@@ -1094,6 +1105,198 @@ fn get_formats_by_parameter_and_lists_every_one() {
             all.contains(&std::format!(" {}=", p.name)),
             "{} missing",
             p.name
+        );
+    }
+}
+
+proptest::proptest! {
+    /// What `set` stored is what `set`'s reply and `get` show, to the bit: for every
+    /// parameter, values typed in the shortest form and with 0 to 9 decimals,
+    /// parse(get(set(x))) == x as f32 (a percentage: the same percentage once kept as a
+    /// fraction), and setting what `get` showed changes nothing.
+    #[test]
+    fn a_value_reads_back_as_set(
+        i in 0..PARAMS.len(),
+        at in 0.0f64..=1.0,
+        decimals in proptest::option::of(0usize..=9),
+    ) {
+        let p = &PARAMS[i];
+        let v = f64::from(p.min) + at * f64::from(p.max - p.min);
+        let typed = match decimals {
+            _ if p.integer => std::format!("{}", v.round()),
+            Some(d) => std::format!("{v:.d$}"),
+            None => std::format!("{}", v as f32),
+        };
+        let x: f32 = typed.parse().unwrap();
+        proptest::prop_assume!((p.min..=p.max).contains(&x));
+        let mut r = Rig::new();
+        let reply = r.line(&std::format!("set {} {typed}", p.name));
+        // Another parameter's relation may refuse it (`err conflict`).
+        proptest::prop_assume!(!reply.starts_with("err conflict"), "{}", reply);
+        let prefix = std::format!("ok {}=", p.name);
+        let shown = reply
+            .strip_prefix(&prefix)
+            .and_then(|rest| rest.split(' ').next())
+            .unwrap_or_else(|| panic!("set {} {typed}: {reply}", p.name));
+        let read = crate::decimal::parse(shown).unwrap();
+        proptest::prop_assert_eq!(shown.parse::<f32>().ok(), Some(read), "{}", reply);
+        if p.percent {
+            // Kept as a fraction: the text's fraction gives the same percentage as x's.
+            proptest::prop_assert_eq!(read / 100.0 * 100.0, x / 100.0 * 100.0, "{}", reply);
+        } else {
+            proptest::prop_assert_eq!(read, x, "{}", reply);
+        }
+        proptest::prop_assert_eq!(r.line(&std::format!("get {}", p.name)), reply.clone());
+        let before = r.sup.settings().encode();
+        proptest::prop_assert_eq!(r.line(&std::format!("set {} {shown}", p.name)), reply);
+        proptest::prop_assert_eq!(r.sup.settings().encode(), before);
+    }
+}
+
+/// Issue 44: `help` says what a person needs first: the parameters' names (`help set`,
+/// `help get`), the stream's range and default (the constants'), how an e-stop is cleared.
+#[test]
+fn help_names_the_parameters_the_stream_range_and_how_to_clear_an_estop() {
+    let mut r = Rig::new();
+    for line in ["help set", "help get"] {
+        let reply = r.line(line);
+        let names = reply
+            .split("; NAME: ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("{reply}"));
+        let want: Vec<&str> = PARAMS.iter().map(|p| p.name).collect();
+        assert_eq!(names.split(' ').collect::<Vec<_>>(), want, "{line}");
+        assert!(!reply.ends_with(" ..."), "cut: {reply}");
+    }
+    let stream = r.line("help stream");
+    let (max, default) = (
+        std::format!("up to {STREAM_MAX_HZ}"),
+        std::format!("default {STREAM_DEFAULT_HZ})"),
+    );
+    assert!(
+        stream.contains(&max) && stream.contains(&default),
+        "{stream}"
+    );
+    assert!(
+        r.line(&std::format!("stream on {STREAM_MAX_HZ}"))
+            .starts_with("ok")
+    );
+    let above = r.line(&std::format!("stream on {}", STREAM_MAX_HZ + 0.5));
+    assert_eq!(
+        above,
+        std::format!("err out-of-range: stream rate must be in (0, {STREAM_MAX_HZ}] Hz")
+    );
+    assert_eq!(
+        r.line("help estop"),
+        "ok estop: emergency stop, every output off; latched until `reset` with the button \
+         released"
+    );
+    // What the help says clears it does.
+    r.run(1.0);
+    assert!(r.line("estop").starts_with("ok"));
+    assert_eq!(r.sup.fault().map(|f| f.code()), Some("estop"));
+    assert!(r.line("reset").starts_with("ok"));
+    assert!(r.sup.fault().is_none());
+}
+
+/// Issue 44: `status short` is `status`' fields a person watches, in the same order and format.
+#[test]
+fn status_short_is_the_watched_fields_of_status() {
+    let mut r = Rig::new();
+    r.run(5.0);
+    let full = r.line("status");
+    let short = r.line("status short");
+    let names = |reply: &str| -> Vec<std::string::String> {
+        reply
+            .split(' ')
+            .skip(1)
+            .map(|f| f.split('=').next().unwrap().into())
+            .collect()
+    };
+    assert_eq!(
+        names(&short),
+        [
+            "mode",
+            "phase",
+            "target_k",
+            "tc_k",
+            "heater_pct",
+            "fan_pct",
+            "springs",
+            "bend_deg",
+            "bend_sd_deg",
+            "fault"
+        ]
+    );
+    for field in short.split(' ').skip(1) {
+        assert!(
+            full.contains(&std::format!(" {field}")),
+            "{field} in {full}"
+        );
+    }
+    assert!(short.len() < 200 && full.len() > 600, "{short}");
+}
+
+/// Issue 44: `settings`, the listing a person reads (Marlin's M503): one `#` line a parameter
+/// with value, unit, default and range, `*` where not the default; `get` stays one line.
+#[test]
+fn settings_lists_every_parameter_for_a_person() {
+    use crate::supervisor::report::{SETTING_LINES, write_setting};
+    let mut r = Rig::new();
+    assert_eq!(r.line("set hot_k 360"), "ok hot_k=360 K");
+    assert_eq!(r.line("set large_steps 3"), "ok large_steps=3");
+    let c = parse("settings").unwrap();
+    let reply = r.sup.step(Millis(r.now_ms), None, Some(c)).reply.unwrap();
+    assert!(reply.lists_settings());
+    assert_eq!(reply.as_str(), "ok 81 parameters, 2 not the default (*)");
+    assert!(
+        !r.sup
+            .step(Millis(r.now_ms), None, parse("get").ok())
+            .reply
+            .unwrap()
+            .lists_settings()
+    );
+    let mut text = std::string::String::new();
+    for i in 0..SETTING_LINES {
+        write_setting(&mut text, r.sup.settings(), i).unwrap();
+    }
+    let lines: Vec<&str> = text.split_terminator("\r\n").collect();
+    assert_eq!(lines.len(), PARAMS.len());
+    assert_eq!(
+        lines[1],
+        "# * hot_k                       360         K        default 358, 338 to 368"
+    );
+    assert_eq!(
+        lines[3],
+        "#   kp                          0.139       1/K      default 0.139, 0 to 10"
+    );
+    let steps = PARAMS.iter().position(|p| p.name == "large_steps").unwrap();
+    assert_eq!(
+        lines[steps],
+        "# * large_steps                 3                    default 4, 1 to 10"
+    );
+    for (line, p) in lines.iter().zip(PARAMS) {
+        assert!(line.starts_with("# ") && line.len() <= 96, "{line}");
+        // The columns: mark, name, value, unit.
+        assert_eq!(line.get(4..32).map(str::trim_end), Some(p.name), "{line}");
+        assert_eq!(line.get(44..53).map(str::trim_end), Some(p.unit), "{line}");
+        let value = line.get(32..44).unwrap().trim_end();
+        let get = r.sup.step(
+            Millis(r.now_ms),
+            None,
+            Some(Command::Get(Some(
+                PARAMS.iter().position(|q| q.name == p.name).unwrap() as u8,
+            ))),
+        );
+        let get = get.reply.unwrap();
+        assert!(
+            get.as_str()
+                .starts_with(&std::format!("ok {}={value}", p.name)),
+            "{line}"
+        );
+        assert_eq!(
+            line.starts_with("# *"),
+            p.name == "hot_k" || p.name == "large_steps"
         );
     }
 }

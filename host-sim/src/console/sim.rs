@@ -30,6 +30,7 @@ use thermorph::app::Line;
 use thermorph::console::{LineReader, MAX_LINE};
 use thermorph::settings::Settings;
 use thermorph::supervisor::Supervisor;
+use thermorph::supervisor::report::{SETTING_LINES, write_setting};
 use thermorph::supervisor::store::settings_at_boot;
 use thermorph::units::Millis;
 
@@ -110,6 +111,15 @@ impl Block {
     pub fn line(&mut self, line: Line<'_>, out: &mut impl Write) -> std::io::Result<()> {
         let mut said = Vec::new();
         if let Some(reply) = self.board.line(line, &mut said) {
+            if reply.lists_settings() {
+                let settings = *self.supervisor().settings();
+                for i in 0..SETTING_LINES {
+                    let mut text = String::new();
+                    // Writing into a String cannot fail.
+                    let _ = write_setting(&mut text, &settings, i);
+                    out.write_all(text.as_bytes())?;
+                }
+            }
             out.write_all(reply.as_str().as_bytes())?;
             out.write_all(b"\r\n")?;
         }

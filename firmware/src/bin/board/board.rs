@@ -37,9 +37,10 @@ use thermorph::mlx90640::{Calibration, Image, SubpageFrame};
 use thermorph::mtts;
 use thermorph::outputs::Outputs;
 use thermorph::sensing::{Clock, Outcome, Parts, Pipeline, PipelineConfig, Sensor, Storage};
+use thermorph::settings::Settings;
 use thermorph::storage::FlashStore;
 use thermorph::supervisor::Supervisor;
-use thermorph::supervisor::report::Reply;
+use thermorph::supervisor::report::{Reply, SETTING_LINES, write_setting};
 use thermorph::units::Millis;
 
 use defmt_rtt as _;
@@ -82,6 +83,8 @@ enum Out {
     Busy(u16),
     /// A `#` line: telemetry, a warning (with its `#` and CR LF).
     Text(heapless::String<TELEMETRY_CAP>),
+    /// `settings`' listing of these settings, one `#` line a parameter (its reply follows).
+    Settings(Settings),
 }
 
 /// Longest `#` line (telemetry with the observer's fields ≈ 560 bytes, a warning), bytes.
@@ -332,31 +335,38 @@ async fn console_rx_task(mut rx: BufferedUartRx<'static>) {
     }
 }
 
-/// Console output: the control loop's replies (one per line, in line order) and telemetry
-/// lines, each written whole, so the two never break each other.
+/// Console output: the control loop's replies (one per line, in line order), telemetry lines
+/// and `settings`' listing, each written whole, so they never break each other. Every item is
+/// written as pieces through the one `write_all` below (one await point: a smaller task).
 #[embassy_executor::task]
 async fn console_tx_task(mut tx: BufferedUartTx<'static>) {
+    let busy = Reply::parse_error(ParseError::Busy);
     loop {
-        match &OUT.receive().await {
-            Out::Reply(r) => write_line(&mut tx, r.as_str().as_bytes()).await,
-            Out::Busy(n) => {
-                let r = Reply::parse_error(ParseError::Busy);
-                for _ in 0..*n {
-                    write_line(&mut tx, r.as_str().as_bytes()).await;
+        let item = OUT.receive().await;
+        let pieces = match &item {
+            Out::Reply(_) => 2,
+            Out::Busy(n) => 2 * usize::from(*n),
+            Out::Text(_) => 1,
+            Out::Settings(_) => SETTING_LINES,
+        };
+        for k in 0..pieces {
+            // A listing's line, in the telemetry's line type (its writer is in flash already).
+            let mut line = heapless::String::<TELEMETRY_CAP>::new();
+            let piece: &[u8] = match &item {
+                // A reply (or `err busy`), then its line end.
+                Out::Reply(_) | Out::Busy(_) if k % 2 == 1 => b"\r\n",
+                Out::Reply(r) => r.as_str().as_bytes(),
+                Out::Busy(_) => busy.as_str().as_bytes(),
+                Out::Text(t) => t.as_bytes(),
+                Out::Settings(s) => {
+                    let _ = write_setting(&mut line, s, k);
+                    line.as_bytes()
                 }
-            }
-            Out::Text(t) => {
-                if tx.write_all(t.as_bytes()).await.is_err() {
-                    warn!("console: write failed");
-                }
+            };
+            if tx.write_all(piece).await.is_err() {
+                warn!("console: write failed");
             }
         }
-    }
-}
-
-async fn write_line(tx: &mut BufferedUartTx<'static>, line: &[u8]) {
-    if tx.write_all(line).await.is_err() || tx.write_all(b"\r\n").await.is_err() {
-        warn!("console: write failed");
     }
 }
 
@@ -490,6 +500,10 @@ async fn main(spawner: Spawner) {
             hw.before_reply(&mut period, &mut control).await;
         }
         if let Some(r) = period.reply.take() {
+            // `settings`' listing first: the line was taken with two slots free.
+            if r.lists_settings() {
+                let _ = OUT.try_send(Out::Settings(*control.supervisor().settings()));
+            }
             let _ = OUT.try_send(Out::Reply(r));
         }
         apply(&mut outputs, &mut springs, &period.outputs);

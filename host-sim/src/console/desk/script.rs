@@ -779,7 +779,7 @@ mod tests {
             parse("set nope 1")
                 .unwrap_err()
                 .to_string()
-                .contains("no such parameter")
+                .contains("unknown parameter nope")
         );
         assert!(
             parse("wait tc_k ~ 3")
