@@ -802,7 +802,8 @@ fn save_turns_heater_and_springs_off_for_its_period_and_load_is_refused_while_st
 }
 
 /// A long stepping hold on a cold day (263 K, camera on): the estimated inner layer's cap
-/// holds the heater near 80 % with the film steady. That is the block at its limit, not a
+/// holds the heater near 50 % with the film steady (near 80 % before the hold kept its springs
+/// in their band: their heat reaches the wall too). That is the block at its limit, not a
 /// heater off its film: the no-response check rests (it latched at 413 s before the cap
 /// counted as a cap).
 #[test]
@@ -822,7 +823,7 @@ fn a_cold_hold_at_the_inner_layer_cap_is_not_a_no_response() {
     // The cap binds: the heater well below full, and not off.
     let capped = held
         .iter()
-        .filter(|r| (0.5..0.95).contains(&r.inputs.heater_duty))
+        .filter(|r| (0.3..0.95).contains(&r.inputs.heater_duty))
         .count();
     assert!(capped > held.len() / 2, "{capped} of {}", held.len());
     assert_no_trip(&rows, "cold hold");
