@@ -489,7 +489,7 @@ fn within(a: &[u8], b: &[u8], k: u8) -> bool {
 
 /// Where `word` is among the names `name(0)`, `name(1)`, … (case-insensitive): `Ok` with its
 /// index, or `Err` with the index of the closest name if one is near enough to suggest — one
-/// edit away (a letter wrong, missing, extra, or two swapped: `within`) for a word of up to
+/// edit away (a letter wrong, missing, extra, or two neighbours swapped) for a word of up to
 /// four letters, two for a longer one; the first in table order among equals. (The desk's own
 /// did-you-mean allows two edits for any word; the console's commands are short.)
 #[inline(never)]

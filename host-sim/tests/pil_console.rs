@@ -56,3 +56,79 @@ fn after_a_pin_reset_the_sessions_log_differs() {
         wrong[0]
     );
 }
+
+/// Issue 44 on the board's own ELF: `settings`' listing is written by the board's transmitter
+/// (its own path: one `#` line a parameter from the settings of the period, then the reply),
+/// line for line what `host-sim console` writes; `get` after it is still one line.
+#[test]
+fn the_elf_lists_the_settings_as_the_library_does() {
+    let sent: Vec<Vec<u8>> = ["set hot_k 360", "settings", "get hot_k"]
+        .iter()
+        .map(|l| l.as_bytes().to_vec())
+        .collect();
+    let cycle = scenario::load("cycle").unwrap();
+    let written = replay_lines(&cycle, &elf(), Start::PowerUp, &sent).unwrap();
+    let listed: Vec<&String> = written
+        .iter()
+        .filter(|l| l.starts_with("#   ") || l.starts_with("# * "))
+        .collect();
+    let mut want = Vec::new();
+    let mut settings = thermorph::settings::Settings::DEFAULT;
+    settings.set("hot_k", 360.0).unwrap();
+    for i in 0..thermorph::supervisor::report::SETTING_LINES {
+        let mut line = String::new();
+        thermorph::supervisor::report::write_setting(&mut line, &settings, i).unwrap();
+        want.push(line.trim_end().to_string());
+    }
+    assert_eq!(listed, want.iter().collect::<Vec<_>>(), "{written:#?}");
+    let replies: Vec<&String> = written.iter().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(
+        replies,
+        [
+            "ok hot_k=360 K",
+            "ok 81 parameters, 1 not the default (*)",
+            "ok hot_k=360 K"
+        ]
+    );
+    // The listing comes between `set`'s reply and its own.
+    let at = |l: &str| written.iter().position(|w| w == l).unwrap();
+    assert!(at(&want[0]) > at("ok hot_k=360 K"));
+    assert!(at(&want[want.len() - 1]) < at("ok 81 parameters, 1 not the default (*)"));
+}
+
+/// Replies longer than the board's transmit ring (`get`'s 1.4 KB, `help set`'s 1.2 KB; the
+/// board once wrote them as empty lines) come whole, also among 10 Hz telemetry, where a reply
+/// the ring had no room for once stalled the transmitter for good.
+#[test]
+fn the_elf_writes_replies_longer_than_its_ring_among_telemetry() {
+    let sent: Vec<Vec<u8>> = [
+        "get",
+        "help set",
+        "stream on 10",
+        "get",
+        "status",
+        "get",
+        "stream off",
+        "version",
+    ]
+    .iter()
+    .map(|l| l.as_bytes().to_vec())
+    .collect();
+    let cycle = scenario::load("cycle").unwrap();
+    let written = replay_lines(&cycle, &elf(), Start::PowerUp, &sent).unwrap();
+    let replies: Vec<&String> = written.iter().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(replies.len(), sent.len(), "{written:#?}");
+    for i in [0, 3, 5] {
+        assert!(
+            replies[i].starts_with("ok standby_k=") && replies[i].ends_with(" trim_vc_pct=100"),
+            "{}",
+            replies[i]
+        );
+        assert!(replies[i].len() > 1024);
+    }
+    assert!(replies[1].starts_with("ok set NAME VALUE") && replies[1].ends_with(" trim_vc_pct"));
+    assert!(replies[4].starts_with("ok mode=") && replies[4].ends_with("fault=none"));
+    assert_eq!(replies[7], "ok thermorph 0.1.0");
+    let telemetry = written.iter().filter(|l| l.starts_with("# t_s=")).count();
+    assert!(telemetry >= 1, "{written:#?}");
+}

@@ -337,10 +337,20 @@ async fn console_rx_task(mut rx: BufferedUartRx<'static>) {
 
 /// Console output: the control loop's replies (one per line, in line order), telemetry lines
 /// and `settings`' listing, each written whole, so they never break each other. Every item is
-/// written as pieces through the one `write_all` below (one await point: a smaller task).
+/// written as pieces through the one `write` below (a smaller task).
+///
+/// embassy-stm32 0.6's buffered writer takes a buffer whole or not at all: one longer than its
+/// ring is refused (`get`'s 1.5 KB reply came out as an empty line), and one the ring has no
+/// room for returns `Pending` without registering the task's waker, so the task was never
+/// woken again (`settings`' listing stalled the console for good once the ring filled). So a
+/// piece is cut to the ring's size, and one that might not fit waits for the ring to empty
+/// (`flush`, whose waker is registered; a timer in case its wake-up is missed) — the bytes
+/// queued since are counted.
 #[embassy_executor::task]
 async fn console_tx_task(mut tx: BufferedUartTx<'static>) {
+    const RING: usize = pins::CONSOLE_TX_BYTES;
     let busy = Reply::parse_error(ParseError::Busy);
+    let mut queued = 0;
     loop {
         let item = OUT.receive().await;
         let pieces = match &item {
@@ -363,8 +373,17 @@ async fn console_tx_task(mut tx: BufferedUartTx<'static>) {
                     line.as_bytes()
                 }
             };
-            if tx.write_all(piece).await.is_err() {
-                warn!("console: write failed");
+            for chunk in piece.chunks(RING) {
+                if queued + chunk.len() > RING {
+                    while let Either::Second(()) = select(tx.flush(), Timer::after_millis(2)).await
+                    {
+                    }
+                    queued = 0;
+                }
+                if tx.write_all(chunk).await.is_err() {
+                    warn!("console: write failed");
+                }
+                queued += chunk.len();
             }
         }
     }

@@ -116,7 +116,11 @@ pub const RING_SCANS: usize = 256;
 // replies. The console reader never waits for anything but input, so the receive buffer only
 // fills if the executor stalls; `serial` detects it (and hardware overruns) and the affected
 // line is refused.
-static CONSOLE_TX: ConstStaticCell<[u8; 1024]> = ConstStaticCell::new([0; 1024]);
+static CONSOLE_TX: ConstStaticCell<[u8; CONSOLE_TX_BYTES]> =
+    ConstStaticCell::new([0; CONSOLE_TX_BYTES]);
+/// The console's transmit ring, bytes (the most one write may hand it: `board`'s transmitter
+/// cuts longer pieces).
+pub const CONSOLE_TX_BYTES: usize = 1024;
 static CONSOLE_RX: ConstStaticCell<[u8; serial::RX_BUF]> =
     ConstStaticCell::new([0; serial::RX_BUF]);
 /// ADC1's circular DMA buffer: [`RING_SCANS`] scans of [`SENSE_INPUTS`] counts.
