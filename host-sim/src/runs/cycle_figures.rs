@@ -137,6 +137,78 @@ impl Figure {
     }
 }
 
+/// How [`write_table`] writes a value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Digits {
+    /// `host-sim run`'s: a number to 0.1, a list's items to 0.01.
+    Rounded,
+    /// `host-sim paper`'s: as the JSON has it (rounded to 0.001 by [`num`]).
+    Exact,
+}
+
+/// Write `figures` as a table for a person, as `host-sim run` and `host-sim paper` print it:
+/// one row per figure — its name, the simulated value, the thesis's, the unit, the tolerance
+/// (`—`: reported, not judged) and the verdict ([`Figure::verdict`]) — then a `known: NAME:
+/// why` line for each known shortfall that fails. A list of values is joined with `, `, the
+/// thesis's range `[lo, hi]` is written `lo–hi`, a missing value `—`. Each column is as wide
+/// as its widest cell, so a list of pulse drops keeps its row's verdict in the verdict column.
+pub fn write_table(
+    out: &mut impl std::io::Write,
+    figures: &[Figure],
+    digits: Digits,
+) -> std::io::Result<()> {
+    let number = |x: &serde_json::Value, in_list: bool| match (digits, x.as_f64()) {
+        (Digits::Rounded, Some(n)) if in_list => format!("{n:.2}"),
+        (Digits::Rounded, Some(n)) => format!("{n:.1}"),
+        _ => x.to_string(),
+    };
+    let list = |v: &serde_json::Value, sep: &str| match v {
+        serde_json::Value::Null => "—".to_string(),
+        serde_json::Value::Array(xs) => xs
+            .iter()
+            .map(|x| number(x, true))
+            .collect::<Vec<_>>()
+            .join(sep),
+        v => number(v, false),
+    };
+    let cells: Vec<[String; 2]> = figures
+        .iter()
+        .map(|f| [list(&f.simulated, ", "), list(&f.thesis, "–")])
+        .collect();
+    let width = |i: usize, head: &str| {
+        cells
+            .iter()
+            .map(|c| c[i].chars().count())
+            .fold(head.chars().count().max(10), usize::max)
+    };
+    let (ws, wt) = (width(0, "simulated"), width(1, "thesis"));
+    let wn = figures
+        .iter()
+        .map(|f| f.name.chars().count())
+        .fold(32, usize::max);
+    writeln!(
+        out,
+        "{:<wn$}  {:>ws$}  {:>wt$}  {:<9} {:>14}",
+        "figure", "simulated", "thesis", "unit", "tolerance"
+    )?;
+    for (f, [sim, thesis]) in figures.iter().zip(&cells) {
+        writeln!(
+            out,
+            "{:<wn$}  {sim:>ws$}  {thesis:>wt$}  {:<9} {:>14} {}",
+            f.name,
+            f.unit,
+            f.tolerance.as_deref().unwrap_or("—"),
+            f.verdict()
+        )?;
+    }
+    for f in figures.iter().filter(|f| f.pass == Some(false)) {
+        if let Some(why) = f.shortfall() {
+            writeln!(out, "known: {}: {why}", f.name)?;
+        }
+    }
+    Ok(())
+}
+
 /// A value rounded to 0.001 for reports (`null` when missing or not finite).
 pub fn num(v: Option<f64>) -> serde_json::Value {
     v.filter(|x| x.is_finite())

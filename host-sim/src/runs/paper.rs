@@ -12,6 +12,7 @@ use thermorph::supervisor::Supervisor;
 use thermorph::supervisor::events::EventKind;
 
 use crate::plant::PlantScale;
+use crate::runs::cycle_figures;
 pub use crate::runs::cycle_figures::{CycleFigures, Figure, KEYS, judge, measure};
 use crate::runs::run::{RunError, RunResult, run_with};
 use crate::runs::scenario;
@@ -211,33 +212,22 @@ pub fn print(table: &[Figure], json: bool, source: Option<&str>) -> anyhow::Resu
         println!("{}", serde_json::to_string_pretty(&map)?);
         return Ok(());
     }
-    if let Some(s) = source {
-        println!("{s}");
-    }
-    println!(
-        "{:<30} {:>12} {:>22} {:>14}",
-        "figure", "thesis", "simulated", "tolerance"
-    );
-    for f in table {
-        println!(
-            "{:<30} {:>12} {:>22} {:>14} {}",
-            f.key,
-            if f.thesis.is_null() {
-                "—".to_string()
-            } else {
-                f.thesis.to_string()
-            },
-            f.simulated.to_string(),
-            f.tolerance.as_deref().unwrap_or("—"),
-            f.verdict()
-        );
-    }
-    for f in table.iter().filter(|f| f.pass == Some(false)) {
-        if let Some(why) = f.shortfall() {
-            println!("known: {}: {why}", f.key);
-        }
-    }
+    let mut out = std::io::stdout().lock();
+    write_text(&mut out, table, source)?;
     Ok(())
+}
+
+/// `host-sim paper`'s table: `source`'s line, if any, then the figures as `host-sim run`
+/// prints its own ([`cycle_figures::write_table`], the values to 0.001 as in the JSON).
+pub fn write_text(
+    out: &mut impl std::io::Write,
+    table: &[Figure],
+    source: Option<&str>,
+) -> std::io::Result<()> {
+    if let Some(s) = source {
+        writeln!(out, "{s}")?;
+    }
+    cycle_figures::write_table(out, table, cycle_figures::Digits::Exact)
 }
 
 #[cfg(test)]
@@ -267,6 +257,60 @@ mod tests {
         assert_eq!(bad[1].verdict(), "FAIL");
         let e = failures(&bad).unwrap_err().to_string();
         assert!(e.contains("cycle_time_s") && !e.contains("pulse"), "{e}");
+    }
+
+    #[test]
+    fn the_table_keeps_every_verdict_in_one_column_and_names_the_figures() {
+        // A list of pulse drops once pushed its row's columns out, and the rows named the
+        // figures by their JSON keys where `host-sim run` names them for a person (issue 44).
+        let drops = Figure {
+            simulated: serde_json::json!([-0.024, -0.119, -0.196]),
+            thesis: serde_json::json!([2.0, 4.0]),
+            ..judged_figure("pulse_drop_deg", false)
+        };
+        let table = [
+            Figure {
+                name: "standby preheat".into(),
+                ..judged_figure("preheat_time_s", true)
+            },
+            drops,
+            Figure::reported(
+                "hold_angle_loss_deg",
+                "hold angle loss",
+                "deg",
+                None,
+                0.0,
+                "h",
+            ),
+        ];
+        let mut out = Vec::new();
+        write_text(&mut out, &table, Some("board: x.elf")).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "board: x.elf");
+        let head = lines[1];
+        assert!(
+            head.starts_with("figure ") && head.ends_with("tolerance"),
+            "{text}"
+        );
+        let head_w = head.chars().count();
+        for (row, verdict) in lines[2..5].iter().zip(["pass", "fail, known", "—"]) {
+            assert!(row.ends_with(&format!(" {verdict}")), "{text}");
+            let cells: String = row
+                .chars()
+                .take(row.chars().count() - verdict.chars().count() - 1)
+                .collect();
+            assert_eq!(cells.chars().count(), head_w, "{text}");
+        }
+        assert!(lines[2].starts_with("standby preheat "), "{text}");
+        assert!(
+            lines[3].contains(" -0.024, -0.119, -0.196  ") && lines[3].contains(" 2.0–4.0  s "),
+            "{text}"
+        );
+        assert!(
+            lines[5].starts_with("known: pulse_drop_deg: a spring"),
+            "{text}"
+        );
     }
 
     #[test]

@@ -674,21 +674,6 @@ pub fn write_outputs(result: &RunResult, dir: &Path) -> Result<(), RunError> {
     })
 }
 
-/// A figure's value as the run's table prints it: `—` where missing, a number to 0.1, a list
-/// of numbers to 0.01 separated by `, ` (narrower than the JSON), anything else as JSON.
-fn short(v: &serde_json::Value) -> String {
-    let num = |x: &serde_json::Value, digits: usize| {
-        x.as_f64()
-            .map_or_else(|| x.to_string(), |n| format!("{n:.digits$}"))
-    };
-    match v {
-        serde_json::Value::Null => "—".to_string(),
-        serde_json::Value::Number(_) => num(v, 1),
-        serde_json::Value::Array(xs) => xs.iter().map(|x| num(x, 2)).collect::<Vec<_>>().join(", "),
-        v => v.to_string(),
-    }
-}
-
 /// Print the summary for a person: the run, then the figures beside the thesis's.
 pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
     writeln!(
@@ -735,39 +720,11 @@ pub fn print_summary(s: &Summary, out: &mut impl Write) -> std::io::Result<()> {
             s.periods_without_measurement
         )?;
     }
-    // Columns as wide as their widest value (a list of pulse drops is wider than a number).
-    let cells: Vec<[String; 2]> = s
-        .figures
-        .iter()
-        .map(|f| [short(&f.simulated), short(&f.thesis)])
-        .collect();
-    let w = |i: usize| {
-        cells
-            .iter()
-            .map(|c| c[i].chars().count())
-            .fold(10, usize::max)
-    };
-    let (ws, wt) = (w(0), w(1));
-    writeln!(
+    crate::runs::cycle_figures::write_table(
         out,
-        "{:<32} {:>ws$} {:>wt$}  {:<9} {:>14}",
-        "figure", "simulated", "thesis", "unit", "tolerance"
+        &s.figures,
+        crate::runs::cycle_figures::Digits::Rounded,
     )?;
-    for (f, [sim, thesis]) in s.figures.iter().zip(&cells) {
-        writeln!(
-            out,
-            "{:<32} {sim:>ws$} {thesis:>wt$}  {:<9} {:>14} {}",
-            f.name,
-            f.unit,
-            f.tolerance.as_deref().unwrap_or("—"),
-            f.verdict()
-        )?;
-    }
-    for f in s.figures.iter().filter(|f| f.pass == Some(false)) {
-        if let Some(why) = f.shortfall() {
-            writeln!(out, "known: {}: {why}", f.name)?;
-        }
-    }
     if !s.replies.is_empty() {
         writeln!(
             out,
