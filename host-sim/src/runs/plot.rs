@@ -775,6 +775,14 @@ fn bending_panel(
             .map_err(err)?;
     }
     let mut keys = Vec::new();
+    // Which axis a line is read on, said only where there are two.
+    let side = |label: &str| {
+        if k_b.is_some() {
+            format!("{label} (left)")
+        } else {
+            label.to_string()
+        }
+    };
     let line = |label: &str, colour| Key {
         label: label.to_string(),
         colour,
@@ -784,7 +792,7 @@ fn bending_panel(
         },
     };
     if let Some(b) = bend {
-        keys.push(line("bending angle φ (left)", blue));
+        keys.push(line(&side("bending angle φ"), blue));
         for seg in segments(time, b) {
             chart
                 .draw_series(strokes(seg, blue.stroke_width(2)))
@@ -793,7 +801,7 @@ fn bending_panel(
     }
     if let Some(e) = est {
         let orange = RGBColor(230, 120, 20);
-        keys.push(line("estimate, camera + model (left)", orange));
+        keys.push(line(&side("estimate, camera + model"), orange));
         for seg in segments(time, e) {
             chart
                 .draw_series(strokes(seg, orange.stroke_width(1)))
@@ -929,6 +937,23 @@ fn event_lanes(table: &Table, time: &[f64]) -> (Vec<Lane>, Vec<Key>) {
         keys.push(key("frame not resolved", unresolved_c));
     }
     (lanes, keys)
+}
+
+/// The events panel's title, naming the lanes it has: `Faults and frames (injected, latched;
+/// MTTS)` for a simulator run, `Faults and frames (latched; MTTS)` for a desk recording (the
+/// board knows no injected faults).
+fn events_title(lanes: &[Lane]) -> String {
+    let faults: Vec<&str> = lanes
+        .iter()
+        .map(|l| l.name.as_str())
+        .filter(|n| *n != "MTTS")
+        .collect();
+    let frames = lanes.iter().any(|l| l.name == "MTTS");
+    match (faults.is_empty(), frames) {
+        (false, true) => format!("Faults and frames ({}; MTTS)", faults.join(", ")),
+        (false, false) => format!("Faults ({})", faults.join(", ")),
+        (true, _) => "Frames (MTTS)".to_string(),
+    }
 }
 
 enum Panel {
@@ -1187,7 +1212,7 @@ pub fn render(table: &Table, title: &str, out: &Path) -> Result<PlotInfo, PlotEr
             Panel::Events => {
                 let px = lane_panel(
                     area,
-                    "Faults and frames (injected, latched; MTTS)",
+                    &events_title(&event_lanes),
                     x.clone(),
                     &event_lanes,
                     &event_keys,
@@ -1580,6 +1605,10 @@ mod tests {
         };
         let names: Vec<&str> = lanes.iter().map(|l| l.name.as_str()).collect();
         assert_eq!(names, ["injected", "latched", "MTTS"]);
+        assert_eq!(
+            events_title(&lanes),
+            "Faults and frames (injected, latched; MTTS)"
+        );
         assert_eq!(keys.len(), 4);
         assert_eq!(
             spans(0),
@@ -1606,6 +1635,14 @@ mod tests {
         );
         let (info, _) = rendered(&csv, "events");
         assert_eq!(info.panels, ["temperatures", "duties", "events"]);
+        // A desk recording has no injected faults: its panel's title does not promise them
+        // (issue 44: docs/desk-cycle.png's title named a lane it did not draw).
+        let desk = Table::parse("t_s,t1_k,fault,quality\n0,300,none,resolved\n1,301,none,merged\n")
+            .unwrap();
+        let (lanes, _) = event_lanes(&desk, &desk.num("t_s").unwrap());
+        assert_eq!(events_title(&lanes), "Faults and frames (latched; MTTS)");
+        assert_eq!(events_title(&lanes[1..]), "Frames (MTTS)");
+        assert_eq!(events_title(&lanes[..1]), "Faults (latched)");
     }
 
     #[test]
