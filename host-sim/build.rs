@@ -9,7 +9,7 @@
 //! a build from edited sources says `-dirty`; an edit elsewhere (the docs) rebuilds nothing and
 //! so leaves the mark as the last build found it.
 
-#[path = "build/git_version.rs"]
+#[path = "../firmware/build/git_version.rs"]
 mod git_version;
 
 fn main() {
@@ -26,7 +26,7 @@ fn main() {
         }
         None => ("unknown".to_string(), "unknown".to_string()),
     };
-    for p in ["build.rs", "build", "src", "../firmware/src"] {
+    for p in ["build.rs", "src", "../firmware/src", "../firmware/build"] {
         if manifest.join(p).exists() {
             println!("cargo:rerun-if-changed={p}");
         }

@@ -50,3 +50,11 @@ pub mod units;
 
 /// Firmware version string shown by the console's `version` command.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// The commit the board's firmware was built from, `b98b8ce 2026-11-29` (short hash, `-dirty`
+/// when tracked files differed from it, and its date; `unknown` outside a git checkout): set by
+/// `firmware/build.rs` for the board's target only, so the console's `version` answers
+/// `ok thermorph 0.1.0 (b98b8ce 2026-11-29)` on the board. `None` on the host: the library is
+/// built into every host crate, and a commit would rebuild them all (host-sim's binaries carry
+/// their own commit in `--version`).
+pub const BUILD: Option<&str> = option_env!("THERMORPH_BUILD");

@@ -2,7 +2,7 @@
 //! them:
 //!
 //! - `--version` on both and `host-sim version` name the build: crate version, git commit
-//!   (`-dirty`) and its date; build.rs's git query (`build/git_version.rs`) on scratch
+//!   (`-dirty`) and its date; the build scripts' git query (`firmware/build/git_version.rs`) on scratch
 //!   repositories — a plain one, a linked worktree, none at all, one that does not track the
 //!   package;
 //! - `completions SHELL` on both: a script that names the subcommands, and that bash loads and
@@ -18,7 +18,7 @@ use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-#[path = "../build/git_version.rs"]
+#[path = "../../firmware/build/git_version.rs"]
 mod git_version;
 
 const SIM: &str = env!("CARGO_BIN_EXE_host-sim");

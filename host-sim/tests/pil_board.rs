@@ -73,10 +73,8 @@ fn the_elf_boots_to_180_mhz_and_answers_its_console() {
     assert_eq!(core.bus().clocks().pclk1_hz, 45_000_000);
     assert!(core.sleeping(), "the executor sleeps at wfe between tasks");
     let version = exchange(&mut core, "version", 0.2);
-    assert!(
-        version.starts_with("ok thermorph ") && version.ends_with("\r\n"),
-        "{version:?}"
-    );
+    assert!(version.ends_with("\r\n"), "{version:?}");
+    pil_common::assert_names_its_build(version.trim_end());
     // A power-up with default settings starts stopped, every output off.
     let status = exchange(&mut core, "status", 0.2);
     assert!(status.starts_with("ok mode=stopped "), "{status:?}");
@@ -318,8 +316,14 @@ fn the_boards_defmt_frames_are_decoded_into_the_runs_log() {
         })
         .collect();
     let has = |level: &str, text: &str| lines.iter().any(|l| l.1 == level && l.2 == text);
+    // `thermorph 0.1.0 (b98b8ce 2026-11-29) up`: the version and the build.
+    let up = format!("thermorph {} (", thermorph::VERSION);
+    let build = lines
+        .iter()
+        .find_map(|l| l.2.strip_prefix(up.as_str())?.strip_suffix(") up"))
+        .unwrap_or_else(|| panic!("no INFO {up}HASH DATE) up in\n{log}"));
+    pil_common::assert_this_build(build);
     for text in [
-        format!("thermorph {} up", thermorph::VERSION),
         format!("reset cause: {:?}", ResetCause::Pin),
         "springs: memory kept across the reset".to_string(),
         "MLX90640 calibrated and configured".to_string(),

@@ -198,8 +198,16 @@ impl Reply {
         })
     }
 
+    /// `version`: the crate's version, and on the board the commit it was built from
+    /// ([`crate::BUILD`]).
     pub(super) fn version() -> Reply {
-        Reply::with(|r| write!(r, "ok thermorph {}", crate::VERSION))
+        Reply::with(|r| {
+            write!(r, "ok thermorph {}", crate::VERSION)?;
+            match crate::BUILD {
+                Some(build) => write!(r, " ({build})"),
+                None => Ok(()),
+            }
+        })
     }
 
     /// `status`: every field (docs/console.md's table); `short`: the same fields' subset a

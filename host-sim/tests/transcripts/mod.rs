@@ -118,9 +118,18 @@ pub fn status_shape(reply: &str) -> Vec<String> {
         .collect()
 }
 
+/// A `version` reply without the build the board's ELF adds (`ok thermorph 0.1.0 (b98b8ce
+/// 2026-11-29)`: its commit, which the library built for the host does not know).
+pub fn version_base(reply: &str) -> &str {
+    match reply.rfind(" (") {
+        Some(i) if reply.ends_with(')') => &reply[..i],
+        _ => reply,
+    }
+}
+
 /// The transcript `session` against `written`, every line a replay of its lines wrote (`#`
 /// lines are left out): one reply per line, and each reply the transcript's under the rules
-/// above. Returns the replies that differ (`> line`, the transcript's, `who`'s), none if all
+/// above (and `version` without the ELF's build). Returns the replies that differ (`> line`, the transcript's, `who`'s), none if all
 /// agree; panics if the replay has another number of replies or the transcript is malformed
 /// (not one reply per line, a telemetry line without today's fields).
 pub fn differences(name: &str, who: &str, session: &[Exchange], written: &[String]) -> Vec<String> {
@@ -148,6 +157,7 @@ pub fn differences(name: &str, who: &str, session: &[Exchange], written: &[Strin
         let (a, b) = match line.split_whitespace().next() {
             Some("status") => (status_shape(then).join(" "), status_shape(now).join(" ")),
             Some("log") => (mask_numbers(then), mask_numbers(now)),
+            Some("version") => (version_base(then).into(), version_base(now).into()),
             _ => (then.clone(), now.clone()),
         };
         if a != b {

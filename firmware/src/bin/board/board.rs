@@ -432,7 +432,11 @@ async fn main(spawner: Spawner) {
     outputs.apply(&Outputs::OFF);
     // Start the watchdog before any task runs: from here a stall resets the chip.
     watchdog.unleash();
-    info!("thermorph {} up", thermorph::VERSION);
+    info!(
+        "thermorph {} ({}) up",
+        thermorph::VERSION,
+        thermorph::BUILD.unwrap_or("unknown")
+    );
     let (tx, rx) = console.split();
     spawner.spawn(unwrap!(sensor_task(i2c)));
     spawner.spawn(unwrap!(console_rx_task(rx)));

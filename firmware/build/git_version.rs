@@ -1,6 +1,7 @@
 //! The git commit a package directory was built from, asked of `git` itself: shared by
-//! `host-sim/build.rs` (which hands it to the binaries as environment variables) and the test
-//! that checks it on scratch repositories (`tests/cli.rs`).
+//! `firmware/build.rs` (the board's console `version`), `host-sim/build.rs` (which hands it to
+//! the host binaries as environment variables) and the test that checks it on scratch
+//! repositories (`host-sim/tests/cli.rs`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
