@@ -18,6 +18,7 @@ use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+mod common;
 #[path = "../../firmware/build/git_version.rs"]
 mod git_version;
 
@@ -557,14 +558,7 @@ impl Drop for Board {
 /// The desk with `args`, its standard input a pipe kept open (saying nothing), interrupted
 /// (SIGINT) once `ready` holds for its standard output: its status, stdout and stderr.
 fn desk_interrupted(args: &[&str], ready: impl Fn(&str) -> bool) -> (ExitStatus, String, String) {
-    let mut child = Command::new(DESK)
-        .args(args)
-        .env("HOME", std::env::temp_dir())
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("thermorph-desk");
+    let mut child = common::spawn_desk(args);
     let stdin = child.stdin.take();
     let (stdout, out_t) = Captured::start(child.stdout.take().unwrap());
     let (stderr, err_t) = Captured::start(child.stderr.take().unwrap());

@@ -30,16 +30,22 @@ pub struct Running {
     err_t: std::thread::JoinHandle<String>,
 }
 
-/// Start the desk with `args`, `stdin` fed to it.
-pub fn start(args: &[&str], stdin: &str) -> Running {
-    let mut child = Command::new(DESK)
+/// The desk with `args` spawned, its standard streams piped (its history file under the
+/// temporary folder, not the user's).
+pub fn spawn_desk(args: &[&str]) -> Child {
+    Command::new(DESK)
         .args(args)
         .env("HOME", std::env::temp_dir())
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("start thermorph-desk");
+        .expect("start thermorph-desk")
+}
+
+/// Start the desk with `args`, `stdin` fed to it.
+pub fn start(args: &[&str], stdin: &str) -> Running {
+    let mut child = spawn_desk(args);
     let mut input = child.stdin.take().unwrap();
     let text = stdin.to_string();
     let feeder = std::thread::spawn(move || {
