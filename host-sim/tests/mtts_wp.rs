@@ -166,3 +166,48 @@ fn bad_m4_file_is_one_clear_error() {
         assert!(!out_md.exists(), "no document from a failed run");
     }
 }
+
+/// `mtts-wp --wrong` lists exactly the confidently wrong frames of the lattices unlike their
+/// design, a parseable line each, the ones the table counts.
+#[test]
+fn wrong_lists_the_confidently_wrong_frames_of_the_unlike_lattices() {
+    const FAMILY: u64 = 240;
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["mtts-wp", "--wrong", "--family", &FAMILY.to_string()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("# frame seed period_px exposed psf_sigma_px gap_k t1_err_k t2_err_k bound_k")
+    );
+    let outcomes = mtts_wp::unlike_outcomes(FAMILY);
+    let wrong: Vec<_> = outcomes
+        .iter()
+        .flat_map(|(f, s)| [("first", f), ("settled", s)])
+        .filter(|(_, o)| o.confidently_wrong())
+        .collect();
+    // This band of seeds holds some (issue 43's thin stripes): a list that is never empty.
+    assert!(!wrong.is_empty());
+    let listed: Vec<Vec<&str>> = lines.map(|l| l.split(' ').collect()).collect();
+    assert_eq!(listed.len(), wrong.len(), "{text}");
+    for (fields, (frame, o)) in listed.iter().zip(&wrong) {
+        assert_eq!(fields.len(), 9, "{fields:?}");
+        assert_eq!(fields[0], *frame);
+        assert_eq!(fields[1], o.seed.to_string());
+        let err: f64 = fields[7].parse().unwrap();
+        let bound: f64 = fields[8].parse().unwrap();
+        assert!(
+            err > bound,
+            "a listed frame lies outside its bound: {fields:?}"
+        );
+    }
+    // Not with the table's options.
+    let both = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["mtts-wp", "--wrong", "--family-only"])
+        .output()
+        .unwrap();
+    assert_eq!(both.status.code(), Some(2));
+}

@@ -61,6 +61,11 @@ pub struct WpArgs {
     /// exposed fraction and period (`view_limit::exact_bayes`; a minute more on two cores).
     #[arg(long)]
     pub bayes: bool,
+    /// Print only the confidently wrong frames of the lattices unlike their design (the
+    /// table's last column), a line each: seed, period, exposed fraction, spread, gap, errors
+    /// and bound, to look at one member (`view_family::unlike_design(seed)`).
+    #[arg(long, conflicts_with_all = ["family_only", "bayes", "m4", "out"])]
+    pub wrong: bool,
 }
 
 /// What to measure.
@@ -811,6 +816,10 @@ fn default_verdict(rows: &[Row], front: &[bool], cost_name: &str) -> String {
 
 /// Run `host-sim mtts-wp`.
 pub fn run(args: &WpArgs) -> anyhow::Result<()> {
+    if args.wrong {
+        print!("{}", confidently_wrong_lines(&unlike_outcomes(args.family)));
+        return Ok(());
+    }
     if args.family_only {
         let md = family_section(args.family, args.bayes);
         return match &args.out {
@@ -1386,14 +1395,49 @@ pub fn unlike_design_markdown(first: &[FamilyOutcome], settled: &[FamilyOutcome]
 /// Members of the thesis's corner reported.
 pub const THESIS_MEMBERS: u64 = 240;
 
+/// The lattices unlike their design of the family section of `count` (`count / 2` unseen
+/// members: each is watched for [`SETTLED_FRAMES`] frames), their first and settled outcomes.
+pub fn unlike_outcomes(count: u64) -> Vec<(FamilyOutcome, FamilyOutcome)> {
+    use crate::imaging::view_family::{UNSEEN, unlike_design};
+    let unlike = (UNSEEN.start..UNSEEN.start + count.div_ceil(2).min(UNSEEN.end - UNSEEN.start))
+        .map(unlike_design);
+    members_first_and_settled(unlike, PriorCase::Right, SETTLED_FRAMES)
+}
+
+/// The confidently wrong frames among `outcomes` (first and settled, [`unlike_outcomes`]), a
+/// line each: which frame, the member's seed, period, exposed fraction, spread and gap, the
+/// errors and the bound — what to look at first when the table's last column is not 0.
+pub fn confidently_wrong_lines(outcomes: &[(FamilyOutcome, FamilyOutcome)]) -> String {
+    let mut s = String::from(
+        "# frame seed period_px exposed psf_sigma_px gap_k t1_err_k t2_err_k bound_k\n",
+    );
+    for (first, settled) in outcomes {
+        for (frame, o) in [("first", first), ("settled", settled)] {
+            if o.confidently_wrong() {
+                let _ = writeln!(
+                    s,
+                    "{frame} {} {:.1} {:.3} {:.2} {:.1} {:.2} {:.2} {:.2}",
+                    o.seed,
+                    o.period_px,
+                    o.exposed,
+                    o.psf_sigma_px,
+                    o.gap_k,
+                    o.err_k[0],
+                    o.err_k[1],
+                    o.bound_k
+                );
+            }
+        }
+    }
+    s
+}
+
 /// The scene-family section of the table: `count` members from the tuning seeds and `count`
 /// unseen ones with the mode's prior, the unseen ones with the wrong prior and without one,
 /// the thesis's corner, and `count / 2` lattices unlike their design (their first frames and
 /// settled after [`SETTLED_FRAMES`]).
 pub fn family_section(count: u64, bayes: bool) -> String {
-    use crate::imaging::view_family::{
-        SEEN, UNLIKE_NARROW, UNLIKE_WIDE, UNSEEN, thesis, unlike_design,
-    };
+    use crate::imaging::view_family::{SEEN, UNLIKE_NARROW, UNLIKE_WIDE, UNSEEN, thesis};
     let seen = family_outcomes(SEEN, count, PriorCase::Right);
     let unseen = family_outcomes(UNSEEN, count, PriorCase::Right);
     let wrong = family_outcomes(UNSEEN, count, PriorCase::Wrong);
@@ -1405,13 +1449,8 @@ pub fn family_section(count: u64, bayes: bool) -> String {
         )
     };
     let (thesis_right, thesis_wrong) = (corner(PriorCase::Right), corner(PriorCase::Wrong));
-    // Half as many as the other sets: each member is watched for SETTLED_FRAMES frames.
-    let unlike = (UNSEEN.start..UNSEEN.start + count.div_ceil(2).min(UNSEEN.end - UNSEEN.start))
-        .map(unlike_design);
     let (unlike_first, unlike_settled): (Vec<_>, Vec<_>) =
-        members_first_and_settled(unlike, PriorCase::Right, SETTLED_FRAMES)
-            .into_iter()
-            .unzip();
+        unlike_outcomes(count).into_iter().unzip();
     let mut s = String::new();
     let _ = writeln!(s, "## Scene family: seen and unseen seeds\n");
     let _ = writeln!(
