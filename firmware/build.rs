@@ -18,14 +18,9 @@ fn main() {
         // depends on the library (the QEMU bench links its own memory map).
         println!("cargo:rustc-link-arg-bins=-L{}", root.display());
         println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
-        let build = match git_version::describe(&manifest) {
-            Some(g) => {
-                for p in &g.watch {
-                    println!("cargo:rerun-if-changed={}", p.display());
-                }
-                format!("{} {}", g.commit, g.date)
-            }
-            None => "unknown".to_string(),
+        let build = match git_version::for_build(&manifest) {
+            (commit, _) if commit == "unknown" => commit,
+            (commit, date) => format!("{commit} {date}"),
         };
         // A source edit reruns the script, so the mark says `-dirty`.
         println!("cargo:rerun-if-changed=src");

@@ -17,15 +17,7 @@ fn main() {
         std::env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"),
     );
     let version = std::env::var("CARGO_PKG_VERSION").expect("cargo sets CARGO_PKG_VERSION");
-    let (commit, date) = match git_version::describe(&manifest) {
-        Some(g) => {
-            for p in &g.watch {
-                println!("cargo:rerun-if-changed={}", p.display());
-            }
-            (g.commit, g.date)
-        }
-        None => ("unknown".to_string(), "unknown".to_string()),
-    };
+    let (commit, date) = git_version::for_build(&manifest);
     for p in ["build.rs", "src", "../firmware/src", "../firmware/build"] {
         if manifest.join(p).exists() {
             println!("cargo:rerun-if-changed={p}");

@@ -78,3 +78,20 @@ pub fn describe(dir: &Path) -> Option<GitVersion> {
         watch,
     })
 }
+
+/// [`describe`] as a build script wants it: the commit and its date (`unknown` for both outside
+/// a git checkout), with cargo told to rerun the script when the checkout moves
+/// ([`GitVersion::watch`]). Shared by `firmware/build.rs` and `host-sim/build.rs`; the tests
+/// that include this file ask [`describe`] alone.
+#[allow(dead_code)]
+pub fn for_build(dir: &Path) -> (String, String) {
+    match describe(dir) {
+        Some(g) => {
+            for p in &g.watch {
+                println!("cargo:rerun-if-changed={}", p.display());
+            }
+            (g.commit, g.date)
+        }
+        None => ("unknown".to_string(), "unknown".to_string()),
+    }
+}
